@@ -1,0 +1,68 @@
+"""The physical side of every diagram: plant, seeded sensor noise and sensors."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.common import RandomDistribution, RandomGenerator
+from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import RandomSource
+
+from systems.plant import DifferentialDrivePlant, RobotParameters
+from systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
+
+
+@dc.dataclass
+class RobotHandles:
+    plant: DifferentialDrivePlant
+    sensors: ProprioceptiveSensors
+    noise: RandomSource
+
+
+def add_robot_with_sensors(
+    builder: DiagramBuilder,
+    robot: RobotParameters,
+    sensor_params: SensorParameters,
+    T_N: float,
+    seed: int,
+    initial_pose=(0.0, 0.0, 0.0),
+    initial_speed: float = 0.0,
+) -> RobotHandles:
+    """Add the plant, a Gaussian RandomSource (seeded through SetRandomContext) and the sensors.
+
+    The initial sensor biases are drawn from ``numpy.random.default_rng(seed)``; the white noise, drift
+    and vibration draws come from the RandomSource, whose state the caller must seed with
+    ``diagram.SetRandomContext(context, RandomGenerator(seed))`` (see ``seed_context``).
+    """
+    plant = builder.AddSystem(DifferentialDrivePlant(robot, initial_pose, initial_speed))
+    plant.set_name("Robot plant")
+    noise = builder.AddSystem(RandomSource(RandomDistribution.kGaussian, NOISE_CHANNELS, T_N))
+    noise.set_name("Sensor noise")
+    bias0 = initial_biases(sensor_params, np.random.default_rng(seed))
+    sensors = builder.AddSystem(ProprioceptiveSensors(sensor_params, T_N, bias0))
+    sensors.set_name("Sensors")
+    builder.Connect(plant.GetOutputPort("state"), sensors.GetInputPort("plant_state"))
+    builder.Connect(plant.GetOutputPort("body_acceleration"), sensors.GetInputPort("body_acceleration"))
+    builder.Connect(noise.get_output_port(0), sensors.GetInputPort("noise"))
+    return RobotHandles(plant=plant, sensors=sensors, noise=noise)
+
+
+PLANT_INTEGRATION_ACCURACY = 1e-2
+"""Target accuracy of the error-controlled RK3 integrator. Measured on ``corner`` (3 s) against 1e-7:
+position error 7e-5 m, velocity error 4e-4 m/s (far below the sensors' resolution), 3.5x faster than 1e-4."""
+
+
+def make_simulator(diagram, seed: int, max_step: float) -> Simulator:
+    """A Simulator with the plant's integrator settings and all random sources seeded from ``seed``.
+
+    The same seed gives a bit-identical run: the RandomSource state is set with
+    ``SetRandomContext(context, RandomGenerator(seed))`` and nothing else draws random numbers.
+    """
+    simulator = Simulator(diagram)
+    integrator = ResetIntegratorFromFlags(simulator, "runge_kutta3", max_step)
+    integrator.set_target_accuracy(PLANT_INTEGRATION_ACCURACY)
+    diagram.SetRandomContext(simulator.get_mutable_context(), RandomGenerator(seed))
+    simulator.Initialize()
+    return simulator

@@ -1,0 +1,56 @@
+"""The ``slipnav`` command line (see README.md and ../shared/DESIGN.md).
+
+    slipnav list
+    slipnav run SCENARIO [--out DIR] [--seed N] [--duration S]
+
+User mistakes print one line to stderr and exit with status 2, without a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from scenarios.config import ScenarioError, builtin_scenarios, load_scenario
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="slipnav", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="list the built-in scenarios")
+    run = sub.add_parser("run", help="simulate a scenario and write its artifact and figures")
+    run.add_argument("scenario", help="built-in scenario name or path to a scenario YAML file")
+    run.add_argument("--out", default="runs", help="output directory (default: runs)")
+    run.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's)")
+    run.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
+    run.add_argument("--no-figures", action="store_true", help="skip the figures")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "list":
+            for name in builtin_scenarios():
+                print(name)
+            return 0
+        from scenarios.runner import run_scenario, write_artifacts
+
+        scenario = load_scenario(args.scenario)
+        result = run_scenario(scenario, seed=args.seed, duration=args.duration)
+        for path in write_artifacts(result, args.out, figures=not args.no_figures):
+            print(path)
+        s = result.summary
+        print(
+            f"{s['scenario']}: {s['duration_s']:.2f} s simulated in {s['wall_time_s']:.2f} s "
+            f"(real-time factor {s['realtime_factor']:.1f}); peak |alpha| "
+            f"{s['peak_abs_true_alpha_deg']:.1f} deg, peak |slip ratio| {s['peak_abs_slip_ratio']:.2f}"
+        )
+        return 0
+    except ScenarioError as e:
+        print(f"slipnav: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

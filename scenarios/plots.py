@@ -1,0 +1,112 @@
+"""Figures of a run: path, speeds, slip (Agg backend; files only)."""
+
+from __future__ import annotations
+
+from pathlib import Path as FilePath
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def _has(a, key) -> bool:
+    return key in a and np.any(np.isfinite(a[key]))
+
+
+def plot_path(a, reference, ax):
+    ax.plot(reference.x, reference.y, "k--", lw=1, label="reference")
+    ax.plot(a["true_x"], a["true_y"], "C0", lw=1.5, label="true")
+    for prefix, label, style in (
+        ("est", "fused estimate", "C1"),
+        ("odo", "odometry only", "C2"),
+        ("gyro", "Gyrodometry", "C3"),
+    ):
+        if _has(a, f"{prefix}_x"):
+            ax.plot(a[f"{prefix}_x"], a[f"{prefix}_y"], style, lw=1, label=label)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+
+
+def plot_speeds(a, reference, axes):
+    t = a["t"]
+    ax = axes[0]
+    ax.plot(reference.t, reference.v, "k--", lw=1, label="reference v")
+    ax.plot(t, a["true_v_t"], "C0", label="true $v_t$")
+    ax.plot(t, a["true_wheel_R"], "C1", lw=0.8, label="wheel R $r\\dot\\theta_R$")
+    ax.plot(t, a["true_wheel_L"], "C2", lw=0.8, label="wheel L $r\\dot\\theta_L$")
+    if _has(a, "cmd_R"):
+        ax.plot(t, a["cmd_R"], "C1:", lw=0.8, label="command R")
+        ax.plot(t, a["cmd_L"], "C2:", lw=0.8, label="command L")
+    if _has(a, "est_v_t"):
+        ax.plot(t, a["est_v_t"], "C3", lw=0.8, label="estimate $v_t$")
+    ax.set_ylabel("speed (m/s)")
+    ax.legend(loc="best", fontsize=7, ncol=2)
+    ax = axes[1]
+    ax.plot(t, a["true_v_n"], "C0", label="true $v_n$")
+    if _has(a, "est_v_n"):
+        ax.plot(t, a["est_v_n"], "C3", lw=0.8, label="estimate $v_n$")
+    ax.set_ylabel("lateral speed (m/s)")
+    ax.legend(loc="best", fontsize=7)
+    ax = axes[2]
+    ax.plot(reference.t, reference.omega, "k--", lw=1, label="reference $\\omega$")
+    ax.plot(t, a["true_omega"], "C0", label="true $\\omega$")
+    if _has(a, "est_omega"):
+        ax.plot(t, a["est_omega"], "C3", lw=0.8, label="estimate $\\omega$")
+    ax.set_ylabel("yaw rate (rad/s)")
+    ax.set_xlabel("t (s)")
+    ax.legend(loc="best", fontsize=7)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+
+
+def plot_slip(a, axes):
+    t = a["t"]
+    ax = axes[0]
+    ax.plot(t, a["true_slip_R"], "C1", label="slip ratio R")
+    ax.plot(t, a["true_slip_L"], "C2", label="slip ratio L")
+    ax.plot(t, a["true_wheel_R"] - a["true_v_t"], "C1:", lw=0.8, label="$r\\dot\\theta_R - v_t$ (m/s)")
+    ax.set_ylabel("tangential slip")
+    ax.legend(loc="best", fontsize=7)
+    ax = axes[1]
+    speed = np.hypot(a["true_v_t"], a["true_v_n"])
+    moving = speed > 0.2
+    ax.plot(t, np.degrees(np.where(moving, a["true_alpha"], np.nan)), "C0", label="true $\\alpha$")
+    if _has(a, "est_alpha"):
+        ax.plot(t, np.degrees(a["est_alpha"]), "C3", lw=0.8, label="estimate $\\alpha$")
+    ax.set_ylabel("side-slip angle (deg)")
+    ax.set_xlabel("t (s)")
+    ax.legend(loc="best", fontsize=7)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+
+
+def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
+    """path.png, speeds.png and slip.png prefixed with the scenario name; returns their paths."""
+    out = FilePath(out_dir)
+    files = []
+    fig, ax = plt.subplots(figsize=(6, 6))
+    plot_path(a, reference, ax)
+    ax.set_title(f"{name}: path")
+    files.append(out / f"{name}.path.png")
+    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    plot_speeds(a, reference, axes)
+    axes[0].set_title(f"{name}: speeds")
+    files.append(out / f"{name}.speeds.png")
+    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+    plt.close(fig)
+
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    plot_slip(a, axes)
+    axes[0].set_title(f"{name}: slip")
+    files.append(out / f"{name}.slip.png")
+    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return files

@@ -1,0 +1,211 @@
+"""Build, simulate and record a scenario: the run artifact of ../shared/DESIGN.md.
+
+``run_scenario`` returns the artifact arrays and summary; ``write_artifacts`` writes
+``DIR/<scenario>.npz``, ``DIR/<scenario>.summary.json`` and the figures.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import json
+import math
+import time
+from pathlib import Path as FilePath
+
+import numpy as np
+
+from diagrams.open_loop import build_open_loop_diagram
+from diagrams.robot import make_simulator
+from scenarios.config import Scenario, ScenarioError
+from scenarios.trajectories import (
+    Trajectory,
+    TrajectoryError,
+    build_path,
+    build_trajectory,
+    trajectory_along_path,
+)
+
+TRUTH_KEYS = (
+    "true_x true_y true_phi true_v_t true_v_n true_omega true_alpha true_wheel_R true_wheel_L".split()
+)
+ESTIMATE_KEYS = "est_x est_y est_phi est_v_t est_v_n est_omega est_alpha".split()
+BASELINE_KEYS = "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi".split()
+NAVIGATION_KEYS = "C1 C2 C3 delta_v".split()
+CONTROL_KEYS = "step_size progress ref_x ref_y ref_phi cmd_R cmd_L V1".split()
+SENSOR_KEYS = "meas_a_t1 meas_a_n1 meas_a_t2 meas_a_n2 meas_gyro meas_enc_R meas_enc_L".split()
+SLIP_KEYS = "true_slip_R true_slip_L".split()
+SERIES_KEYS = (
+    ["t"]
+    + TRUTH_KEYS
+    + ESTIMATE_KEYS
+    + BASELINE_KEYS
+    + NAVIGATION_KEYS
+    + CONTROL_KEYS
+    + SENSOR_KEYS
+    + SLIP_KEYS
+)
+SCALAR_KEYS = ("path_length", "T_N", "T_C", "V_m", "track_width")
+
+
+@dc.dataclass
+class RunResult:
+    scenario: Scenario
+    seed: int
+    arrays: dict
+    summary: dict
+    reference: Trajectory
+
+
+def reference_for(scenario: Scenario) -> tuple[Trajectory, float]:
+    """The scenario's reference trajectory sampled at T_C and the robot's initial forward speed."""
+    rates = scenario.rates()
+    try:
+        if scenario.mode == "trajectory":
+            trajectory = build_trajectory(scenario.trajectory, rates.T_C)
+            return trajectory, scenario.trajectory.initial_speed
+        robot = scenario.robot_parameters()
+        speed = scenario.path_speed or 0.5 * robot.wheel_speed_limit
+        return trajectory_along_path(build_path(scenario.path), speed, rates.T_C), speed
+    except TrajectoryError as e:
+        raise ScenarioError(str(e)) from None
+
+
+def end_time(scenario: Scenario, reference: Trajectory, duration: float | None) -> float:
+    if duration is not None:
+        if not (math.isfinite(duration) and duration > 0.0):
+            raise ScenarioError(f"--duration={duration!r} is out of range: allowed (0, inf) s")
+        return duration
+    if scenario.duration is not None:
+        return scenario.duration
+    return reference.duration + scenario.settle_time
+
+
+def run_scenario(scenario: Scenario, seed: int | None = None, duration: float | None = None):
+    """Simulate ``scenario`` (open loop: trajectory feed-forward) and collect the run artifact."""
+    seed = scenario.seed if seed is None else int(seed)
+    if not (0 <= seed < 2**31):
+        raise ScenarioError(f"seed={seed!r} is out of range: allowed 0 .. 2**31-1")
+    rates = scenario.rates()
+    robot = scenario.robot_parameters()
+    sensor_params = scenario.sensor_parameters()
+    reference, initial_speed = reference_for(scenario)
+    t_end = end_time(scenario, reference, duration)
+
+    v_R, v_L = reference.wheel_speeds(robot.track_width)
+    poses = np.column_stack([reference.x, reference.y, reference.phi])
+    built = build_open_loop_diagram(
+        robot,
+        sensor_params,
+        rates,
+        np.column_stack([v_R, v_L]),
+        poses,
+        seed,
+        initial_pose=tuple(scenario.initial_pose),
+        initial_speed=initial_speed,
+    )
+    simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
+    context = simulator.get_context()
+    wall_start = time.perf_counter()
+    simulator.AdvanceTo(t_end)
+    wall = time.perf_counter() - wall_start
+
+    arrays = collect_arrays(built.loggers, context, robot.wheel_radius)
+    n = len(arrays["t"])
+    for key in SERIES_KEYS:
+        arrays.setdefault(key, np.full(n, np.nan))
+    arrays.update(
+        path_length=np.array(reference.length),
+        T_N=np.array(rates.T_N),
+        T_C=np.array(rates.T_C),
+        V_m=np.array(robot.wheel_speed_limit),
+        track_width=np.array(robot.track_width),
+    )
+    summary = {
+        "scenario": scenario.name,
+        "seed": seed,
+        "robot": robot.name,
+        "mode": scenario.mode,
+        "controller": "open-loop feed-forward",
+        "path_length_m": reference.length,
+        "duration_s": float(arrays["t"][-1]),
+        "completion_time_s": reference.duration if reference.duration <= t_end else None,
+        "final_position_error_m": final_position_errors(arrays),
+        "reference_final_distance_m": float(
+            math.hypot(arrays["true_x"][-1] - reference.x[-1], arrays["true_y"][-1] - reference.y[-1])
+        ),
+        "peak_abs_true_alpha_deg": float(np.degrees(np.nanmax(np.abs(moving_alpha(arrays))))),
+        "peak_abs_slip_ratio": float(
+            np.nanmax(np.abs(np.concatenate([arrays["true_slip_R"], arrays["true_slip_L"]])))
+        ),
+        "wall_time_s": wall,
+        "realtime_factor": float(arrays["t"][-1] / wall) if wall > 0 else None,
+    }
+    return RunResult(scenario=scenario, seed=seed, arrays=arrays, summary=summary, reference=reference)
+
+
+def moving_alpha(arrays, min_speed: float = 0.2) -> np.ndarray:
+    """true_alpha where the robot moves faster than ``min_speed`` (NaN elsewhere)."""
+    speed = np.hypot(arrays["true_v_t"], arrays["true_v_n"])
+    return np.where(speed > min_speed, arrays["true_alpha"], np.nan)
+
+
+def final_position_errors(arrays) -> dict:
+    """Distance between each estimate's final position and the true one (None where not estimated)."""
+    out = {}
+    for label, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+        dx = arrays[f"{prefix}_x"][-1] - arrays["true_x"][-1]
+        dy = arrays[f"{prefix}_y"][-1] - arrays["true_y"][-1]
+        d = math.hypot(dx, dy)
+        out[label] = d if math.isfinite(d) else None
+    return out
+
+
+def collect_arrays(loggers, context, wheel_radius: float) -> dict:
+    """Artifact arrays from the loggers of a diagram (every logger publishes on the T_N grid)."""
+    logs = {name: logger.FindLog(context) for name, logger in loggers.items()}
+    t = logs["state"].sample_times()
+    n = len(t)
+
+    def data(name):
+        d = logs[name].data()
+        if d.shape[1] != n:
+            raise RuntimeError(f"logger {name} has {d.shape[1]} samples, state has {n}")
+        return d
+
+    x = data("state")
+    a = {"t": t.copy()}
+    for i, key in enumerate(["true_x", "true_y", "true_phi", "true_v_t", "true_v_n", "true_omega"]):
+        a[key] = x[i].copy()
+    a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
+    wheels = data("wheel_speeds")
+    a["true_wheel_R"], a["true_wheel_L"] = wheels[0].copy(), wheels[1].copy()
+    slip = data("tyre_slip")
+    a["true_slip_R"], a["true_slip_L"] = slip[0].copy(), slip[1].copy()
+    acc = data("accelerometers")
+    for i, key in enumerate(["meas_a_t1", "meas_a_n1", "meas_a_t2", "meas_a_n2"]):
+        a[key] = acc[i].copy()
+    a["meas_gyro"] = data("gyro")[0].copy()
+    enc = data("encoders")
+    a["meas_enc_R"], a["meas_enc_L"] = enc[0].copy(), enc[1].copy()
+    cmd = data("command")
+    a["cmd_R"], a["cmd_L"] = cmd[0].copy(), cmd[1].copy()
+    ref = data("reference_pose")
+    a["ref_x"], a["ref_y"], a["ref_phi"] = ref[0].copy(), ref[1].copy(), ref[2].copy()
+    return a
+
+
+def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[FilePath]:
+    """Write the npz, the summary JSON and (optionally) the figures; returns the written paths."""
+    from scenarios.plots import write_figures
+
+    out = FilePath(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    name = result.scenario.name
+    npz = out / f"{name}.npz"
+    np.savez(npz, **{k: np.asarray(v, dtype=float) for k, v in result.arrays.items()})
+    summary = out / f"{name}.summary.json"
+    summary.write_text(json.dumps(result.summary, indent=2) + "\n")
+    written = [npz, summary]
+    if figures:
+        written += write_figures(result.arrays, result.reference, out, name)
+    return written

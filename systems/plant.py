@@ -1,0 +1,483 @@
+"""Planar differential-drive robot with real tyre slip, DC motors and a sampled wheel-speed loop.
+
+The body obeys Seyr & Jakubek's kinematics S(1) with body-frame velocities (v_t, v_n, omega) and the
+absolute accelerations a_t = dv_t/dt - v_n*omega, a_n = dv_n/dt + v_t*omega that S(2) assumes. Unlike S(1)
+the velocities are not imposed: they follow from the forces of two rubber tyres and two felt shoes.
+
+Tyres: Pacejka's simplified "magic formula" on the combined (theoretical) slip
+sigma = sqrt(kappa^2 + tan(alpha)^2), F = mu*N*sin(C*atan(B*sigma)), split along (kappa, -tan alpha)
+(H. B. Pacejka, *Tire and Vehicle Dynamics*, 3rd ed., 2012, §4.3.2 "combined slip, similarity method").
+kappa is the longitudinal slip ratio (r*w - v_x)/v_ref and tan(alpha) = v_y/v_ref, with
+v_ref = max(|v_x|, |r*w|, slip_speed_floor); the floor regularises the slip at standstill (below it the
+tyre acts as a stiff viscous contact), as is usual for simulation-grade tyre models. Because the force is
+anti-parallel to the contact slip velocity the tyre only ever dissipates energy.
+
+Felt shoes: Coulomb friction regularised with tanh plus viscous drag, at +/- shoe_offset on the body axis.
+
+Motors: DC motors referred to the wheel shaft (k = torque constant = back-EMF constant incl. gearing),
+armature resistance, current limit, supply-voltage limit, bearing drag. A PI wheel-speed loop sampled at
+``speed_loop_period`` (zero-order-hold PWM, as the Kurt3D motor controller of Indiveri §IV-A) turns the
+commanded circumferential wheel speeds into voltages.
+
+Conventions: body x forward (t), y to the left (n); the right wheel sits at y = -track_width/2, so rolling
+without slip gives omega = (v_R - v_L)/track_width (Seyr's b, Indiveri's 2b). Centre of gravity on the axle.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+
+import numpy as np
+from pydrake.common.containers import namedview
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+GRAVITY = 9.81
+
+PlantState = namedview(
+    "PlantState",
+    ["x", "y", "phi", "v_t", "v_n", "omega", "theta_R", "theta_L", "w_R", "w_L"],
+)
+"""Continuous plant state: pose, body velocities, wheel angles (rad) and wheel angular speeds (rad/s)."""
+
+SpeedLoopState = namedview("SpeedLoopState", ["integral_R", "integral_L", "voltage_R", "voltage_L"])
+"""Discrete state of the sampled PI wheel-speed loop: error integrals (rad) and held voltages (V)."""
+
+
+def _require(name: str, value: float, low: float, high: float = math.inf, *, low_open=True):
+    ok_low = value > low if low_open else value >= low
+    if not (ok_low and value <= high and math.isfinite(value)):
+        bracket = "(" if low_open else "["
+        raise ValueError(f"{name}={value!r} is out of range: allowed {bracket}{low}, {high}]")
+
+
+@dc.dataclass(frozen=True)
+class RobotParameters:
+    """Physical parameters of a differential-drive robot (SI units).
+
+    Args:
+        name: label used in reports.
+        mass: total mass (kg).
+        yaw_inertia: moment of inertia about the vertical axis through the centre of gravity (kg m^2).
+        track_width: full distance between the wheel contact points (Seyr's b, Indiveri's 2b) (m).
+        wheel_radius: rolling radius (m).
+        wheel_inertia: wheel + gearbox + rotor inertia reflected to the wheel shaft (kg m^2).
+        wheel_load_fraction: share of the weight carried by the two wheels; the rest rests on the shoes.
+        tyre_friction: peak tyre/ground friction coefficient mu.
+        tyre_stiffness_factor: Pacejka B (1/unit slip).
+        tyre_shape_factor: Pacejka C, in (1, 2); sliding friction is mu*sin(C*pi/2) of the peak.
+        slip_speed_floor: regularising reference speed of the slip definitions (m/s).
+        shoe_offset: distance of the front and rear felt shoes from the axle (m).
+        shoe_friction: Coulomb coefficient of the felt shoes.
+        shoe_viscous_drag: viscous drag of each shoe (N s/m).
+        shoe_slip_speed: speed scale of the tanh-regularised Coulomb friction (m/s).
+        motor_constant: torque constant = back-EMF constant referred to the wheel (N m/A = V s/rad).
+        motor_resistance: armature resistance (ohm).
+        motor_current_limit: current (hence torque) limit of the motor driver (A).
+        supply_voltage: H-bridge supply, the voltage limit (V).
+        bearing_drag: viscous drag of each wheel's bearings and gearbox (N m s/rad).
+        speed_loop_period: sampling period of the PI wheel-speed loop (s).
+        speed_loop_kp: proportional gain on the wheel angular-speed error (V s/rad).
+        speed_loop_ki: integral gain (V/rad).
+        wheel_speed_limit: V_m, the largest circumferential wheel speed the controller may command (m/s).
+    """
+
+    name: str
+    mass: float
+    yaw_inertia: float
+    track_width: float
+    wheel_radius: float
+    wheel_inertia: float
+    wheel_load_fraction: float
+    tyre_friction: float
+    tyre_stiffness_factor: float
+    tyre_shape_factor: float
+    slip_speed_floor: float
+    shoe_offset: float
+    shoe_friction: float
+    shoe_viscous_drag: float
+    shoe_slip_speed: float
+    motor_constant: float
+    motor_resistance: float
+    motor_current_limit: float
+    supply_voltage: float
+    bearing_drag: float
+    speed_loop_period: float
+    speed_loop_kp: float
+    speed_loop_ki: float
+    wheel_speed_limit: float
+
+    def __post_init__(self):
+        _require("mass", self.mass, 0.0)
+        _require("yaw_inertia", self.yaw_inertia, 0.0)
+        _require("track_width", self.track_width, 0.0)
+        _require("wheel_radius", self.wheel_radius, 0.0)
+        _require("wheel_inertia", self.wheel_inertia, 0.0)
+        _require("wheel_load_fraction", self.wheel_load_fraction, 0.0, 1.0)
+        _require("tyre_friction", self.tyre_friction, 0.0, 2.0)
+        _require("tyre_stiffness_factor", self.tyre_stiffness_factor, 0.0)
+        _require("tyre_shape_factor", self.tyre_shape_factor, 1.0, 2.0)
+        _require("slip_speed_floor", self.slip_speed_floor, 0.0)
+        _require("shoe_offset", self.shoe_offset, 0.0, low_open=False)
+        _require("shoe_friction", self.shoe_friction, 0.0, 2.0, low_open=False)
+        _require("shoe_viscous_drag", self.shoe_viscous_drag, 0.0, low_open=False)
+        _require("shoe_slip_speed", self.shoe_slip_speed, 0.0)
+        _require("motor_constant", self.motor_constant, 0.0)
+        _require("motor_resistance", self.motor_resistance, 0.0)
+        _require("motor_current_limit", self.motor_current_limit, 0.0)
+        _require("supply_voltage", self.supply_voltage, 0.0)
+        _require("bearing_drag", self.bearing_drag, 0.0, low_open=False)
+        _require("speed_loop_period", self.speed_loop_period, 0.0, 0.1)
+        _require("speed_loop_kp", self.speed_loop_kp, 0.0, low_open=False)
+        _require("speed_loop_ki", self.speed_loop_ki, 0.0, low_open=False)
+        _require("wheel_speed_limit", self.wheel_speed_limit, 0.0)
+        if self.wheel_speed_limit > self.no_load_speed:
+            raise ValueError(
+                f"wheel_speed_limit={self.wheel_speed_limit} exceeds the motors' no-load "
+                f"circumferential speed {self.no_load_speed:.3f} m/s: allowed (0, {self.no_load_speed:.3f}]"
+            )
+
+    @property
+    def no_load_speed(self) -> float:
+        """Circumferential wheel speed at full supply voltage and zero torque (m/s)."""
+        return self.wheel_radius * self.supply_voltage / self.motor_constant
+
+    @property
+    def wheel_normal_load(self) -> float:
+        """Static normal force on each wheel (N)."""
+        return 0.5 * self.wheel_load_fraction * self.mass * GRAVITY
+
+    @property
+    def shoe_normal_load(self) -> float:
+        """Static normal force on each felt shoe (N)."""
+        return 0.5 * (1.0 - self.wheel_load_fraction) * self.mass * GRAVITY
+
+    @property
+    def traction_limit_acceleration(self) -> float:
+        """Largest acceleration the tyres can transmit, mu * N_wheels / m (m/s^2), shoes neglected."""
+        return self.tyre_friction * self.wheel_load_fraction * GRAVITY
+
+    def replace(self, **changes) -> RobotParameters:
+        return dc.replace(self, **changes)
+
+
+def tinyphoon() -> RobotParameters:
+    """Seyr & Jakubek's Tinyphoon (§II): 75 mm cube, ~0.4 kg, 22.5 W/kg, ~4 m/s, rubber tyres.
+
+    Motor figures follow a Faulhaber 2224-006SR class coreless motor (4.5 W, rotor 3.8 g cm^2) on a 3:1
+    gearhead; 2 x 4.5 W / 0.4 kg = 22.5 W/kg. Yaw inertia of a uniform 75 mm square plate. The felt shoes are
+    assumed to carry 20 % of the weight. The speed loop runs at 1 kHz on the DSP (assumption).
+    """
+    k = 6.0 / 280.0  # V s/rad at the wheel: 6 V gives 280 rad/s = 4.2 m/s no-load
+    return RobotParameters(
+        name="tinyphoon",
+        mass=0.4,
+        yaw_inertia=0.4 * 2 * 0.075**2 / 12,
+        track_width=0.068,
+        wheel_radius=0.015,
+        wheel_inertia=3.7e-6,
+        wheel_load_fraction=0.8,
+        tyre_friction=0.7,
+        tyre_stiffness_factor=15.0,
+        tyre_shape_factor=1.3,
+        slip_speed_floor=0.3,
+        shoe_offset=0.03,
+        shoe_friction=0.25,
+        shoe_viscous_drag=0.05,
+        shoe_slip_speed=0.01,
+        motor_constant=k,
+        motor_resistance=6.0**2 / (4 * 4.5),  # max mechanical power V^2/(4R) = 4.5 W
+        motor_current_limit=1.5,
+        supply_voltage=6.0,
+        bearing_drag=2e-6,
+        speed_loop_period=1e-3,
+        speed_loop_kp=0.4,
+        speed_loop_ki=40.0,
+        wheel_speed_limit=4.0,
+    )
+
+
+def kurt3d() -> RobotParameters:
+    """Indiveri et al.'s high-speed indoor Kurt3D (§IV-A): 2 x 90 W, V_m = 4.1 m/s, speed loop at 100 Hz.
+
+    Six 16 cm wheels lumped into one wheel per side (skid steering treated as differential drive, as the
+    paper does); no shoes. Mass ~22 kg and a 0.45 m x 0.4 m box for the yaw inertia (assumptions).
+    """
+    v_no_load = 4.3
+    k = 24.0 * 0.08 / v_no_load
+    return RobotParameters(
+        name="kurt3d",
+        mass=22.0,
+        yaw_inertia=22.0 * (0.45**2 + 0.4**2) / 12,
+        track_width=0.4,
+        wheel_radius=0.08,
+        wheel_inertia=0.02,
+        wheel_load_fraction=1.0,
+        tyre_friction=0.8,
+        tyre_stiffness_factor=12.0,
+        tyre_shape_factor=1.3,
+        slip_speed_floor=0.3,
+        shoe_offset=0.0,
+        shoe_friction=0.0,
+        shoe_viscous_drag=0.0,
+        shoe_slip_speed=0.01,
+        motor_constant=k,
+        motor_resistance=24.0**2 / (4 * 90.0),
+        motor_current_limit=12.0,
+        supply_voltage=24.0,
+        bearing_drag=1e-3,
+        speed_loop_period=1e-2,
+        speed_loop_kp=6.0,
+        speed_loop_ki=60.0,
+        wheel_speed_limit=4.1,
+    )
+
+
+ROBOTS = {"tinyphoon": tinyphoon, "kurt3d": kurt3d}
+
+
+def robot_parameters(name: str) -> RobotParameters:
+    """The named reference robot's parameters."""
+    try:
+        return ROBOTS[name]()
+    except KeyError:
+        raise ValueError(f"robot={name!r} is unknown: allowed {sorted(ROBOTS)}") from None
+
+
+# ---------------------------------------------------------------------------------------------------
+# Pure maths
+
+
+def tyre_force(v_x: float, v_y: float, wheel_speed: float, normal_load: float, p: RobotParameters):
+    """Tyre force on the body at one contact point, in body axes (Pacejka combined slip, see module).
+
+    Args:
+        v_x, v_y: velocity of the wheel centre in body axes (m/s).
+        wheel_speed: circumferential wheel speed r*w (m/s).
+        normal_load: N (N).
+
+    Returns:
+        (F_x, F_y, slip_ratio, tan_slip_angle)
+    """
+    v_ref = max(abs(v_x), abs(wheel_speed), p.slip_speed_floor)
+    kappa = (wheel_speed - v_x) / v_ref
+    tan_alpha = v_y / v_ref
+    sigma = math.hypot(kappa, tan_alpha)
+    if sigma < 1e-15:
+        return 0.0, 0.0, kappa, tan_alpha
+    force = (
+        p.tyre_friction
+        * normal_load
+        * math.sin(p.tyre_shape_factor * math.atan(p.tyre_stiffness_factor * sigma))
+    )
+    return force * kappa / sigma, -force * tan_alpha / sigma, kappa, tan_alpha
+
+
+def shoe_force(v_x: float, v_y: float, normal_load: float, p: RobotParameters):
+    """Felt-shoe force: tanh-regularised Coulomb friction plus viscous drag, opposing the sliding velocity."""
+    speed = math.hypot(v_x, v_y)
+    if speed < 1e-15:
+        return 0.0, 0.0
+    coulomb = p.shoe_friction * normal_load * math.tanh(speed / p.shoe_slip_speed) / speed
+    scale = -(coulomb + p.shoe_viscous_drag)
+    return scale * v_x, scale * v_y
+
+
+def motor_current(voltage: float, wheel_rate: float, p: RobotParameters) -> float:
+    """Armature current (V - k*w)/R, clipped to the driver's current limit (A)."""
+    current = (voltage - p.motor_constant * wheel_rate) / p.motor_resistance
+    return min(max(current, -p.motor_current_limit), p.motor_current_limit)
+
+
+def plant_derivatives(state, currents, p: RobotParameters):
+    """Time derivative of the continuous plant state.
+
+    Args:
+        state: sequence in PlantState order.
+        currents: (i_R, i_L) motor currents (A); zeros model motors switched off (open circuit).
+
+    Returns:
+        (xdot as a list in PlantState order, (a_t, a_n, omega_dot) absolute body accelerations)
+    """
+    x, y, phi, v_t, v_n, omega, _, _, w_R, w_L = state
+    half = 0.5 * p.track_width
+    r = p.wheel_radius
+    n_wheel = p.wheel_normal_load
+    # Wheels at (0, -half) right and (0, +half) left.
+    fx_R, fy_R, _, _ = tyre_force(v_t + omega * half, v_n, r * w_R, n_wheel, p)
+    fx_L, fy_L, _, _ = tyre_force(v_t - omega * half, v_n, r * w_L, n_wheel, p)
+    f_x = fx_R + fx_L
+    f_y = fy_R + fy_L
+    moment = half * (fx_R - fx_L)
+    if p.shoe_friction > 0.0 or p.shoe_viscous_drag > 0.0:
+        n_shoe = p.shoe_normal_load
+        for x_shoe in (p.shoe_offset, -p.shoe_offset):
+            sx, sy = shoe_force(v_t, v_n + omega * x_shoe, n_shoe, p)
+            f_x += sx
+            f_y += sy
+            moment += x_shoe * sy
+    a_t = f_x / p.mass
+    a_n = f_y / p.mass
+    omega_dot = moment / p.yaw_inertia
+    i_R, i_L = currents
+    k = p.motor_constant
+    w_R_dot = (k * i_R - r * fx_R - p.bearing_drag * w_R) / p.wheel_inertia
+    w_L_dot = (k * i_L - r * fx_L - p.bearing_drag * w_L) / p.wheel_inertia
+    c, s = math.cos(phi), math.sin(phi)
+    xdot = [
+        v_t * c - v_n * s,
+        v_t * s + v_n * c,
+        omega,
+        a_t + v_n * omega,
+        a_n - v_t * omega,
+        omega_dot,
+        w_R,
+        w_L,
+        w_R_dot,
+        w_L_dot,
+    ]
+    return xdot, (a_t, a_n, omega_dot)
+
+
+def kinetic_energy(state, p: RobotParameters) -> float:
+    """Translational + yaw + wheel rotational kinetic energy (J)."""
+    s = PlantState(np.asarray(state, dtype=float))
+    return 0.5 * (
+        p.mass * (s.v_t**2 + s.v_n**2) + p.yaw_inertia * s.omega**2 + p.wheel_inertia * (s.w_R**2 + s.w_L**2)
+    )
+
+
+def speed_loop_update(loop_state, wheel_speed_command, wheel_rates, p: RobotParameters):
+    """One sample of the PI wheel-speed loop with conditional-integration anti-windup.
+
+    Args:
+        loop_state: SpeedLoopState-ordered (integral_R, integral_L, voltage_R, voltage_L).
+        wheel_speed_command: commanded circumferential speeds (v_R, v_L) (m/s).
+        wheel_rates: measured wheel angular speeds (w_R, w_L) (rad/s).
+
+    Returns:
+        the next loop state (list).
+    """
+    out = [0.0] * 4
+    limit = p.supply_voltage
+    for i in range(2):
+        error = wheel_speed_command[i] / p.wheel_radius - wheel_rates[i]
+        integral = loop_state[i] + error * p.speed_loop_period
+        voltage = p.speed_loop_kp * error + p.speed_loop_ki * integral
+        if abs(voltage) > limit:
+            integral = loop_state[i]  # freeze the integral while saturated
+            voltage = p.speed_loop_kp * error + p.speed_loop_ki * integral
+        out[i] = integral
+        out[2 + i] = min(max(voltage, -limit), limit)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------
+# Drake shell
+
+
+class DifferentialDrivePlant(LeafSystem):
+    """Continuous rigid-body robot with slipping tyres, felt shoes, DC motors and a sampled PI speed loop.
+
+    .. pydrake_system::
+
+        name: DifferentialDrivePlant
+        input_ports:
+        - wheel_speed_command
+        output_ports:
+        - state
+        - body_acceleration
+        - wheel_angles
+        - wheel_speeds
+        - tyre_slip
+
+    - wheel_speed_command: commanded circumferential wheel speeds [v_R, v_L] (m/s).
+    - state: PlantState [x, y, phi, v_t, v_n, omega, theta_R, theta_L, w_R, w_L].
+    - body_acceleration: true absolute body-frame accelerations [a_t, a_n, omega_dot] (m/s^2, rad/s^2).
+    - wheel_angles: [theta_R, theta_L] (rad), for the encoders.
+    - wheel_speeds: circumferential speeds [r*w_R, r*w_L] (m/s).
+    - tyre_slip: [kappa_R, kappa_L, alpha_R, alpha_L]: slip ratios and slip angles (rad).
+
+    The PI speed loop is a periodic discrete update at ``speed_loop_period`` that holds the motor voltages
+    (discrete state SpeedLoopState) between samples.
+
+    Args:
+        params: RobotParameters.
+        initial_pose: (x, y, phi) of the default context.
+        initial_speed: forward speed v_t of the default context (wheels rolling), m/s.
+    """
+
+    def __init__(self, params: RobotParameters, initial_pose=(0.0, 0.0, 0.0), initial_speed=0.0):
+        super().__init__()
+        self._params = params
+        x0 = np.zeros(10)
+        x0[0:3] = initial_pose
+        x0[3] = initial_speed
+        x0[8] = x0[9] = initial_speed / params.wheel_radius
+        self._command_port = self.DeclareVectorInputPort("wheel_speed_command", 2)
+        self.DeclareContinuousState(BasicVector(x0), 0, 0, 10)
+        self.DeclareDiscreteState(4)
+        self.DeclarePeriodicDiscreteUpdateEvent(
+            period_sec=params.speed_loop_period, offset_sec=0.0, update=self._update_speed_loop
+        )
+        state_only = {self.all_state_ticket()}
+        self.DeclareVectorOutputPort("state", 10, self._calc_state, prerequisites_of_calc={self.xc_ticket()})
+        self.DeclareVectorOutputPort(
+            "body_acceleration", 3, self._calc_acceleration, prerequisites_of_calc=state_only
+        )
+        self.DeclareVectorOutputPort(
+            "wheel_angles", 2, self._calc_wheel_angles, prerequisites_of_calc={self.xc_ticket()}
+        )
+        self.DeclareVectorOutputPort(
+            "wheel_speeds", 2, self._calc_wheel_speeds, prerequisites_of_calc={self.xc_ticket()}
+        )
+        self.DeclareVectorOutputPort(
+            "tyre_slip", 4, self._calc_tyre_slip, prerequisites_of_calc={self.xc_ticket()}
+        )
+
+    @property
+    def params(self) -> RobotParameters:
+        return self._params
+
+    def get_command_input_port(self):
+        return self._command_port
+
+    def _currents(self, context, x):
+        loop = context.get_discrete_state(0).get_value()
+        p = self._params
+        return (motor_current(loop[2], x[8], p), motor_current(loop[3], x[9], p))
+
+    def DoCalcTimeDerivatives(self, context, derivatives):  # noqa: N802 (Drake API)
+        x = context.get_continuous_state_vector().CopyToVector()
+        xdot, _ = plant_derivatives(x, self._currents(context, x), self._params)
+        derivatives.get_mutable_vector().SetFromVector(xdot)
+
+    def _update_speed_loop(self, context, discrete_state):
+        x = context.get_continuous_state_vector().CopyToVector()
+        command = self._command_port.Eval(context)
+        loop = context.get_discrete_state(0).get_value()
+        discrete_state.set_value(0, speed_loop_update(loop, command, (x[8], x[9]), self._params))
+
+    def _calc_state(self, context, output: BasicVector):
+        output.SetFromVector(context.get_continuous_state_vector().CopyToVector())
+
+    def _calc_acceleration(self, context, output: BasicVector):
+        x = context.get_continuous_state_vector().CopyToVector()
+        _, acc = plant_derivatives(x, self._currents(context, x), self._params)
+        output.SetFromVector(acc)
+
+    def _calc_wheel_angles(self, context, output: BasicVector):
+        x = context.get_continuous_state_vector().CopyToVector()
+        output.SetFromVector(x[6:8])
+
+    def _calc_wheel_speeds(self, context, output: BasicVector):
+        x = context.get_continuous_state_vector().CopyToVector()
+        output.SetFromVector(self._params.wheel_radius * x[8:10])
+
+    def _calc_tyre_slip(self, context, output: BasicVector):
+        x = context.get_continuous_state_vector().CopyToVector()
+        p = self._params
+        half = 0.5 * p.track_width
+        _, _, k_R, ta_R = tyre_force(x[3] + x[5] * half, x[4], p.wheel_radius * x[8], 1.0, p)
+        _, _, k_L, ta_L = tyre_force(x[3] - x[5] * half, x[4], p.wheel_radius * x[9], 1.0, p)
+        output.SetFromVector([k_R, k_L, math.atan(ta_R), math.atan(ta_L)])

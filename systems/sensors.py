@@ -1,0 +1,225 @@
+"""Proprioceptive sensors of Seyr & Jakubek §II, sampled at T_N: two two-axis accelerometers, one yaw
+gyro and two quantised wheel encoders.
+
+Default figures (tinyphoon) from data sheets of parts of the paper's era:
+- Accelerometers: Analog Devices ADXL210E (dual-axis, +/-10 g, 500 ug/sqrt(Hz), 0 g drift ~2 mg/degC).
+  With a 100 Hz output filter the rms noise is 500e-6 g * sqrt(1.6 * 100 Hz) = 6.3 mg = 0.062 m/s^2.
+  Residual offset after calibration 5 mg, random-walk drift chosen so that ~2.5 degC of warming over a
+  minute moves the offset by ~5 mg.
+- Gyro: Analog Devices ADXRS300 (+/-300 deg/s, 0.1 deg/s/sqrt(Hz)); 40 Hz bandwidth gives
+  0.1 * sqrt(1.6 * 40) = 0.8 deg/s = 0.014 rad/s rms; residual bias 0.2 deg/s.
+- Encoders: Faulhaber IE2-512 (512 lines, quadrature x4) on the motor of a 3:1 gearhead = 6144 counts per
+  wheel revolution. Encoders are bias-free; their only error is quantisation (§IV-B).
+- "Commotion" (§IV-A): vibration of the accelerometer readings, a first-order Gauss-Markov process with a
+  5 ms correlation time whose standard deviation grows with speed (assumption, 0.3 m/s^2 per m/s).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+NOISE_CHANNELS = 14
+"""Standard-normal inputs per sample: 4 accel white, 4 accel drift, 4 vibration, gyro white, gyro drift."""
+
+
+@dc.dataclass(frozen=True)
+class SensorParameters:
+    """Sensor model parameters (SI units).
+
+    Args:
+        accelerometer_position: body position (x, y) of accelerometer 1 (m); accelerometer 2 sits at the
+            opposite position (-x, -y), so that the mean of the two cancels the rotational terms.
+        accel_noise_std: white noise per sample (m/s^2).
+        accel_initial_bias_std: standard deviation of the initial offset (m/s^2).
+        accel_drift_density: bias random walk (m/s^2 per sqrt(s)).
+        accel_vibration_per_speed: commotion standard deviation per m/s of |v_t| (m/s^2 per m/s).
+        accel_vibration_time_constant: correlation time of the commotion (s).
+        accel_range: full scale (m/s^2); readings clip there.
+        gyro_noise_std: white noise per sample (rad/s).
+        gyro_initial_bias_std: standard deviation of the initial bias (rad/s).
+        gyro_drift_density: bias random walk (rad/s per sqrt(s)).
+        gyro_range: full scale (rad/s).
+        encoder_counts_per_revolution: counts per wheel revolution.
+    """
+
+    accelerometer_position: tuple[float, float] = (0.02, 0.015)
+    accel_noise_std: float = 0.062
+    accel_initial_bias_std: float = 0.05
+    accel_drift_density: float = 0.0065
+    accel_vibration_per_speed: float = 0.3
+    accel_vibration_time_constant: float = 0.005
+    accel_range: float = 10 * 9.81
+    gyro_noise_std: float = 0.014
+    gyro_initial_bias_std: float = 0.0035
+    gyro_drift_density: float = 0.0005
+    gyro_range: float = math.radians(300.0)
+    encoder_counts_per_revolution: int = 6144
+
+    def __post_init__(self):
+        nonneg = (
+            "accel_noise_std accel_initial_bias_std accel_drift_density accel_vibration_per_speed "
+            "gyro_noise_std gyro_initial_bias_std gyro_drift_density"
+        ).split()
+        for name in nonneg:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
+        for name in ("accel_vibration_time_constant", "accel_range", "gyro_range"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf)")
+        if int(self.encoder_counts_per_revolution) != self.encoder_counts_per_revolution or not (
+            1 <= self.encoder_counts_per_revolution <= 10**7
+        ):
+            raise ValueError(
+                f"encoder_counts_per_revolution={self.encoder_counts_per_revolution!r} is out of "
+                "range: allowed integers in [1, 10000000]"
+            )
+        if len(self.accelerometer_position) != 2:
+            raise ValueError("accelerometer_position must be a pair (x, y) in metres")
+
+    @property
+    def encoder_step(self) -> float:
+        """Angle of one encoder count (rad)."""
+        return 2.0 * math.pi / self.encoder_counts_per_revolution
+
+
+def default_sensor_parameters(robot_name: str) -> SensorParameters:
+    """Sensor set of each reference robot. Kurt3D: a 1024-line quadrature encoder per wheel (4096 counts)."""
+    if robot_name == "kurt3d":
+        return SensorParameters(accelerometer_position=(0.1, 0.05), encoder_counts_per_revolution=4096)
+    return SensorParameters()
+
+
+def initial_biases(params: SensorParameters, rng: np.random.Generator) -> np.ndarray:
+    """Draw the initial accelerometer (4) and gyro (1) biases."""
+    return np.concatenate(
+        [
+            params.accel_initial_bias_std * rng.standard_normal(4),
+            params.gyro_initial_bias_std * rng.standard_normal(1),
+        ]
+    )
+
+
+def accelerometer_truth(body_acceleration, omega: float, position) -> np.ndarray:
+    """True readings [a_t1, a_n1, a_t2, a_n2] of the two accelerometers at +/- position.
+
+    a_P = a_cg + omega_dot x r + omega x (omega x r): tangential a_t - omega_dot*y - omega^2*x, lateral
+    a_n + omega_dot*x - omega^2*y. The mean of the two (as in S(3)) is the centre's acceleration.
+    """
+    a_t, a_n, omega_dot = body_acceleration
+    px, py = position
+    w2 = omega * omega
+    dt = -omega_dot * py - w2 * px
+    dn = omega_dot * px - w2 * py
+    return np.array([a_t + dt, a_n + dn, a_t - dt, a_n - dn])
+
+
+def sensor_update(internal, plant_state, body_acceleration, noise, params: SensorParameters, T_N: float):
+    """One sample of all sensors.
+
+    Args:
+        internal: [accel bias (4), gyro bias, vibration (4)].
+        plant_state: PlantState-ordered true state.
+        body_acceleration: true [a_t, a_n, omega_dot].
+        noise: NOISE_CHANNELS standard-normal draws.
+
+    Returns:
+        (internal', accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L])
+    """
+    internal = np.asarray(internal, dtype=float)
+    noise = np.asarray(noise, dtype=float)
+    v_t, omega = plant_state[3], plant_state[5]
+    accel_bias = internal[0:4] + params.accel_drift_density * math.sqrt(T_N) * noise[4:8]
+    gyro_bias = internal[4] + params.gyro_drift_density * math.sqrt(T_N) * noise[13]
+    phi = math.exp(-T_N / params.accel_vibration_time_constant)
+    sigma_vib = params.accel_vibration_per_speed * abs(v_t)
+    vibration = phi * internal[5:9] + math.sqrt(1.0 - phi * phi) * sigma_vib * noise[8:12]
+    accel = (
+        accelerometer_truth(body_acceleration, omega, params.accelerometer_position)
+        + accel_bias
+        + vibration
+        + params.accel_noise_std * noise[0:4]
+    )
+    accel = np.clip(accel, -params.accel_range, params.accel_range)
+    gyro = min(
+        max(omega + gyro_bias + params.gyro_noise_std * noise[12], -params.gyro_range), params.gyro_range
+    )
+    step = params.encoder_step
+    encoders = np.floor(np.asarray(plant_state[6:8]) / step) * step
+    new_internal = np.concatenate([accel_bias, [gyro_bias], vibration])
+    return new_internal, accel, np.array([gyro]), encoders
+
+
+class ProprioceptiveSensors(LeafSystem):
+    """Accelerometers, gyro and wheel encoders sampled every T_N (periodic discrete update, offset 0).
+
+    .. pydrake_system::
+
+        name: ProprioceptiveSensors
+        input_ports:
+        - plant_state
+        - body_acceleration
+        - noise
+        output_ports:
+        - accelerometers
+        - gyro
+        - encoders
+
+    - plant_state: true PlantState (10).
+    - body_acceleration: true [a_t, a_n, omega_dot].
+    - noise: NOISE_CHANNELS standard-normal samples (from a seeded Drake RandomSource).
+    - accelerometers: [a_t1, a_n1, a_t2, a_n2] (m/s^2).
+    - gyro: [omega] (rad/s).
+    - encoders: quantised wheel angles [theta_R, theta_L] (rad).
+
+    Timing: the sample taken at t_k = k*T_N is the value of the output ports from t_k on. A discrete block
+    updating at the same t_k reads the previous sample (Drake's pre-update semantics), i.e. the sensors
+    behave as an ADC with one sample of conversion latency.
+
+    Args:
+        params: SensorParameters.
+        T_N: sampling period (s).
+        bias0: initial [accel biases (4), gyro bias] (see initial_biases()).
+    """
+
+    def __init__(self, params: SensorParameters, T_N: float, bias0=None):
+        super().__init__()
+        self._params = params
+        self._T_N = T_N
+        internal0 = np.zeros(9)
+        if bias0 is not None:
+            internal0[0:5] = bias0
+        self._plant_state_port = self.DeclareVectorInputPort("plant_state", 10)
+        self._acceleration_port = self.DeclareVectorInputPort("body_acceleration", 3)
+        self._noise_port = self.DeclareVectorInputPort("noise", NOISE_CHANNELS)
+        self._internal = self.DeclareDiscreteState(internal0)
+        self._accel = self.DeclareDiscreteState(4)
+        self._gyro = self.DeclareDiscreteState(1)
+        self._enc = self.DeclareDiscreteState(2)
+        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
+        self.DeclareStateOutputPort("accelerometers", self._accel)
+        self.DeclareStateOutputPort("gyro", self._gyro)
+        self.DeclareStateOutputPort("encoders", self._enc)
+
+    @property
+    def params(self) -> SensorParameters:
+        return self._params
+
+    def _update(self, context, discrete_state):
+        internal, accel, gyro, enc = sensor_update(
+            context.get_discrete_state(self._internal).get_value(),
+            self._plant_state_port.Eval(context),
+            self._acceleration_port.Eval(context),
+            self._noise_port.Eval(context),
+            self._params,
+            self._T_N,
+        )
+        discrete_state.set_value(self._internal, internal)
+        discrete_state.set_value(self._accel, accel)
+        discrete_state.set_value(self._gyro, gyro)
+        discrete_state.set_value(self._enc, enc)
