@@ -39,6 +39,7 @@ def robot_ports(robot: RobotHandles) -> dict:
     return {
         "state": plant.GetOutputPort("state"),
         "wheel_speeds": plant.GetOutputPort("wheel_speeds"),
+        "wheel_angles": plant.GetOutputPort("wheel_angles"),
         "tyre_slip": plant.GetOutputPort("tyre_slip"),
         "accelerometers": sensors.GetOutputPort("accelerometers"),
         "gyro": sensors.GetOutputPort("gyro"),

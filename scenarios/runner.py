@@ -2,6 +2,10 @@
 
 ``run_scenario`` returns the artifact arrays and summary; ``write_artifacts`` writes
 ``DIR/<scenario>.npz``, ``DIR/<scenario>.summary.json`` and the figures.
+
+Every array is logged on the T_N grid by Drake loggers, which publish at t_k before the discrete updates
+of t_k: a row holds the true continuous state at t_k and the discrete signals (sensor samples ``meas_*``,
+commands) as the blocks updating at t_k read them.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ BASELINE_KEYS = "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi".split()
 NAVIGATION_KEYS = "C1 C2 C3 delta_v".split()
 CONTROL_KEYS = "step_size progress ref_x ref_y ref_phi cmd_R cmd_L V1".split()
 SENSOR_KEYS = "meas_a_t1 meas_a_n1 meas_a_t2 meas_a_n2 meas_gyro meas_enc_R meas_enc_L".split()
-SLIP_KEYS = "true_slip_R true_slip_L".split()
+SLIP_KEYS = "true_slip_R true_slip_L true_theta_R true_theta_L".split()
 SERIES_KEYS = (
     ["t"]
     + TRUTH_KEYS
@@ -179,6 +183,8 @@ def collect_arrays(loggers, context, wheel_radius: float) -> dict:
     a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
     wheels = data("wheel_speeds")
     a["true_wheel_R"], a["true_wheel_L"] = wheels[0].copy(), wheels[1].copy()
+    angles = data("wheel_angles")
+    a["true_theta_R"], a["true_theta_L"] = angles[0].copy(), angles[1].copy()
     slip = data("tyre_slip")
     a["true_slip_R"], a["true_slip_L"] = slip[0].copy(), slip[1].copy()
     acc = data("accelerometers")

@@ -179,7 +179,8 @@ class ProprioceptiveSensors(LeafSystem):
 
     Timing: the sample taken at t_k = k*T_N is the value of the output ports from t_k on. A discrete block
     updating at the same t_k reads the previous sample (Drake's pre-update semantics), i.e. the sensors
-    behave as an ADC with one sample of conversion latency.
+    behave as an ADC with one sample of conversion latency. Periodic publishers (loggers) at t_k also run
+    before the updates of t_k, so a log row at t_k holds exactly what the navigation blocks read at t_k.
 
     Args:
         params: SensorParameters.

@@ -1,0 +1,35 @@
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+
+from diagrams.open_loop import build_open_loop_diagram  # noqa: E402
+from diagrams.robot import make_simulator  # noqa: E402
+from scenarios.runner import collect_arrays  # noqa: E402
+from systems.rates import SampleRates  # noqa: E402
+from systems.sensors import SensorParameters  # noqa: E402
+
+
+def run_open_loop(robot, wheel_speeds, duration, *, sensors=None, seed=0, initial_speed=0.0):
+    """Drive the real open-loop diagram with a table of [v_R, v_L] rows at T_C; returns artifact arrays."""
+    rates = SampleRates()
+    wheel_speeds = np.asarray(wheel_speeds, float)
+    poses = np.zeros((len(wheel_speeds), 3))
+    built = build_open_loop_diagram(
+        robot,
+        sensors or SensorParameters(),
+        rates,
+        wheel_speeds,
+        poses,
+        seed,
+        initial_speed=initial_speed,
+    )
+    simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
+    simulator.AdvanceTo(duration)
+    return collect_arrays(built.loggers, simulator.get_context(), robot.wheel_radius)
+
+
+@pytest.fixture
+def open_loop():
+    return run_open_loop

@@ -1,0 +1,78 @@
+"""The slipnav command line and the run artifact contract (../shared/DESIGN.md)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from scenarios.cli import main
+from scenarios.config import builtin_scenarios
+from scenarios.runner import SCALAR_KEYS, SERIES_KEYS
+
+SUMMARY_KEYS = {"scenario", "seed", "path_length_m", "duration_s", "completion_time_s",
+                "final_position_error_m", "wall_time_s", "realtime_factor"}
+
+
+def test_list(capsys):
+    assert main(["list"]) == 0
+    assert capsys.readouterr().out.split() == builtin_scenarios()
+
+
+@pytest.mark.parametrize("name", ["corner", "square", "circle", "long_path"])
+def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, capsys):
+    assert main(["run", name, "--out", str(tmp_path), "--seed", "3", "--duration", "0.2"]) == 0
+    data = np.load(tmp_path / f"{name}.npz")
+    n = len(data["t"])
+    assert n == 101  # 0.2 s on the 2 ms grid, both ends included
+    np.testing.assert_allclose(np.diff(data["t"]), 0.002, atol=1e-12)
+    for key in SERIES_KEYS:
+        assert data[key].shape == (n,) and data[key].dtype == float, key
+    for key in SCALAR_KEYS:
+        assert data[key].shape == (), key
+    assert float(data["T_N"]) == 0.002 and float(data["T_C"]) == 0.02
+    assert np.all(np.isnan(data["est_x"]))  # navigation not in the open-loop diagram: NaN
+    assert np.all(np.isfinite(data["true_x"])) and np.all(np.isfinite(data["cmd_R"]))
+    summary = json.loads((tmp_path / f"{name}.summary.json").read_text())
+    assert SUMMARY_KEYS <= set(summary)
+    assert summary["seed"] == 3 and summary["scenario"] == name
+    for fig in ("path", "speeds", "slip"):
+        assert (tmp_path / f"{name}.{fig}.png").stat().st_size > 10_000
+
+
+def test_corner_slides_sideways_and_square_spins_wheels_open_loop(tmp_path):
+    """Issue 2's done-criterion: visible side-slip in the corner, tangential slip in the square."""
+    assert main(["run", "corner", "--out", str(tmp_path), "--no-figures"]) == 0
+    corner = json.loads((tmp_path / "corner.summary.json").read_text())
+    assert corner["peak_abs_true_alpha_deg"] > 5.0
+    assert corner["completion_time_s"] is not None
+    assert main(["run", "square", "--out", str(tmp_path), "--no-figures", "--duration", "1.0"]) == 0
+    square = np.load(tmp_path / "square.npz")
+    slip_speed = square["true_wheel_R"] - square["true_v_t"]
+    assert np.max(np.abs(slip_speed)) > 0.5  # wheels run 0.5 m/s ahead of / behind the body
+    assert np.max(np.abs(np.degrees(square["true_alpha"][square["true_v_t"] > 0.2]))) < 1.0
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["run", "nosuch"], "neither a built-in"),
+        (["run", "corner", "--seed", "-1"], "seed=-1"),
+        (["run", "corner", "--duration", "0"], "--duration=0.0"),
+    ],
+)
+def test_user_errors_exit_2_without_traceback(argv, message, capsys, tmp_path):
+    assert main(argv + ["--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_yaml_file_scenario(tmp_path, capsys):
+    f = tmp_path / "mine.yaml"
+    f.write_text("trajectory:\n  segments:\n    - !Straight {length: 0.2, v_end: 0.5}\nsettle_time: 0.1\n")
+    assert main(["run", str(f), "--out", str(tmp_path), "--no-figures"]) == 0
+    summary = json.loads((tmp_path / "mine.summary.json").read_text())
+    assert summary["path_length_m"] == pytest.approx(0.2)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("trajectory:\n  segmnts: []\n")
+    assert main(["run", str(bad), "--out", str(tmp_path)]) == 2
+    assert "trajectory.segmnts is an unknown key" in capsys.readouterr().err

@@ -1,0 +1,74 @@
+"""Scenario YAML loading: strict schema, errors that name the key."""
+
+import pytest
+
+from scenarios.config import ScenarioError, builtin_scenarios, load_scenario, scenario_from_yaml
+
+GOOD = """
+robot: tinyphoon
+trajectory:
+  segments:
+    - !Straight {length: 1.0, v_end: 1.0}
+    - !Arc {radius: 0.5, angle_deg: 90}
+"""
+
+
+def test_builtins_load():
+    assert set(builtin_scenarios()) >= {"corner", "square", "circle", "long_path"}
+    for name in builtin_scenarios():
+        scenario = load_scenario(name)
+        assert scenario.name == name
+
+
+def test_good_yaml_and_overrides():
+    scenario = scenario_from_yaml(GOOD + "robot_overrides: {tyre_friction: 0.5}\n", name="mine")
+    assert scenario.name == "mine"
+    assert scenario.robot_parameters().tyre_friction == 0.5
+    assert scenario.rates().batch_length == 10
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("colour: red\n", r"colour is an unknown key"),
+        ("T_N: fast\n", r"T_N: expected float, got 'fast'"),
+        ("seed: 1.5\n", r"seed: expected int"),
+        ("T_C: 0.021\n", r"T_C=0.021 must be a positive integer multiple of T_N"),
+        ("robot: hal\n", r"robot='hal' is unknown"),
+        ("robot_overrides: {tyre_frict: 0.5}\n", r"robot_overrides.tyre_frict is unknown"),
+        ("robot_overrides: {mass: -1}\n", r"mass=-1.* allowed"),
+        ("sensor_overrides: {gyro_noise_std: -1}\n", r"gyro_noise_std=-1.*allowed"),
+        ("mode: fastest\n", r"mode='fastest' is unknown"),
+        ("settle_time: -1\n", r"settle_time=-1.*allowed"),
+    ],
+)
+def test_errors_name_the_key(extra, message):
+    with pytest.raises(ScenarioError, match=message):
+        scenario_from_yaml(GOOD + extra)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("trajectory:\n  segments:\n    - !Straight {lenght: 1}\n",
+         r"trajectory.segments\[0\].lenght is an unknown key"),
+        ("trajectory:\n  segments:\n    - !Straight {length: abc}\n",
+         r"trajectory.segments\[0\].length: expected float, got 'abc'"),
+        ("trajectory:\n  segments:\n    - !Teleport {x: 1}\n",
+         r"trajectory.segments\[0\]: type tag !Teleport is unknown"),
+        ("trajectory:\n  segments:\n    - {length: 1}\n", r"trajectory.segments\[0\]: needs a type tag"),
+        ("trajectory: [1, 2\n", r"malformed YAML"),
+        ("mode: max_speed\n", r"needs a 'path'"),
+        ("trajectory:\n  segments: 3\n", r"trajectory.segments: expected a list"),
+    ],
+)
+def test_structural_errors(text, message):
+    with pytest.raises(ScenarioError, match=message):
+        scenario_from_yaml(text)
+
+
+def test_missing_file_and_unknown_name(tmp_path):
+    with pytest.raises(ScenarioError, match="does not exist"):
+        load_scenario(str(tmp_path / "nope.yaml"))
+    with pytest.raises(ScenarioError, match="neither a built-in"):
+        load_scenario("nope")

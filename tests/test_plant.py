@@ -1,0 +1,223 @@
+"""Physics of the slipping robot plant (systems/plant.py)."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from systems.plant import (
+    GRAVITY,
+    PlantState,
+    RobotParameters,
+    kinetic_energy,
+    kurt3d,
+    plant_derivatives,
+    robot_parameters,
+    speed_loop_update,
+    tinyphoon,
+    tyre_force,
+)
+from systems.rates import SampleRates
+
+T_C = 0.02
+
+
+def ramp(v_end, t_ramp, t_total, omega_frac=0.0, track_width=0.068):
+    """Wheel-speed table at T_C: linear ramp of v to v_end, optional yaw rate omega = omega_frac*v."""
+    t = np.arange(int(t_total / T_C) + 1) * T_C
+    v = v_end * np.clip(t / t_ramp, 0.0, 1.0)
+    w = omega_frac * v
+    return np.column_stack([v + 0.5 * track_width * w, v - 0.5 * track_width * w])
+
+
+@pytest.mark.parametrize("shoes, tolerance", [(False, 0.01), (True, 0.025)])
+def test_gentle_commands_roll_without_slip_and_follow_S1(open_loop, shoes, tolerance):
+    """In the no-slip regime the true pose equals S(1) integrated from the wheel speeds (v_n = 0).
+
+    S(1) integrated with the plant's own (v_t, v_n, omega) reproduces its pose (kinematic consistency).
+    The no-slip unicycle driven by the wheel speeds alone misses only the small linear-tyre side slip of
+    the turn (~0.6 %) and, with Tinyphoon's felt shoes, the ~1 % creep that pushes against their drag.
+    """
+    p = tinyphoon()
+    if not shoes:
+        p = p.replace(wheel_load_fraction=1.0, shoe_friction=0.0, shoe_viscous_drag=0.0)
+    # 0.8 m/s reached in 1 s (0.8 m/s^2 << mu*g), then a 1 m radius turn: a_n = 0.64 m/s^2.
+    table = ramp(0.8, 1.0, 3.0, omega_frac=1.0, track_width=p.track_width)
+    a = open_loop(p, table, 3.0)
+    rolling = a["t"] > 0.1
+    slip_speed = 0.5 * (a["true_wheel_R"] + a["true_wheel_L"]) - a["true_v_t"]
+    assert np.max(np.abs(slip_speed[rolling])) < 0.02  # r*theta_dot ~ v_t within 2 cm/s
+    assert np.max(np.abs(a["true_v_n"])) < 0.01 * 0.8  # v_n ~ 0: under 1 % of the speed
+    # Steady turn: the small slip angle is the linear-tyre one, alpha = m*a_n / (2*mu*N*B*C).
+    v_end, w_end = a["true_v_t"][-1], a["true_omega"][-1]
+    cornering_stiffness = p.tyre_friction * p.wheel_normal_load * 15.0 * 1.3
+    expected_alpha = -p.mass * v_end * w_end / (2 * cornering_stiffness)
+    assert a["true_alpha"][-1] == pytest.approx(expected_alpha, rel=0.1)
+
+    t = a["t"]
+
+    def s1(tau, q):
+        v_t, v_n, w = (np.interp(tau, t, a[k]) for k in ("true_v_t", "true_v_n", "true_omega"))
+        c, s = math.cos(q[2]), math.sin(q[2])
+        return [v_t * c - v_n * s, v_t * s + v_n * c, w]
+
+    sol = solve_ivp(s1, (0.0, t[-1]), [0.0, 0.0, 0.0], rtol=1e-9, atol=1e-12, max_step=0.002)
+    np.testing.assert_allclose(sol.y[:, -1], [a["true_x"][-1], a["true_y"][-1], a["true_phi"][-1]],
+                               atol=2e-4)
+
+    # Independent integration of the no-slip unicycle from the wheel speeds (S(10) into S(1), v_n = 0).
+
+    def rhs(tau, q):
+        v_R = np.interp(tau, t, a["true_wheel_R"])
+        v_L = np.interp(tau, t, a["true_wheel_L"])
+        v, w = 0.5 * (v_R + v_L), (v_R - v_L) / p.track_width
+        return [v * math.cos(q[2]), v * math.sin(q[2]), w]
+
+    sol = solve_ivp(rhs, (0.0, t[-1]), [0.0, 0.0, 0.0], rtol=1e-9, atol=1e-12, max_step=0.002)
+    x, y, phi = sol.y[:, -1]
+    distance = np.sum(np.hypot(np.diff(a["true_x"]), np.diff(a["true_y"])))
+    assert distance > 1.5
+    position_error = math.hypot(x - a["true_x"][-1], y - a["true_y"][-1])
+    assert position_error < tolerance * distance
+    assert abs(phi - a["true_phi"][-1]) < tolerance * abs(a["true_phi"][-1])
+
+
+def test_tangential_slip_onset_near_mu_g(open_loop):
+    """Commanded accelerations below the traction limit roll; above it the wheels spin."""
+    p = tinyphoon()
+    a_lim = p.traction_limit_acceleration  # mu * g * wheel_load_fraction = 5.49 m/s^2
+    gentle = open_loop(p, ramp(0.6 * a_lim * 0.4, 0.4, 0.6), 0.6)
+    hard = open_loop(p, ramp(1.6 * a_lim * 0.4, 0.4, 0.6), 0.6)
+    gentle_slip = 0.5 * (gentle["true_wheel_R"] + gentle["true_wheel_L"]) - gentle["true_v_t"]
+    hard_slip = 0.5 * (hard["true_wheel_R"] + hard["true_wheel_L"]) - hard["true_v_t"]
+    # Gentle: the body follows the commanded ramp; only the T_C staircase leaves transient slip.
+    assert np.max(np.abs(gentle_slip)) < 0.15
+    assert np.mean(np.abs(gentle_slip)) < 0.03
+    assert gentle["true_v_t"][-1] == pytest.approx(0.6 * a_lim * 0.4, rel=0.03)
+    assert np.max(hard_slip) > 0.5  # the wheels run away from the body
+    assert np.max(hard["true_slip_R"]) > 0.3
+    # While spinning, the body accelerates at about mu*g (sliding friction mu*sin(C*pi/2) of the peak,
+    # less the felt shoes' drag).
+    window = (hard["t"] > 0.1) & (hard["t"] < 0.35)
+    achieved = np.polyfit(hard["t"][window], hard["true_v_t"][window], 1)[0]
+    assert 0.75 * a_lim < achieved < 1.0 * a_lim
+
+
+@pytest.mark.parametrize("factor, slides", [(0.5, False), (1.3, True)])
+def test_cornering_slides_above_mu_g(open_loop, factor, slides):
+    """Lateral acceleration v^2/R below the traction limit holds the line; above it the robot slides."""
+    p = tinyphoon()
+    v = 1.2
+    radius = v**2 / (factor * p.traction_limit_acceleration)
+    n = int(1.5 / T_C) + 1
+    w = v / radius
+    table = np.tile([v + 0.5 * p.track_width * w, v - 0.5 * p.track_width * w], (n, 1))
+    a = open_loop(p, table, 1.5, initial_speed=v)
+    alpha = np.degrees(np.abs(a["true_alpha"][a["t"] > 0.3]))
+    # Linear-tyre slip angle needed for the lateral force m*v^2/R: m*a_n / (2*mu*N*B*C).
+    linear = np.degrees(p.mass * v**2 / radius / (2 * p.tyre_friction * p.wheel_normal_load * 15 * 1.3))
+    if slides:  # the tyres saturate: several degrees, far beyond the linear-tyre angle
+        assert np.max(alpha) > 3.0
+        assert np.max(alpha) > 2.5 * linear
+    else:  # holds the line at the small linear-tyre angle, steady
+        assert np.max(alpha) == pytest.approx(linear, rel=0.15)
+        assert np.ptp(alpha) < 0.1
+
+
+def test_energy_is_dissipated_with_motors_off():
+    """With zero motor current, tyres, shoes and bearings only remove kinetic energy (dE/dt <= 0)."""
+    rng = np.random.default_rng(1)
+    for p in (tinyphoon(), kurt3d()):
+        for _ in range(2000):
+            state = np.zeros(10)
+            state[3:6] = rng.normal(0.0, [2.0, 0.5, 5.0])
+            state[8:10] = rng.normal(state[3], 1.0, 2) / p.wheel_radius
+            xdot, _ = plant_derivatives(state, (0.0, 0.0), p)
+            s, d = PlantState(state), PlantState(np.array(xdot))
+            power = (
+                p.mass * (s.v_t * d.v_t + s.v_n * d.v_n)
+                + p.yaw_inertia * s.omega * d.omega
+                + p.wheel_inertia * (s.w_R * d.w_R + s.w_L * d.w_L)
+            )
+            assert power <= 1e-9 * (1.0 + abs(kinetic_energy(state, p)))
+
+    # A coasting slide integrated with scipy: energy decreases monotonically to rest.
+    p = tinyphoon()
+    x0 = np.array([0, 0, 0, 2.0, 0.5, 3.0, 0, 0, 0.0, 3.0 / p.wheel_radius])
+    sol = solve_ivp(lambda t, x: plant_derivatives(x, (0.0, 0.0), p)[0], (0, 2.5), x0, method="LSODA",
+                    max_step=1e-3, rtol=1e-8, atol=1e-10)
+    energy = np.array([kinetic_energy(x, p) for x in sol.y.T])
+    assert np.all(np.diff(energy) <= 1e-9)
+    assert energy[-1] < 0.01 * energy[0]  # shoes' drag (~1.2 m/s^2) stops it within ~1.7 s
+
+
+def test_tyre_force_saturates_on_the_friction_circle():
+    p = tinyphoon()
+    n = 1.5
+    for kappa, tan_a in [(0.05, 0.0), (1.0, 0.0), (0.0, 0.3), (0.4, -0.4), (3.0, 2.0)]:
+        v_x = 1.0
+        f_x, f_y, k, ta = tyre_force(v_x, tan_a * v_x, v_x * (1 + kappa), n, p)
+        assert k == pytest.approx(kappa / (1 + kappa) if kappa > 0 else kappa)
+        magnitude = math.hypot(f_x, f_y)
+        sigma = math.hypot(k, ta)
+        expected = p.tyre_friction * n * math.sin(1.3 * math.atan(15.0 * sigma))
+        assert magnitude == pytest.approx(expected)
+        assert magnitude <= p.tyre_friction * n + 1e-12
+        # Force anti-parallel to the contact slip velocity (r*w - v_x, -v_y) direction.
+        if sigma > 0:
+            assert f_x * k >= 0 and f_y * ta <= 0
+
+
+def test_speed_loop_tracks_and_saturates():
+    p = tinyphoon()
+    state = [0.0, 0.0, 0.0, 0.0]
+    out = speed_loop_update(state, (1.0, -1.0), (0.0, 0.0), p)
+    assert out[2] == p.supply_voltage and out[3] == -p.supply_voltage  # saturated
+    assert out[0] == 0.0  # integral frozen while saturated (anti-windup)
+    small = speed_loop_update(state, (0.01, 0.0), (0.0, 0.0), p)
+    e = 0.01 / p.wheel_radius
+    assert small[2] == pytest.approx(p.speed_loop_kp * e + p.speed_loop_ki * e * p.speed_loop_period)
+
+
+def test_reference_robots_match_design_figures():
+    t = tinyphoon()
+    assert t.track_width == 0.068 and t.wheel_radius == 0.015 and t.mass == 0.4
+    assert 2 * t.supply_voltage**2 / (4 * t.motor_resistance) / t.mass == pytest.approx(22.5)
+    assert 3.9 < t.no_load_speed < 4.5
+    assert t.traction_limit_acceleration == pytest.approx(0.7 * 0.8 * GRAVITY)
+    k = kurt3d()
+    assert k.track_width == 0.4 and k.wheel_speed_limit == 4.1 and k.speed_loop_period == 0.01
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [("mass", -1.0), ("track_width", 0.0), ("tyre_friction", float("nan")),
+     ("wheel_load_fraction", 1.5), ("tyre_shape_factor", 2.5), ("speed_loop_period", 0.0)],
+)
+def test_parameter_validation_names_the_parameter(field, value):
+    with pytest.raises(ValueError, match=rf"{field}=.*allowed"):
+        tinyphoon().replace(**{field: value})
+
+
+def test_wheel_speed_limit_above_motor_capability_is_rejected():
+    with pytest.raises(ValueError, match="wheel_speed_limit.*no-load"):
+        tinyphoon().replace(wheel_speed_limit=6.0)
+
+
+def test_unknown_robot_and_bad_rates_are_rejected():
+    with pytest.raises(ValueError, match="robot='hal'.*allowed"):
+        robot_parameters("hal")
+    with pytest.raises(ValueError, match="T_C=0.021.*integer multiple of T_N"):
+        SampleRates(T_N=0.002, T_C=0.021)
+    with pytest.raises(ValueError, match="T_N=-0.002.*allowed"):
+        SampleRates(T_N=-0.002)
+    with pytest.raises(ValueError, match="T_C=0.001"):
+        SampleRates(T_N=0.002, T_C=0.001)
+    assert SampleRates(T_N=0.002, T_C=0.02).batch_length == 10
+
+
+def test_parameters_are_frozen():
+    with pytest.raises(Exception):
+        tinyphoon().mass = 1.0  # type: ignore[misc]
+    assert isinstance(tinyphoon(), RobotParameters)
