@@ -8,8 +8,10 @@ import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
+from diagrams.navigation import NAVIGATION_OUTPUTS, build_navigation_diagram
 from diagrams.robot import RobotHandles, add_robot_with_sensors
 from systems.feedforward import TrajectoryFeedforward
+from systems.navigation import NavigationInitialState, NavigationParameters
 from systems.plant import RobotParameters
 from systems.rates import SampleRates
 from systems.sensors import SensorParameters
@@ -56,12 +58,30 @@ def build_open_loop_diagram(
     seed: int,
     initial_pose=(0.0, 0.0, 0.0),
     initial_speed: float = 0.0,
+    navigation: NavigationParameters | None = None,
 ) -> LoggedDiagram:
-    """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback)."""
+    """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
+    the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out)."""
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
         builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed
     )
+    nav_ports = {}
+    if navigation is not None:
+        nav = builder.AddSystem(
+            build_navigation_diagram(
+                navigation,
+                rates,
+                robot.wheel_radius,
+                robot.track_width,
+                NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
+            )
+        )
+        for name in ("accelerometers", "gyro", "encoders"):
+            builder.Connect(handles.sensors.GetOutputPort(name), nav.GetInputPort(name))
+        nav_ports = {
+            f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"
+        }
     feedforward = builder.AddSystem(TrajectoryFeedforward(rates.T_C, wheel_speeds, reference_poses))
     feedforward.set_name("Trajectory feed-forward")
     builder.Connect(
@@ -71,6 +91,7 @@ def build_open_loop_diagram(
     ports = robot_ports(handles)
     ports["command"] = feedforward.GetOutputPort("wheel_speed_command")
     ports["reference_pose"] = feedforward.GetOutputPort("reference_pose")
+    ports.update(nav_ports)
     loggers = add_loggers(builder, ports, rates.T_N)
     diagram = builder.Build()
     diagram.set_name("open_loop")

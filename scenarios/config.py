@@ -13,6 +13,7 @@ from pathlib import Path as FilePath
 from pydrake.common.yaml import yaml_load_data, yaml_load_typed
 
 from scenarios.trajectories import PathConfig, TrajectoryConfig
+from systems.navigation import NavigationParameters
 from systems.plant import ROBOTS, RobotParameters, robot_parameters
 from systems.rates import SampleRates
 from systems.sensors import SensorParameters, default_sensor_parameters
@@ -44,6 +45,8 @@ class Scenario:
         initial_pose: [x, y, phi] of the robot at t = 0 (m, m, rad); the reference starts at the origin.
         settle_time: simulated time after the reference ends (s).
         duration: hard limit of the simulated time (s); default: reference end + settle_time.
+        navigation: tuning of the navigation blocks (NavigationParameters: ekf, mixing, sideslip,
+            gyrodometry), e.g. ``navigation: {mixing: {b1: 0.05}}``.
     """
 
     name: str = ""
@@ -61,6 +64,7 @@ class Scenario:
     initial_pose: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
     settle_time: float = 0.5
     duration: float | None = None
+    navigation: NavigationParameters = dc.field(default_factory=NavigationParameters)
 
     # -- derived, validated objects -----------------------------------------------------------------
     def rates(self) -> SampleRates:
@@ -81,6 +85,7 @@ class Scenario:
         self.rates()
         self.robot_parameters()
         self.sensor_parameters()
+        _wrap(self.navigation.validate)
         if self.mode not in MODES:
             raise ScenarioError(f"mode={self.mode!r} is unknown: allowed {list(MODES)}")
         if self.mode == "trajectory" and self.trajectory is None:

@@ -38,6 +38,7 @@ NAVIGATION_KEYS = "C1 C2 C3 delta_v".split()
 CONTROL_KEYS = "step_size progress ref_x ref_y ref_phi cmd_R cmd_L V1".split()
 SENSOR_KEYS = "meas_a_t1 meas_a_n1 meas_a_t2 meas_a_n2 meas_gyro meas_enc_R meas_enc_L".split()
 SLIP_KEYS = "true_slip_R true_slip_L true_theta_R true_theta_L".split()
+NAVIGATION_EXTRA_KEYS = "est_a_t est_a_n est_track_speed odo_v_t odo_omega fault".split()
 SERIES_KEYS = (
     ["t"]
     + TRUTH_KEYS
@@ -106,6 +107,7 @@ def run_scenario(scenario: Scenario, seed: int | None = None, duration: float | 
         seed,
         initial_pose=tuple(scenario.initial_pose),
         initial_speed=initial_speed,
+        navigation=scenario.navigation,
     )
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     context = simulator.get_context()
@@ -130,6 +132,7 @@ def run_scenario(scenario: Scenario, seed: int | None = None, duration: float | 
         "robot": robot.name,
         "mode": scenario.mode,
         "controller": "open-loop feed-forward",
+        "sensor_faults": int(np.nansum(arrays["fault"])),
         "path_length_m": reference.length,
         "duration_s": float(arrays["t"][-1]),
         "completion_time_s": reference.duration if reference.duration <= t_end else None,
@@ -197,7 +200,32 @@ def collect_arrays(loggers, context, wheel_radius: float) -> dict:
     a["cmd_R"], a["cmd_L"] = cmd[0].copy(), cmd[1].copy()
     ref = data("reference_pose")
     a["ref_x"], a["ref_y"], a["ref_phi"] = ref[0].copy(), ref[1].copy(), ref[2].copy()
+    if "nav_pose" in logs:
+        collect_navigation(a, data)
     return a
+
+
+def collect_navigation(a: dict, data) -> None:
+    """The navigation keys of the artifact from the navigation diagram's loggers."""
+    for prefix, name in (("est", "nav_pose"), ("odo", "nav_odometry_pose"), ("gyro", "nav_gyrodometry_pose")):
+        pose = data(name)
+        a[f"{prefix}_x"], a[f"{prefix}_y"], a[f"{prefix}_phi"] = (
+            pose[0].copy(),
+            pose[1].copy(),
+            pose[2].copy(),
+        )
+    mixed = data("nav_mixed_estimate")
+    for i, key in enumerate(["est_v_t", "est_v_n", "est_omega", "est_a_t", "est_a_n"]):
+        a[key] = mixed[i].copy()
+    a["est_alpha"] = data("nav_side_slip_angle")[0].copy()
+    a["est_track_speed"] = data("nav_track_speed")[0].copy()
+    a["C1"] = data("nav_C1")[0].copy()
+    c23 = data("nav_C2_C3")
+    a["C2"], a["C3"] = c23[0].copy(), c23[1].copy()
+    a["delta_v"] = data("nav_delta_v")[0].copy()
+    odo = data("nav_odometry")
+    a["odo_v_t"], a["odo_omega"] = odo[0].copy(), odo[1].copy()
+    a["fault"] = np.maximum(data("nav_inertial_fault")[0], data("nav_encoder_fault")[0])
 
 
 def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[FilePath]:

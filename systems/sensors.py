@@ -182,13 +182,18 @@ class ProprioceptiveSensors(LeafSystem):
     behave as an ADC with one sample of conversion latency. Periodic publishers (loggers) at t_k also run
     before the updates of t_k, so a log row at t_k holds exactly what the navigation blocks read at t_k.
 
+    Before the first sample the outputs hold the readings of a robot that has been rolling at
+    ``initial_wheel_rates`` (encoders one sample behind the initial angle zero; accelerometers and gyro
+    reading their biases), so that differencing blocks start consistently.
+
     Args:
         params: SensorParameters.
         T_N: sampling period (s).
         bias0: initial [accel biases (4), gyro bias] (see initial_biases()).
+        initial_wheel_rates: wheel angular speeds (rad/s) before t = 0.
     """
 
-    def __init__(self, params: SensorParameters, T_N: float, bias0=None):
+    def __init__(self, params: SensorParameters, T_N: float, bias0=None, initial_wheel_rates=(0.0, 0.0)):
         super().__init__()
         self._params = params
         self._T_N = T_N
@@ -199,9 +204,11 @@ class ProprioceptiveSensors(LeafSystem):
         self._acceleration_port = self.DeclareVectorInputPort("body_acceleration", 3)
         self._noise_port = self.DeclareVectorInputPort("noise", NOISE_CHANNELS)
         self._internal = self.DeclareDiscreteState(internal0)
-        self._accel = self.DeclareDiscreteState(4)
-        self._gyro = self.DeclareDiscreteState(1)
-        self._enc = self.DeclareDiscreteState(2)
+        step = params.encoder_step
+        theta_before = -np.asarray(initial_wheel_rates, float) * T_N
+        self._accel = self.DeclareDiscreteState(internal0[0:4].copy())
+        self._gyro = self.DeclareDiscreteState(internal0[4:5].copy())
+        self._enc = self.DeclareDiscreteState(np.floor(theta_before / step) * step)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
         self.DeclareStateOutputPort("accelerometers", self._accel)
         self.DeclareStateOutputPort("gyro", self._gyro)

@@ -9,8 +9,16 @@ from scenarios.cli import main
 from scenarios.config import builtin_scenarios
 from scenarios.runner import SCALAR_KEYS, SERIES_KEYS
 
-SUMMARY_KEYS = {"scenario", "seed", "path_length_m", "duration_s", "completion_time_s",
-                "final_position_error_m", "wall_time_s", "realtime_factor"}
+SUMMARY_KEYS = {
+    "scenario",
+    "seed",
+    "path_length_m",
+    "duration_s",
+    "completion_time_s",
+    "final_position_error_m",
+    "wall_time_s",
+    "realtime_factor",
+}
 
 
 def test_list(capsys):

@@ -50,12 +50,18 @@ def test_errors_name_the_key(extra, message):
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("trajectory:\n  segments:\n    - !Straight {lenght: 1}\n",
-         r"trajectory.segments\[0\].lenght is an unknown key"),
-        ("trajectory:\n  segments:\n    - !Straight {length: abc}\n",
-         r"trajectory.segments\[0\].length: expected float, got 'abc'"),
-        ("trajectory:\n  segments:\n    - !Teleport {x: 1}\n",
-         r"trajectory.segments\[0\]: type tag !Teleport is unknown"),
+        (
+            "trajectory:\n  segments:\n    - !Straight {lenght: 1}\n",
+            r"trajectory.segments\[0\].lenght is an unknown key",
+        ),
+        (
+            "trajectory:\n  segments:\n    - !Straight {length: abc}\n",
+            r"trajectory.segments\[0\].length: expected float, got 'abc'",
+        ),
+        (
+            "trajectory:\n  segments:\n    - !Teleport {x: 1}\n",
+            r"trajectory.segments\[0\]: type tag !Teleport is unknown",
+        ),
         ("trajectory:\n  segments:\n    - {length: 1}\n", r"trajectory.segments\[0\]: needs a type tag"),
         ("trajectory: [1, 2\n", r"malformed YAML"),
         ("mode: max_speed\n", r"needs a 'path'"),

@@ -63,8 +63,7 @@ def test_gentle_commands_roll_without_slip_and_follow_S1(open_loop, shoes, toler
         return [v_t * c - v_n * s, v_t * s + v_n * c, w]
 
     sol = solve_ivp(s1, (0.0, t[-1]), [0.0, 0.0, 0.0], rtol=1e-9, atol=1e-12, max_step=0.002)
-    np.testing.assert_allclose(sol.y[:, -1], [a["true_x"][-1], a["true_y"][-1], a["true_phi"][-1]],
-                               atol=2e-4)
+    np.testing.assert_allclose(sol.y[:, -1], [a["true_x"][-1], a["true_y"][-1], a["true_phi"][-1]], atol=2e-4)
 
     # Independent integration of the no-slip unicycle from the wheel speeds (S(10) into S(1), v_n = 0).
 
@@ -145,8 +144,15 @@ def test_energy_is_dissipated_with_motors_off():
     # A coasting slide integrated with scipy: energy decreases monotonically to rest.
     p = tinyphoon()
     x0 = np.array([0, 0, 0, 2.0, 0.5, 3.0, 0, 0, 0.0, 3.0 / p.wheel_radius])
-    sol = solve_ivp(lambda t, x: plant_derivatives(x, (0.0, 0.0), p)[0], (0, 2.5), x0, method="LSODA",
-                    max_step=1e-3, rtol=1e-8, atol=1e-10)
+    sol = solve_ivp(
+        lambda t, x: plant_derivatives(x, (0.0, 0.0), p)[0],
+        (0, 2.5),
+        x0,
+        method="LSODA",
+        max_step=1e-3,
+        rtol=1e-8,
+        atol=1e-10,
+    )
     energy = np.array([kinetic_energy(x, p) for x in sol.y.T])
     assert np.all(np.diff(energy) <= 1e-9)
     assert energy[-1] < 0.01 * energy[0]  # shoes' drag (~1.2 m/s^2) stops it within ~1.7 s
@@ -192,8 +198,14 @@ def test_reference_robots_match_design_figures():
 
 @pytest.mark.parametrize(
     "field, value",
-    [("mass", -1.0), ("track_width", 0.0), ("tyre_friction", float("nan")),
-     ("wheel_load_fraction", 1.5), ("tyre_shape_factor", 2.5), ("speed_loop_period", 0.0)],
+    [
+        ("mass", -1.0),
+        ("track_width", 0.0),
+        ("tyre_friction", float("nan")),
+        ("wheel_load_fraction", 1.5),
+        ("tyre_shape_factor", 2.5),
+        ("speed_loop_period", 0.0),
+    ],
 )
 def test_parameter_validation_names_the_parameter(field, value):
     with pytest.raises(ValueError, match=rf"{field}=.*allowed"):

@@ -79,8 +79,9 @@ def test_vibration_grows_with_speed_and_drift_is_a_random_walk():
     internal = np.zeros(9)
     readings, biases = [], []
     for _ in range(n):
-        internal, accel, _, _ = sensor_update(internal, state, (0, 0, 0), rng.standard_normal(NOISE_CHANNELS),
-                                              params, 0.002)
+        internal, accel, _, _ = sensor_update(
+            internal, state, (0, 0, 0), rng.standard_normal(NOISE_CHANNELS), params, 0.002
+        )
         readings.append(accel[1])
         biases.append(internal[1])
     expected = math.hypot(params.accel_noise_std, params.accel_vibration_per_speed * 2.0)
@@ -91,8 +92,12 @@ def test_vibration_grows_with_speed_and_drift_is_a_random_walk():
 
 @pytest.mark.parametrize(
     "field, value",
-    [("accel_noise_std", -0.1), ("gyro_range", 0.0), ("encoder_counts_per_revolution", 0),
-     ("accel_vibration_time_constant", float("inf"))],
+    [
+        ("accel_noise_std", -0.1),
+        ("gyro_range", 0.0),
+        ("encoder_counts_per_revolution", 0),
+        ("accel_vibration_time_constant", float("inf")),
+    ],
 )
 def test_sensor_parameter_validation(field, value):
     with pytest.raises(ValueError, match=rf"{field}=.*allowed"):

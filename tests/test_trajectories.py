@@ -24,8 +24,13 @@ from scenarios.trajectories import (
 
 def test_corner_trajectory_closed_form():
     L1, L2, L3, v = 0.8, 1.2, 0.8, 1.6
-    cfg = TrajectoryConfig(segments=[Straight(length=L1, v_end=v), CosineTurn(angle_deg=90, length=L2),
-                                     Straight(length=L3, v_end=0.0)])
+    cfg = TrajectoryConfig(
+        segments=[
+            Straight(length=L1, v_end=v),
+            CosineTurn(angle_deg=90, length=L2),
+            Straight(length=L3, v_end=0.0),
+        ]
+    )
     tr = build_trajectory(cfg, 0.02)
     assert tr.duration == pytest.approx(2 * L1 / v + L2 / v + 2 * L3 / v, abs=0.02)
     assert tr.length == pytest.approx(L1 + L2 + L3, abs=1e-6)

@@ -1,0 +1,137 @@
+"""The navigation diagram of Seyr & Jakubek's Fig. 3 (plus the odometry-only and Gyrodometry baselines).
+
+Inputs: the sensor signals. Outputs: the navigation estimate and internals. Block timing: see
+systems/navigation.py (the sequential reference loop documents the same ordering).
+"""
+
+from pydrake.systems.framework import Diagram, DiagramBuilder
+
+from systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
+from systems.gyrodometry import Gyrodometry
+from systems.mixing import MixerC1, MixerC2C3, VelocityMixer
+from systems.navigation import NavigationInitialState, NavigationParameters
+from systems.odometry import Odometry
+from systems.pose import PoseIntegrator
+from systems.rates import SampleRates
+from systems.sensor_check import InertialSampleCheck
+from systems.sideslip import SideSlipEstimator
+from systems.slip_detector import TangentialSlipDetector
+
+NAVIGATION_OUTPUTS = (
+    "pose",
+    "mixed_estimate",
+    "side_slip_angle",
+    "track_speed",
+    "C1",
+    "C2_C3",
+    "delta_v",
+    "odometry",
+    "odometry_pose",
+    "gyrodometry_pose",
+    "inertial_fault",
+    "encoder_fault",
+    "covariance",
+)
+
+
+def build_navigation_diagram(
+    params: NavigationParameters,
+    rates: SampleRates,
+    wheel_radius: float,
+    track_width: float,
+    initial: NavigationInitialState = NavigationInitialState(),
+) -> Diagram:
+    """The navigation algorithm as a Diagram.
+
+    .. pydrake_system::
+
+        name: navigation
+        input_ports:
+        - accelerometers
+        - gyro
+        - encoders
+        output_ports:
+        - pose
+        - mixed_estimate
+        - side_slip_angle
+        - track_speed
+        - C1
+        - C2_C3
+        - delta_v
+        - odometry
+        - odometry_pose
+        - gyrodometry_pose
+        - inertial_fault
+        - encoder_fault
+        - covariance
+    """
+    params.validate()
+    T_N, T_C = rates.T_N, rates.T_C
+    b = DiagramBuilder()
+
+    def add(system, name):
+        system.set_name(name)
+        return b.AddSystem(system)
+
+    check = add(InertialSampleCheck(T_N), "Sensor check")
+    odometry = add(Odometry(wheel_radius, track_width, T_N, initial.speed), "Odometry")
+    ekf = add(InertialEkf(params.ekf, T_N, initial.ekf_state()), "EKF")
+    Q, _, P0 = params.ekf.matrices()
+    gain = add(
+        KalmanGain(params.ekf, T_C, ekf_prior_covariance(P0, initial.ekf_state(), Q, T_N)), "Kalman gain"
+    )
+    detector = add(TangentialSlipDetector(T_N, T_C, initial.speed), "Tangential slip detector")
+    c1 = add(MixerC1(params.mixing, T_C), "Mixer C1")
+    c23 = add(MixerC2C3(params.mixing), "Mixer C2 C3")
+    mixer = add(VelocityMixer(params.mixing), "Velocity mixer")
+    sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
+    pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
+    odo_pose = add(PoseIntegrator(T_N, initial.pose), "Odometry dead reckoning")
+    gyrodometry = add(Gyrodometry(params.gyrodometry, T_N, initial.pose), "Gyrodometry")
+
+    b.ExportInput(check.GetInputPort("accelerometers"), "accelerometers")
+    b.ExportInput(check.GetInputPort("gyro"), "gyro")
+    b.ExportInput(odometry.GetInputPort("encoders"), "encoders")
+
+    acc, gyro, odo = (
+        check.GetOutputPort("accelerometers"),
+        check.GetOutputPort("gyro"),
+        odometry.GetOutputPort("odometry"),
+    )
+    b.Connect(acc, ekf.GetInputPort("accelerometers"))
+    b.Connect(gyro, ekf.GetInputPort("gyro"))
+    b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
+    b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
+    b.Connect(odo, detector.GetInputPort("odometry"))
+    b.Connect(acc, detector.GetInputPort("accelerometers"))
+    b.Connect(detector.GetOutputPort("delta_v"), c1.GetInputPort("delta_v"))
+    b.Connect(ekf.GetOutputPort("inertial_estimate"), c23.GetInputPort("inertial_estimate"))
+    b.Connect(odo, c23.GetInputPort("odometry"))
+    b.Connect(odo, mixer.GetInputPort("odometry"))
+    b.Connect(ekf.GetOutputPort("inertial_estimate"), mixer.GetInputPort("inertial_estimate"))
+    b.Connect(c1.GetOutputPort("C1"), mixer.GetInputPort("C1"))
+    b.Connect(c23.GetOutputPort("C2_C3"), mixer.GetInputPort("C2_C3"))
+    b.Connect(ekf.GetOutputPort("estimate"), mixer.GetInputPort("previous_estimate"))
+    b.Connect(mixer.GetOutputPort("mixed_estimate"), ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
+    b.Connect(mixer.GetOutputPort("body_velocity"), sideslip.GetInputPort("body_velocity"))
+    b.Connect(mixer.GetOutputPort("body_velocity"), pose.GetInputPort("body_velocity"))
+    b.Connect(odometry.GetOutputPort("body_velocity"), odo_pose.GetInputPort("body_velocity"))
+    b.Connect(odo, gyrodometry.GetInputPort("odometry"))
+    b.Connect(gyro, gyrodometry.GetInputPort("gyro"))
+
+    b.ExportOutput(pose.GetOutputPort("pose"), "pose")
+    b.ExportOutput(mixer.GetOutputPort("mixed_estimate"), "mixed_estimate")
+    b.ExportOutput(sideslip.GetOutputPort("side_slip_angle"), "side_slip_angle")
+    b.ExportOutput(sideslip.GetOutputPort("track_speed"), "track_speed")
+    b.ExportOutput(c1.GetOutputPort("C1"), "C1")
+    b.ExportOutput(c23.GetOutputPort("C2_C3"), "C2_C3")
+    b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")
+    b.ExportOutput(odo, "odometry")
+    b.ExportOutput(odo_pose.GetOutputPort("pose"), "odometry_pose")
+    b.ExportOutput(gyrodometry.GetOutputPort("pose"), "gyrodometry_pose")
+    b.ExportOutput(check.GetOutputPort("fault"), "inertial_fault")
+    b.ExportOutput(odometry.GetOutputPort("fault"), "encoder_fault")
+    b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")
+    diagram = b.Build()
+    diagram.set_name("navigation")
+    return diagram

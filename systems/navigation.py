@@ -1,0 +1,159 @@
+"""Navigation parameters and the plain sequential reference loop of Seyr & Jakubek's Fig. 3.
+
+``navigation_loop`` runs the same pure functions as the LeafSystems of diagrams/navigation.py, in the
+order the diagram's timing implies, over logged sensor rows. It is the test oracle that proves the
+diagram's multi-rate wiring (sample-for-sample agreement) and the baseline of the speed benchmark.
+
+Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K n):
+1. check the inertial sample (hold non-finite channels), odometry S(10) from the encoder difference;
+2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
+3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry;
+4. mixing S(15)-(17) with the C1 in force -> mixed estimate (the navigation output of sample k);
+5. updates: EKF state <- mixed estimate, P <- S(9); pose S(21); odometry-only and Gyrodometry poses;
+   at control instants also C1 S(12) from this batch's dv, L S(7) from P_{k|k-1}, S(18)-(20) from the
+   mixed estimate, and the detector's reset. C1, L and alpha computed at t_K act from sample k+1 on.
+Logged values are those the blocks read at t_k: states before step 5, outputs of steps 1-4.
+"""
+
+import dataclasses as dc
+
+import numpy as np
+
+from systems.ekf import (
+    EkfParameters,
+    ekf_gain,
+    ekf_joseph,
+    ekf_measurement,
+    ekf_predict,
+    ekf_prior_covariance,
+    ekf_update,
+)
+from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
+from systems.mixing import MixingParameters, mix, mixing_c1, mixing_c2, mixing_c3
+from systems.odometry import odometry_step
+from systems.pose import pose_step
+from systems.sensor_check import check_sample
+from systems.sideslip import SideSlipParameters, side_slip_angle
+from systems.slip_detector import slip_detector_batch_end, slip_detector_step
+
+
+@dc.dataclass
+class NavigationParameters:
+    """All tuning of the navigation diagram (each part documents its defaults)."""
+
+    ekf: EkfParameters = dc.field(default_factory=EkfParameters)
+    mixing: MixingParameters = dc.field(default_factory=MixingParameters)
+    sideslip: SideSlipParameters = dc.field(default_factory=SideSlipParameters)
+    gyrodometry: GyrodometryParameters = dc.field(default_factory=GyrodometryParameters)
+
+    def validate(self) -> "NavigationParameters":
+        """Re-run every part's range checks (YAML loading sets fields after construction)."""
+        for part in (self.ekf, self.mixing, self.sideslip, self.gyrodometry):
+            part.__post_init__()
+        return self
+
+
+@dc.dataclass(frozen=True)
+class NavigationInitialState:
+    """Initial conditions shared by the diagram and the loop."""
+
+    speed: float = 0.0
+    pose: tuple = (0.0, 0.0, 0.0)
+
+    def ekf_state(self) -> np.ndarray:
+        return np.array([self.speed, 0.0, 0.0, 0.0, 0.0])
+
+    def odometry_state(self) -> list:
+        v = self.speed
+        return [np.nan, np.nan, 0.0, v, 0.0, v, v]
+
+
+LOOP_KEYS = (
+    "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
+    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 delta_v odo_v_t odo_omega fault"
+).split()
+
+
+def navigation_loop(
+    accelerometers,
+    gyro,
+    encoders,
+    params: NavigationParameters,
+    wheel_radius: float,
+    track_width: float,
+    T_N: float,
+    T_C: float,
+    initial: NavigationInitialState = NavigationInitialState(),
+):
+    """Run the navigation algorithm sequentially over N sensor rows (as read at t_0 ... t_N-1).
+
+    Args:
+        accelerometers: (N, 4); gyro: (N,) or (N, 1); encoders: (N, 2).
+
+    Returns:
+        dict of (N,) arrays keyed by LOOP_KEYS, plus ``P`` (N, 5, 5): the EKF covariance P_k-1 at t_k.
+    """
+    accelerometers = np.asarray(accelerometers, float)
+    gyro = np.asarray(gyro, float).reshape(-1)
+    encoders = np.asarray(encoders, float)
+    N = len(gyro)
+    n = int(round(T_C / T_N))
+    Q, R, P = params.ekf.matrices()
+    mp, sp, gp = params.mixing, params.sideslip, params.gyrodometry
+    x = initial.ekf_state()
+    L = ekf_gain(ekf_prior_covariance(P, x, Q, T_N), R)
+    last_valid = np.zeros(5)
+    odo_state = initial.odometry_state()
+    det_state = [0.0, 0.0, initial.speed]
+    c1, dv_held, alpha, v_track = 1.0, 0.0, 0.0, 0.0
+    pose = list(initial.pose)
+    odo_pose = list(initial.pose)
+    gyro_state = [*initial.pose, 0.0]
+    out = {key: np.empty(N) for key in LOOP_KEYS}
+    out["P"] = np.empty((N, 5, 5))
+    for k in range(N):
+        sample, fault_imu = check_sample(np.append(accelerometers[k], gyro[k]), last_valid)
+        acc, g = sample[0:4], sample[4]
+        odo_next, odo, fault_enc = odometry_step(odo_state, encoders[k], wheel_radius, track_width, T_N)
+        y = ekf_measurement(acc, [g])
+        inertial = ekf_update(ekf_predict(x, T_N), L, y)
+        P_prior = ekf_prior_covariance(P, x, Q, T_N)
+        det_next, total = slip_detector_step(det_state, odo[0], acc, T_N)
+        c2 = mixing_c2(inertial[4], mp)
+        c3 = mixing_c3(odo[1], inertial[2], mp)
+        mixed = mix(odo, inertial, c1, c2, c3, x[1], mp.q2)
+
+        row = (
+            *pose,
+            *mixed,
+            alpha,
+            v_track,
+            *odo_pose,
+            *gyro_state[0:3],
+            c1,
+            c2,
+            c3,
+            dv_held,
+            odo[0],
+            odo[1],
+            max(fault_imu, fault_enc),
+        )
+        for key, value in zip(LOOP_KEYS, row):
+            out[key][k] = value
+        out["P"][k] = P
+
+        x = mixed
+        P = ekf_joseph(P_prior, L, R)
+        pose = pose_step(pose, mixed[0], mixed[1], mixed[2], T_N)
+        odo_pose = pose_step(odo_pose, odo[0], 0.0, odo[1], T_N)
+        gyro_state = gyrodometry_step(gyro_state, odo[0], odo[1], g, gp, T_N)
+        last_valid = sample
+        odo_state = odo_next
+        det_state = det_next
+        if k % n == 0:
+            dv, det_state = slip_detector_batch_end(total, odo[0], n)
+            c1 = mixing_c1(c1, dv, mp)
+            dv_held = dv
+            L = ekf_gain(P_prior, R)
+            v_track, alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], sp)
+    return out

@@ -1,0 +1,97 @@
+"""Wheel odometry S(10) of Seyr & Jakubek §IV-B from quantised encoder angles."""
+
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+
+def odometry(v_R: float, v_L: float, track_width: float):
+    """S(10): v_t = (v_R + v_L)/2, omega = (v_R - v_L)/b (b = track_width, full wheel distance)."""
+    return 0.5 * (v_R + v_L), (v_R - v_L) / track_width
+
+
+def odometry_step(state, encoders, wheel_radius: float, track_width: float, T_N: float):
+    """One sample of encoder differencing + S(10).
+
+    Args:
+        state: [theta_R_prev, theta_L_prev, samples_since_valid, v_t, omega, v_R, v_L]; theta_prev NaN
+            means "no reading yet".
+        encoders: [theta_R, theta_L] (rad); a non-finite reading is skipped (the counter keeps counting, so
+            the next valid difference spans the gap).
+
+    Returns:
+        (next state, output [v_t, omega, v_R, v_L], fault 0/1)
+    """
+    theta_R, theta_L = encoders
+    prev_R, prev_L, gap, v_t, omega, v_R, v_L = state
+    if not (math.isfinite(theta_R) and math.isfinite(theta_L)):
+        return [prev_R, prev_L, gap + 1.0, v_t, omega, v_R, v_L], [v_t, omega, v_R, v_L], 1.0
+    if math.isfinite(prev_R):
+        dt = (gap + 1.0) * T_N
+        v_R = wheel_radius * (theta_R - prev_R) / dt
+        v_L = wheel_radius * (theta_L - prev_L) / dt
+        v_t, omega = odometry(v_R, v_L, track_width)
+    return [theta_R, theta_L, 0.0, v_t, omega, v_R, v_L], [v_t, omega, v_R, v_L], 0.0
+
+
+class Odometry(LeafSystem):
+    """Wheel speeds from encoder differences and S(10), every T_N.
+
+    .. pydrake_system::
+
+        name: Odometry
+        input_ports:
+        - encoders
+        output_ports:
+        - odometry
+        - body_velocity
+        - fault
+
+    - encoders: quantised wheel angles [theta_R, theta_L] (rad).
+    - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample (direct feedthrough).
+    - body_velocity: [^O v_t, 0, ^O omega] for dead reckoning (odometry has no v_n, §IV-B).
+    - fault: 1 when the current encoder sample is not finite (the previous output is held).
+
+    Args:
+        wheel_radius, track_width: calibrated geometry (m).
+        T_N: navigation period (s).
+        initial_speed: v_t output before the first difference is available (m/s).
+    """
+
+    def __init__(self, wheel_radius: float, track_width: float, T_N: float, initial_speed: float = 0.0):
+        super().__init__()
+        self._r, self._b, self._T_N = wheel_radius, track_width, T_N
+        self._enc = self.DeclareVectorInputPort("encoders", 2)
+        v0 = float(initial_speed)
+        self._state = self.DeclareDiscreteState(np.array([np.nan, np.nan, 0.0, v0, 0.0, v0, v0]))
+        prereq = {self.xd_ticket(), self._enc.ticket()}
+        self._step = self.DeclareVectorOutputPort("step", 12, self._calc_step, prerequisites_of_calc=prereq)
+        after = prereq
+        self.DeclareVectorOutputPort(
+            "odometry", 4, lambda c, o: o.SetFromVector(self._step.Eval(c)[7:11]), prerequisites_of_calc=after
+        )
+        self.DeclareVectorOutputPort(
+            "body_velocity", 3, self._calc_body_velocity, prerequisites_of_calc=after
+        )
+        self.DeclareVectorOutputPort(
+            "fault", 1, lambda c, o: o.SetFromVector(self._step.Eval(c)[11:12]), prerequisites_of_calc=after
+        )
+        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
+
+    def _calc_step(self, context, output):
+        state, out, fault = odometry_step(
+            context.get_discrete_state(self._state).get_value(),
+            self._enc.Eval(context),
+            self._r,
+            self._b,
+            self._T_N,
+        )
+        output.SetFromVector(np.concatenate([state, out, [fault]]))
+
+    def _calc_body_velocity(self, context, output):
+        odo = self._step.Eval(context)[7:11]
+        output.SetFromVector([odo[0], 0.0, odo[1]])
+
+    def _update(self, context, discrete_state):
+        discrete_state.set_value(self._state, self._step.Eval(context)[0:7])

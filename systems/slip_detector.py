@@ -1,0 +1,89 @@
+"""Tangential slip detector S(11) of Seyr & Jakubek §IV-C: batch of T_C/T_N samples.
+
+S(11) compares, over one batch and after a reset at the batch start, the odometric speed change with the
+speed change integrated from the mean tangential acceleration ("discrete integration of the arithmetic
+mean of the tangential accelerations"):
+
+    dv_K = (T_N/T_C) * sum_{k in batch} ( ^O v_t,k - ^O v_t,K-1 - sum_{j <= k in batch} (a_t1,j + a_t2,j) T_N/2 )
+
+where ^O v_t,K-1 is the odometric speed at the last sample of the previous batch. We read the printed
+acceleration term as this running integral (the printed single-sample term would not be an integration).
+A trend of wheel speed against body speed is detected, not a stationary slip (§IV-C).
+"""
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+
+def slip_detector_step(state, odometric_v_t: float, accelerometers, T_N: float):
+    """Accumulate one sample. state = [sum, integrated speed change, ^O v_t,K-1]; returns (state', sum)."""
+    total, integral, v_ref = state
+    integral = integral + 0.5 * (accelerometers[0] + accelerometers[2]) * T_N
+    total = total + (odometric_v_t - v_ref - integral)
+    return [total, integral, v_ref], total
+
+
+def slip_detector_batch_end(total: float, odometric_v_t: float, batch_length: int):
+    """(dv_K = sum / batch_length, reset state [0, 0, ^O v_t,K])."""
+    return total / batch_length, [0.0, 0.0, odometric_v_t]
+
+
+class TangentialSlipDetector(LeafSystem):
+    """S(11): mean odometric-minus-inertial speed change over each batch of T_C/T_N samples.
+
+    .. pydrake_system::
+
+        name: TangentialSlipDetector
+        input_ports:
+        - odometry
+        - accelerometers
+        output_ports:
+        - delta_v
+
+    - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample.
+    - accelerometers: checked [a_t1, a_n1, a_t2, a_n2] of the current sample.
+    - delta_v: dv_K of the batch that ends with the current sample (direct feedthrough). Batches end at
+      the control instants t = K*T_C (sample k = K*n, n = T_C/T_N); the MixerC1 block samples this port
+      there. Between control instants the port shows the running partial mean.
+
+    Update every T_N: accumulate; at control instants reset with ^O v_t,K as the new reference.
+
+    Args:
+        T_N, T_C: periods (s); batch_length n = T_C/T_N.
+        initial_speed: ^O v_t,-1, the reference speed of the first batch (m/s).
+    """
+
+    def __init__(self, T_N: float, T_C: float, initial_speed: float = 0.0):
+        super().__init__()
+        self._T_N = T_N
+        self._n = int(round(T_C / T_N))
+        self._odo = self.DeclareVectorInputPort("odometry", 4)
+        self._acc = self.DeclareVectorInputPort("accelerometers", 4)
+        self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, float(initial_speed)]))
+        prereq = {self.xd_ticket(), self._odo.ticket(), self._acc.ticket()}
+        self._step = self.DeclareVectorOutputPort("step", 4, self._calc_step, prerequisites_of_calc=prereq)
+        self.DeclareVectorOutputPort(
+            "delta_v",
+            1,
+            lambda c, o: o.SetFromVector([self._step.Eval(c)[3] / self._n]),
+            prerequisites_of_calc=prereq,
+        )
+        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
+
+    def _calc_step(self, context, output):
+        state, total = slip_detector_step(
+            context.get_discrete_state(self._state).get_value(),
+            self._odo.Eval(context)[0],
+            self._acc.Eval(context),
+            self._T_N,
+        )
+        output.SetFromVector([*state, total])
+
+    def _update(self, context, discrete_state):
+        step = self._step.Eval(context)
+        k = int(round(context.get_time() / self._T_N))
+        if k % self._n == 0:
+            _, state = slip_detector_batch_end(step[3], self._odo.Eval(context)[0], self._n)
+        else:
+            state = step[0:3]
+        discrete_state.set_value(self._state, state)
