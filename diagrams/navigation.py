@@ -4,7 +4,11 @@ Inputs: the sensor signals. Outputs: the navigation estimate and internals. Bloc
 systems/navigation.py (the sequential reference loop documents the same ordering).
 """
 
-from pydrake.systems.framework import Diagram, DiagramBuilder
+import math
+
+import numpy as np
+from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import LogVectorOutput
 
 from systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from systems.gyrodometry import Gyrodometry
@@ -39,7 +43,7 @@ def build_navigation_diagram(
     rates: SampleRates,
     wheel_radius: float,
     track_width: float,
-    initial: NavigationInitialState = NavigationInitialState(),
+    initial: NavigationInitialState | None = None,
 ) -> Diagram:
     """The navigation algorithm as a Diagram.
 
@@ -66,6 +70,7 @@ def build_navigation_diagram(
         - covariance
     """
     params.validate()
+    initial = initial or NavigationInitialState()
     T_N, T_C = rates.T_N, rates.T_C
     b = DiagramBuilder()
 
@@ -135,3 +140,66 @@ def build_navigation_diagram(
     diagram = b.Build()
     diagram.set_name("navigation")
     return diagram
+
+
+class SensorReplay(LeafSystem):
+    """Plays back logged sensor rows: at t in [t_k, t_k+1) the outputs hold row k.
+
+    .. pydrake_system::
+
+        name: SensorReplay
+        output_ports:
+        - accelerometers
+        - gyro
+        - encoders
+
+    A row k of a run artifact is what the navigation blocks read at t_k, so replaying the ``meas_*`` keys
+    through build_navigation_diagram reproduces the run's navigation exactly.
+
+    Args:
+        T_N: period of the rows (s). accelerometers (N, 4), gyro (N,), encoders (N, 2).
+    """
+
+    def __init__(self, T_N: float, accelerometers, gyro, encoders):
+        super().__init__()
+        self._T_N = T_N
+        self._rows = np.column_stack(
+            [
+                np.asarray(accelerometers, float),
+                np.asarray(gyro, float).reshape(-1, 1),
+                np.asarray(encoders, float),
+            ]
+        )
+        time_only = {self.time_ticket()}
+        for name, cols in (("accelerometers", slice(0, 4)), ("gyro", slice(4, 5)), ("encoders", slice(5, 7))):
+            self.DeclareVectorOutputPort(
+                name,
+                cols.stop - cols.start,
+                lambda c, o, cols=cols: o.SetFromVector(self._row(c)[cols]),
+                prerequisites_of_calc=time_only,
+            )
+
+    def _row(self, context):
+        k = int(math.floor(context.get_time() / self._T_N + 1e-6))
+        return self._rows[min(k, len(self._rows) - 1)]
+
+
+def build_navigation_replay(
+    params, rates, wheel_radius, track_width, accelerometers, gyro, encoders, initial=None
+):
+    """SensorReplay -> navigation diagram, with the navigation outputs logged every T_N.
+
+    Returns (diagram, loggers keyed by navigation output name).
+    """
+    b = DiagramBuilder()
+    replay = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders))
+    replay.set_name("Sensor replay")
+    nav = b.AddSystem(build_navigation_diagram(params, rates, wheel_radius, track_width, initial))
+    for name in ("accelerometers", "gyro", "encoders"):
+        b.Connect(replay.GetOutputPort(name), nav.GetInputPort(name))
+    loggers = {}
+    for name in NAVIGATION_OUTPUTS:
+        loggers[name] = LogVectorOutput(nav.GetOutputPort(name), b, rates.T_N)
+    diagram = b.Build()
+    diagram.set_name("navigation_replay")
+    return diagram, loggers

@@ -3,11 +3,14 @@
 State x = [v_t, v_n, omega, a_t, a_n] (EkfState), measurement y = [omega_gyro, mean a_t, mean a_n] S(3).
 The filter's state is overwritten after every sample by the mixed estimate (Fig. 3), so the block takes
 the mixer's output as the next state instead of its own update.
+
+The velocities are not measured (S(3)); their variance therefore grows, and under sustained rotation it
+grows geometrically, because the forward-Euler rotation of S(2) has |eigenvalue| sqrt(1 + (omega T_N)^2).
+The measured block (omega, a_t, a_n) and the gain S(7) stay at their steady values (tests/test_navigation).
 """
 
 import dataclasses as dc
 import math
-from typing import List
 
 import numpy as np
 from pydrake.common.containers import namedview
@@ -34,9 +37,9 @@ class EkfParameters:
     - P0: initial covariance.
     """
 
-    Q: List[float] = dc.field(default_factory=lambda: [1e-8, 1e-8, 1.6e-3, 0.04, 0.04])
-    R: List[float] = dc.field(default_factory=lambda: [0.014**2, 0.047, 0.047])
-    P0: List[float] = dc.field(default_factory=lambda: [1e-4, 1e-4, 1e-3, 1.0, 1.0])
+    Q: list[float] = dc.field(default_factory=lambda: [1e-8, 1e-8, 1.6e-3, 0.04, 0.04])
+    R: list[float] = dc.field(default_factory=lambda: [0.014**2, 0.047, 0.047])
+    P0: list[float] = dc.field(default_factory=lambda: [1e-4, 1e-4, 1e-3, 1.0, 1.0])
 
     def __post_init__(self):
         for name, size in (("Q", 5), ("R", 3), ("P0", 5)):

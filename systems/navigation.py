@@ -83,7 +83,7 @@ def navigation_loop(
     track_width: float,
     T_N: float,
     T_C: float,
-    initial: NavigationInitialState = NavigationInitialState(),
+    initial: NavigationInitialState | None = None,
 ):
     """Run the navigation algorithm sequentially over N sensor rows (as read at t_0 ... t_N-1).
 
@@ -93,6 +93,7 @@ def navigation_loop(
     Returns:
         dict of (N,) arrays keyed by LOOP_KEYS, plus ``P`` (N, 5, 5): the EKF covariance P_k-1 at t_k.
     """
+    initial = initial or NavigationInitialState()
     accelerometers = np.asarray(accelerometers, float)
     gyro = np.asarray(gyro, float).reshape(-1)
     encoders = np.asarray(encoders, float)
@@ -138,7 +139,7 @@ def navigation_loop(
             odo[1],
             max(fault_imu, fault_enc),
         )
-        for key, value in zip(LOOP_KEYS, row):
+        for key, value in zip(LOOP_KEYS, row, strict=True):
             out[key][k] = value
         out["P"][k] = P
 

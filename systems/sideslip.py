@@ -3,7 +3,6 @@
 import dataclasses as dc
 import math
 
-import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 

@@ -4,7 +4,7 @@ S(11) compares, over one batch and after a reset at the batch start, the odometr
 speed change integrated from the mean tangential acceleration ("discrete integration of the arithmetic
 mean of the tangential accelerations"):
 
-    dv_K = (T_N/T_C) * sum_{k in batch} ( ^O v_t,k - ^O v_t,K-1 - sum_{j <= k in batch} (a_t1,j + a_t2,j) T_N/2 )
+    dv_K = (T_N/T_C) sum_{k in batch} (^O v_t,k - ^O v_t,K-1 - sum_{j<=k in batch} (a_t1,j + a_t2,j) T_N/2)
 
 where ^O v_t,K-1 is the odometric speed at the last sample of the previous batch. We read the printed
 acceleration term as this running integral (the printed single-sample term would not be an integration).

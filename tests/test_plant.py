@@ -1,5 +1,6 @@
 """Physics of the slipping robot plant (systems/plant.py)."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -230,6 +231,6 @@ def test_unknown_robot_and_bad_rates_are_rejected():
 
 
 def test_parameters_are_frozen():
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         tinyphoon().mass = 1.0  # type: ignore[misc]
     assert isinstance(tinyphoon(), RobotParameters)
