@@ -2,6 +2,7 @@
 
     slipnav list
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S]
+    slipnav accuracy [SCENARIO ...] [--seeds N]
 
 User mistakes print one line to stderr and exit with status 2, without a traceback.
 """
@@ -24,6 +25,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's)")
     run.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     run.add_argument("--no-figures", action="store_true", help="skip the figures")
+    acc = sub.add_parser("accuracy", help="navigation accuracy over seeds (benchmark)")
+    acc.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
+    acc.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
+    acc.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     return parser
 
 
@@ -33,6 +38,13 @@ def main(argv=None) -> int:
         if args.command == "list":
             for name in builtin_scenarios():
                 print(name)
+            return 0
+        if args.command == "accuracy":
+            from scenarios.accuracy import accuracy
+
+            if args.seeds < 1:
+                raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
+            accuracy(args.scenarios, args.seeds, args.duration)
             return 0
         from scenarios.runner import run_scenario, write_artifacts
 

@@ -85,6 +85,49 @@ def plot_slip(a, axes):
         ax.grid(True, alpha=0.3)
 
 
+def slip_spans(t, c1, level: float = 0.5):
+    """(start, end) times where C1 < level: detected tangential slip."""
+    low = c1 < level
+    edges = np.flatnonzero(np.diff(low.astype(int))) + 1
+    bounds = np.r_[0, edges, len(t)]
+    return [(t[i], t[min(j, len(t) - 1)]) for i, j in zip(bounds[:-1], bounds[1:], strict=True) if low[i]]
+
+
+def plot_navigation(a, axes):
+    """Seyr & Jakubek Fig. 6-7 style: estimates vs truth with detected slip (C1 < 0.5) shaded."""
+    t = a["t"]
+    spans = slip_spans(t, a["C1"])
+    panels = (
+        (
+            "$v_t$ (m/s)",
+            [("true_v_t", "true", "C0"), ("est_v_t", "fused", "C3"), ("odo_v_t", "odometry", "C2")],
+        ),
+        ("$v_n$ (m/s)", [("true_v_n", "true", "C0"), ("est_v_n", "fused", "C3")]),
+        (
+            "$\\omega$ (rad/s)",
+            [("true_omega", "true", "C0"), ("est_omega", "fused", "C3"), ("odo_omega", "odometry", "C2")],
+        ),
+    )
+    for ax, (label, series) in zip(axes[:3], panels, strict=False):
+        for key, name, color in series:
+            ax.plot(t, a[key], color, lw=1.4 if name == "true" else 0.8, label=name)
+        ax.set_ylabel(label)
+    moving = np.hypot(a["true_v_t"], a["true_v_n"]) > 0.2
+    axes[3].plot(t, np.degrees(np.where(moving, a["true_alpha"], np.nan)), "C0", lw=1.4, label="true")
+    axes[3].plot(t, np.degrees(a["est_alpha"]), "C3", lw=0.8, label="estimate S(19)")
+    axes[3].set_ylabel("$\\alpha$ (deg)")
+    for key, color in (("C1", "C3"), ("C2", "C1"), ("C3", "C2")):
+        axes[4].plot(t, a[key], color, lw=0.8, label=key)
+    axes[4].set_ylabel("mixing")
+    axes[4].set_ylim(-0.05, 1.05)
+    axes[4].set_xlabel("t (s)")
+    for ax in axes:
+        for start, end in spans:
+            ax.axvspan(start, end, color="0.85", zorder=0)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize=7)
+
+
 def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
     """path.png, speeds.png and slip.png prefixed with the scenario name; returns their paths."""
     out = FilePath(out_dir)
@@ -102,6 +145,14 @@ def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
     files.append(out / f"{name}.speeds.png")
     fig.savefig(files[-1], dpi=110, bbox_inches="tight")
     plt.close(fig)
+
+    if _has(a, "est_v_t"):
+        fig, axes = plt.subplots(5, 1, figsize=(9, 11), sharex=True)
+        plot_navigation(a, axes)
+        axes[0].set_title(f"{name}: navigation estimates vs truth (grey: detected tangential slip)")
+        files.append(out / f"{name}.navigation.png")
+        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+        plt.close(fig)
 
     fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     plot_slip(a, axes)

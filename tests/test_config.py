@@ -21,7 +21,10 @@ def test_builtins_load():
 
 
 def test_good_yaml_and_overrides():
-    scenario = scenario_from_yaml(GOOD + "robot_overrides: {tyre_friction: 0.5}\n", name="mine")
+    scenario = scenario_from_yaml(
+        GOOD + "robot_overrides: {tyre_friction: 0.5}\nnavigation: {mixing: {b1: 0.06}}\n", name="mine"
+    )
+    assert scenario.navigation.mixing.b1 == 0.06 and scenario.navigation.mixing.a1 == 150.0
     assert scenario.name == "mine"
     assert scenario.robot_parameters().tyre_friction == 0.5
     assert scenario.rates().batch_length == 10
@@ -40,6 +43,12 @@ def test_good_yaml_and_overrides():
         ("sensor_overrides: {gyro_noise_std: -1}\n", r"gyro_noise_std=-1.*allowed"),
         ("mode: fastest\n", r"mode='fastest' is unknown"),
         ("settle_time: -1\n", r"settle_time=-1.*allowed"),
+        ("navigation: {mixing: {q2: 1.5}}\n", r"mixing.q2=1.5 is out of range"),
+        ("navigation: {mixing: {b1: -0.1}}\n", r"mixing.b1=-0.1 is out of range"),
+        ("navigation: {ekf: {R: [1.0, 1.0]}}\n", r"ekf.R must list 3"),
+        ("navigation: {sideslip: {c_alpha: 2.0, d_alpha: 1.0}}\n", r"sideslip.d_alpha=1.0"),
+        ("navigation: {gyrodometry: {drift_rate: 1.0}}\n", r"gyrodometry.drift_rate=1.0"),
+        ("navigation: {mixing: {b4: 1.0}}\n", r"navigation.mixing.b4 is an unknown key"),
     ],
 )
 def test_errors_name_the_key(extra, message):

@@ -1,0 +1,73 @@
+"""Navigation accuracy benchmark over seeds: ``slipnav accuracy [SCENARIO ...] [--seeds N]``.
+
+Prints, per scenario, the mean and worst figures of scenarios.metrics.navigation_figures against the
+navigation targets (fused error <= 1 % of path length and <= 0.3 x odometry-only, side-slip RMS <= 0.5 deg
+where |alpha| > 1 deg, tangential slip detected within 2 T_C). Goals, not tests.
+"""
+
+import math
+import sys
+import time
+
+import numpy as np
+
+from scenarios.config import load_scenario
+from scenarios.metrics import navigation_figures
+from scenarios.runner import run_scenario
+
+
+def progress(done: int, total: int, label: str, stream=sys.stderr) -> None:
+    """A one-line text progress bar, redrawn in place."""
+    width = 30
+    filled = int(width * done / total)
+    stream.write(f"\r{label:<12} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
+    if done == total:
+        stream.write("\n")
+    stream.flush()
+
+
+def summarise(name: str, figures: list, wall: float, stream=sys.stdout) -> None:
+    """Print the mean and worst figures of one scenario against the goals."""
+
+    def col(key):
+        return np.array([f[key] for f in figures], dtype=float)
+
+    pct, ratio, alpha = col("fused_error_pct"), col("fused_over_odometry"), col("alpha_rms_deg")
+    episodes, detected = col("slip_episodes").sum(), col("slip_detected").sum()
+    latency = col("max_latency_T_C")
+    lines = [
+        f"{name}: {len(figures)} seeds in {wall:.1f} s",
+        f"  fused final error      mean {pct.mean():.2f} %  worst {pct.max():.2f} % of path length"
+        " (goal <= 1 %)",
+        f"  fused / odometry-only  mean {ratio.mean():.2f}  worst {ratio.max():.2f} (goal <= 0.3)",
+        f"  final errors (m)       fused {col('fused_error_m').mean():.4f}  odometry "
+        f"{col('odometry_error_m').mean():.4f}  Gyrodometry {col('gyrodometry_error_m').mean():.4f}",
+    ]
+    if np.isfinite(alpha).any():
+        lines.append(
+            f"  side-slip RMS error    mean {np.nanmean(alpha):.2f} deg  worst {np.nanmax(alpha):.2f} deg"
+            " (goal <= 0.5 deg where |alpha| > 1 deg)"
+        )
+    if episodes:
+        worst = np.nanmax(latency) if np.isfinite(latency).any() else math.nan
+        lines.append(
+            f"  tangential slip        {int(detected)}/{int(episodes)} episodes detected, worst latency "
+            f"{worst:.1f} T_C (goal <= 2 T_C)"
+        )
+    print("\n".join(lines), file=stream)
+
+
+def accuracy(names, seeds: int, duration=None, stream=sys.stdout) -> dict:
+    """Run each scenario for seeds 0..seeds-1; print and return the per-scenario figures."""
+    results = {}
+    for name in names:
+        scenario = load_scenario(name)
+        figures = []
+        start = time.perf_counter()
+        for seed in range(seeds):
+            progress(seed, seeds, name)
+            figures.append(navigation_figures(run_scenario(scenario, seed=seed, duration=duration).arrays))
+        progress(seeds, seeds, name)
+        results[name] = figures
+        summarise(name, figures, time.perf_counter() - start, stream)
+    return results

@@ -1,0 +1,71 @@
+"""Accuracy figures of a run artifact (issue targets of the navigation): position error, side-slip angle
+error, detection latency of tangential slip episodes."""
+
+import math
+
+import numpy as np
+
+
+def final_position_error(a: dict, prefix: str) -> float:
+    """Distance between the final estimated (``est``/``odo``/``gyro``) and true positions (m)."""
+    return math.hypot(a[f"{prefix}_x"][-1] - a["true_x"][-1], a[f"{prefix}_y"][-1] - a["true_y"][-1])
+
+
+def side_slip_rms_error(a: dict, threshold_deg: float = 1.0) -> float:
+    """RMS of est_alpha - true_alpha (rad) over the samples where |true_alpha| > threshold (NaN if none)."""
+    moving = np.hypot(a["true_v_t"], a["true_v_n"]) > 0.2
+    mask = moving & (np.abs(a["true_alpha"]) > math.radians(threshold_deg))
+    if not mask.any():
+        return float("nan")
+    return float(np.sqrt(np.mean((a["est_alpha"][mask] - a["true_alpha"][mask]) ** 2)))
+
+
+def tangential_slip_speed(a: dict) -> np.ndarray:
+    """Mean wheel circumferential speed minus the body's v_t (m/s): the true tangential slip."""
+    return 0.5 * (a["true_wheel_R"] + a["true_wheel_L"]) - a["true_v_t"]
+
+
+def slip_episodes(a: dict, threshold: float = 0.15, min_gap: float = 0.2) -> list[float]:
+    """Onset times of tangential slip episodes: |slip speed| rising above ``threshold`` (m/s), episodes
+    closer than ``min_gap`` seconds merged."""
+    t = a["t"]
+    slipping = np.abs(tangential_slip_speed(a)) > threshold
+    onsets, last_end = [], -math.inf
+    for k in np.flatnonzero(slipping[1:] & ~slipping[:-1]) + 1:
+        if t[k] - last_end > min_gap:
+            onsets.append(float(t[k]))
+        ends = np.flatnonzero(~slipping[k:])
+        last_end = t[k + ends[0]] if len(ends) else t[-1]
+    return onsets
+
+
+def detection_latencies(a: dict, onsets: list[float], c1_level: float = 0.5, window: float = 0.2) -> list:
+    """For each onset, the delay until C1 first falls below ``c1_level`` (s), or None if not within
+    ``window`` seconds. A drop that precedes the onset by up to one T_C counts as latency 0."""
+    t, c1 = a["t"], a["C1"]
+    T_C = float(a["T_C"])
+    latencies = []
+    for onset in onsets:
+        mask = (t >= onset - T_C) & (t <= onset + window) & (c1 < c1_level)
+        latencies.append(max(0.0, float(t[mask][0] - onset)) if mask.any() else None)
+    return latencies
+
+
+def navigation_figures(a: dict) -> dict:
+    """All accuracy figures of one run."""
+    length = float(a["path_length"])
+    fused, odo, gyro = (final_position_error(a, p) for p in ("est", "odo", "gyro"))
+    onsets = slip_episodes(a)
+    latencies = detection_latencies(a, onsets)
+    return {
+        "fused_error_m": fused,
+        "odometry_error_m": odo,
+        "gyrodometry_error_m": gyro,
+        "fused_error_pct": 100.0 * fused / length,
+        "fused_over_odometry": fused / odo if odo > 0 else float("nan"),
+        "alpha_rms_deg": math.degrees(side_slip_rms_error(a)),
+        "slip_episodes": len(onsets),
+        "slip_detected": sum(lat is not None for lat in latencies),
+        "max_latency_T_C": max((lat for lat in latencies if lat is not None), default=float("nan"))
+        / float(a["T_C"]),
+    }

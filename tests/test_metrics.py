@@ -1,0 +1,50 @@
+"""Accuracy metrics (scenarios/metrics.py) on hand-made signals, and the accuracy command."""
+
+import math
+
+import numpy as np
+import pytest
+
+from scenarios.cli import main
+from scenarios.metrics import detection_latencies, final_position_error, side_slip_rms_error, slip_episodes
+
+
+def synthetic(n=1000, T_N=0.002):
+    t = np.arange(n) * T_N
+    a = {"t": t, "T_C": np.array(0.02), "true_v_t": np.full(n, 1.0), "true_v_n": np.zeros(n)}
+    a["true_wheel_R"] = a["true_wheel_L"] = np.full(n, 1.0)
+    a["C1"] = np.ones(n)
+    return a
+
+
+def test_slip_episodes_and_latency():
+    a = synthetic()
+    for start, stop in ((100, 150), (160, 170), (500, 600)):  # the second merges into the first
+        a["true_wheel_R"][start:stop] += 0.4
+        a["true_wheel_L"][start:stop] += 0.4
+    onsets = slip_episodes(a)
+    assert onsets == pytest.approx([0.2, 1.0])
+    a["C1"][112:140] = 0.2  # detected 12 samples = 24 ms = 1.2 T_C after the first onset
+    a["C1"][495:520] = 0.1  # drop 10 ms before the second onset counts as immediate
+    latencies = detection_latencies(a, onsets)
+    assert latencies[0] == pytest.approx(0.024) and latencies[1] == 0.0
+    a["C1"][:] = 1.0
+    assert detection_latencies(a, onsets) == [None, None]
+
+
+def test_position_and_side_slip_errors():
+    a = synthetic()
+    a.update(true_x=np.zeros(3), true_y=np.zeros(3), est_x=np.array([0, 0, 3.0]), est_y=np.array([0, 0, 4.0]))
+    assert final_position_error(a, "est") == 5.0
+    b = synthetic(4)
+    b["true_alpha"] = np.radians([0.5, 2.0, -3.0, 4.0])
+    b["est_alpha"] = np.radians([0.0, 1.0, -3.0, 4.0])
+    assert math.degrees(side_slip_rms_error(b)) == pytest.approx(math.sqrt(1 / 3))
+
+
+def test_accuracy_command_smoke(capsys):
+    assert main(["accuracy", "square", "--seeds", "1", "--duration", "1.0"]) == 0
+    out = capsys.readouterr().out
+    assert "fused final error" in out and "tangential slip" in out
+    assert main(["accuracy", "--seeds", "0"]) == 2
+    assert "--seeds=0" in capsys.readouterr().err
