@@ -57,7 +57,7 @@ def summarise(name: str, figures: list, wall: float, stream=sys.stdout) -> None:
     print("\n".join(lines), file=stream)
 
 
-def accuracy(names, seeds: int, duration=None, stream=sys.stdout) -> dict:
+def accuracy(names, seeds: int, duration=None, stream=sys.stdout, open_loop=None) -> dict:
     """Run each scenario for seeds 0..seeds-1; print and return the per-scenario figures."""
     results = {}
     for name in names:
@@ -66,7 +66,11 @@ def accuracy(names, seeds: int, duration=None, stream=sys.stdout) -> dict:
         start = time.perf_counter()
         for seed in range(seeds):
             progress(seed, seeds, name)
-            figures.append(navigation_figures(run_scenario(scenario, seed=seed, duration=duration).arrays))
+            figures.append(
+                navigation_figures(
+                    run_scenario(scenario, seed=seed, duration=duration, open_loop=open_loop).arrays
+                )
+            )
         progress(seeds, seeds, name)
         results[name] = figures
         summarise(name, figures, time.perf_counter() - start, stream)

@@ -1,8 +1,9 @@
 """The ``slipnav`` command line (see README.md and ../shared/DESIGN.md).
 
     slipnav list
-    slipnav run SCENARIO [--out DIR] [--seed N] [--duration S]
-    slipnav accuracy [SCENARIO ...] [--seeds N]
+    slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
+                         [--speed-law bounded|constant] [--open-loop]
+    slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop]
 
 User mistakes print one line to stderr and exit with status 2, without a traceback.
 """
@@ -25,10 +26,19 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's)")
     run.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     run.add_argument("--no-figures", action="store_true", help="skip the figures")
+    run.add_argument("--no-slip-control", action="store_true", help="keep the step size at 1")
+    run.add_argument(
+        "--speed-law",
+        choices=["bounded", "constant"],
+        default=None,
+        help="max_speed mode: I(24) (bounded) or u = V_m/2 (constant)",
+    )
+    run.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
     acc = sub.add_parser("accuracy", help="navigation accuracy over seeds (benchmark)")
     acc.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
     acc.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
     acc.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
+    acc.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
     return parser
 
 
@@ -44,12 +54,19 @@ def main(argv=None) -> int:
 
             if args.seeds < 1:
                 raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-            accuracy(args.scenarios, args.seeds, args.duration)
+            accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None)
             return 0
         from scenarios.runner import run_scenario, write_artifacts
 
         scenario = load_scenario(args.scenario)
-        result = run_scenario(scenario, seed=args.seed, duration=args.duration)
+        result = run_scenario(
+            scenario,
+            seed=args.seed,
+            duration=args.duration,
+            slip_control=False if args.no_slip_control else None,
+            speed_law=args.speed_law,
+            open_loop=args.open_loop or None,
+        )
         for path in write_artifacts(result, args.out, figures=not args.no_figures):
             print(path)
         s = result.summary

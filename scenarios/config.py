@@ -14,12 +14,16 @@ from pydrake.common.yaml import yaml_load_data, yaml_load_typed
 
 from scenarios.trajectories import PathConfig, TrajectoryConfig
 from systems.navigation import NavigationParameters
+from systems.path_follower import PathFollowerParameters
 from systems.plant import ROBOTS, RobotParameters, robot_parameters
 from systems.rates import SampleRates
 from systems.sensors import SensorParameters, default_sensor_parameters
+from systems.slip_control import StepSizeParameters
 
 BUILTIN_DIR = FilePath(__file__).resolve().parent / "builtin"
 MODES = ("trajectory", "max_speed")
+CONTROLLERS = ("closed_loop", "feedforward")
+SPEED_LAWS = ("bounded", "constant")
 
 
 class ScenarioError(ValueError):
@@ -45,6 +49,12 @@ class Scenario:
         initial_pose: [x, y, phi] of the robot at t = 0 (m, m, rad); the reference starts at the origin.
         settle_time: simulated time after the reference ends (s).
         duration: hard limit of the simulated time (s); default: reference end + settle_time.
+        controller: ``closed_loop`` (navigation -> path follower -> plant) or ``feedforward`` (the
+            trajectory's wheel speeds played open loop; navigation still runs).
+        follower: Lyapunov path follower gains (PathFollowerParameters).
+        slip_control: step-size controller tuning (StepSizeParameters), trajectory mode.
+        slip_control_enabled: False keeps the step size at 1.
+        speed_law: ``bounded`` (Indiveri I(24)) or ``constant`` (u = V_m/2), max_speed mode.
         navigation: tuning of the navigation blocks (NavigationParameters: ekf, mixing, sideslip,
             gyrodometry), e.g. ``navigation: {mixing: {b1: 0.05}}``.
     """
@@ -65,6 +75,11 @@ class Scenario:
     settle_time: float = 0.5
     duration: float | None = None
     navigation: NavigationParameters = dc.field(default_factory=NavigationParameters)
+    controller: str = "closed_loop"
+    follower: PathFollowerParameters = dc.field(default_factory=PathFollowerParameters)
+    slip_control: StepSizeParameters = dc.field(default_factory=StepSizeParameters)
+    slip_control_enabled: bool = True
+    speed_law: str = "bounded"
 
     # -- derived, validated objects -----------------------------------------------------------------
     def rates(self) -> SampleRates:
@@ -86,6 +101,12 @@ class Scenario:
         self.robot_parameters()
         self.sensor_parameters()
         _wrap(self.navigation.validate)
+        _wrap(self.follower.__post_init__)
+        _wrap(self.slip_control.__post_init__)
+        if self.controller not in CONTROLLERS:
+            raise ScenarioError(f"controller={self.controller!r} is unknown: allowed {list(CONTROLLERS)}")
+        if self.speed_law not in SPEED_LAWS:
+            raise ScenarioError(f"speed_law={self.speed_law!r} is unknown: allowed {list(SPEED_LAWS)}")
         if self.mode not in MODES:
             raise ScenarioError(f"mode={self.mode!r} is unknown: allowed {list(MODES)}")
         if self.mode == "trajectory" and self.trajectory is None:

@@ -128,13 +128,55 @@ def plot_navigation(a, axes):
         ax.legend(loc="best", fontsize=7)
 
 
+def plot_control(a, reference, axes):
+    """Step size and progress vs nominal (Seyr Fig. 5) and wheel commands vs V_m (Indiveri Fig. 8-9)."""
+    t = a["t"]
+    T_C = float(a["T_C"])
+    V_m = float(a["V_m"])
+    ax = axes[0]
+    if _has(a, "step_size"):
+        ax.plot(t, a["step_size"], "C0", label="step size $\\delta_K$")
+        ax.axhline(1.0, color="k", lw=0.6, ls="--")
+        ax2 = ax.twinx()
+        K = np.ceil(t / T_C - 1e-9)  # the log holds Pi_K+1 on (t_K, t_K+1]
+        ax2.plot(t, a["progress"] - K, "C1", lw=0.8, label="$\\Pi_K - K$")
+        ax2.set_ylabel("$\\Pi_K - K$ (samples)", color="C1")
+    else:
+        ax.semilogy(t, np.maximum(a["V1"], 1e-9), "C0", label="$V_1$ I(14)")
+    ax.legend(loc="upper left", fontsize=7)
+    ax = axes[1]
+    ax.plot(t, a["cmd_R"], "C1", lw=0.8, label="command R")
+    ax.plot(t, a["cmd_L"], "C2", lw=0.8, label="command L")
+    ax.plot(t, a["true_wheel_R"], "C1:", lw=0.8, label="wheel R")
+    ax.plot(t, a["true_wheel_L"], "C2:", lw=0.8, label="wheel L")
+    ax.axhline(V_m, color="k", lw=0.8, ls="--", label="$V_m$")
+    ax.set_ylabel("wheel speed (m/s)")
+    ax.set_xlabel("t (s)")
+    ax.legend(loc="best", fontsize=7, ncol=2)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+
+
+def plot_associated_points(a, reference, ax, every: float = 0.2):
+    """Seyr Fig. 5: nominal trajectory point K linked with the interpolated point at Pi_K."""
+    if not _has(a, "progress"):
+        return
+    T_C = float(a["T_C"])
+    step = max(int(round(every / float(a["T_N"]))), 1)
+    for k in range(0, len(a["t"]), step):
+        K = min(int(round(a["t"][k] / T_C)), reference.num_samples - 1)
+        ax.plot([reference.x[K], a["ref_x"][k]], [reference.y[K], a["ref_y"][k]], color="0.6", lw=0.6)
+        ax.plot(reference.x[K], reference.y[K], "o", color="0.6", ms=2)
+
+
 def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
     """path.png, speeds.png and slip.png prefixed with the scenario name; returns their paths."""
     out = FilePath(out_dir)
     files = []
     fig, ax = plt.subplots(figsize=(6, 6))
     plot_path(a, reference, ax)
-    ax.set_title(f"{name}: path")
+    plot_associated_points(a, reference, ax)
+    ax.set_title(f"{name}: path" + (" (grey: nominal point K linked to Pi_K)" if _has(a, "progress") else ""))
     files.append(out / f"{name}.path.png")
     fig.savefig(files[-1], dpi=110, bbox_inches="tight")
     plt.close(fig)
@@ -151,6 +193,14 @@ def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
         plot_navigation(a, axes)
         axes[0].set_title(f"{name}: navigation estimates vs truth (grey: detected tangential slip)")
         files.append(out / f"{name}.navigation.png")
+        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+        plt.close(fig)
+
+    if _has(a, "V1") or _has(a, "step_size"):
+        fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+        plot_control(a, reference, axes)
+        axes[0].set_title(f"{name}: control")
+        files.append(out / f"{name}.control.png")
         fig.savefig(files[-1], dpi=110, bbox_inches="tight")
         plt.close(fig)
 

@@ -18,15 +18,18 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
+from diagrams.closed_loop import ControlSettings, build_closed_loop_diagram
 from diagrams.open_loop import build_open_loop_diagram
 from diagrams.robot import make_simulator
 from scenarios.config import Scenario, ScenarioError
 from scenarios.trajectories import (
+    Path,
     Trajectory,
     TrajectoryError,
     build_path,
     build_trajectory,
     trajectory_along_path,
+    trajectory_path,
 )
 
 TRUTH_KEYS = (
@@ -38,7 +41,7 @@ NAVIGATION_KEYS = "C1 C2 C3 delta_v".split()
 CONTROL_KEYS = "step_size progress ref_x ref_y ref_phi cmd_R cmd_L V1".split()
 SENSOR_KEYS = "meas_a_t1 meas_a_n1 meas_a_t2 meas_a_n2 meas_gyro meas_enc_R meas_enc_L".split()
 SLIP_KEYS = "true_slip_R true_slip_L true_theta_R true_theta_L".split()
-NAVIGATION_EXTRA_KEYS = "est_a_t est_a_n est_track_speed odo_v_t odo_omega fault".split()
+NAVIGATION_EXTRA_KEYS = "est_a_t est_a_n est_track_speed odo_v_t odo_omega fault virtual_target".split()
 SERIES_KEYS = (
     ["t"]
     + TRUTH_KEYS
@@ -62,7 +65,11 @@ class RunResult:
 
 
 def reference_for(scenario: Scenario) -> tuple[Trajectory, float]:
-    """The scenario's reference trajectory sampled at T_C and the robot's initial forward speed."""
+    """The scenario's reference trajectory sampled at T_C and the robot's initial forward speed.
+
+    A path (max_speed mode) gives the trajectory of driving it at V_m/2 (or ``path_speed``): the
+    feed-forward reference, and the plotted reference of the closed loop.
+    """
     rates = scenario.rates()
     try:
         if scenario.mode == "trajectory":
@@ -75,44 +82,120 @@ def reference_for(scenario: Scenario) -> tuple[Trajectory, float]:
         raise ScenarioError(str(e)) from None
 
 
-def end_time(scenario: Scenario, reference: Trajectory, duration: float | None) -> float:
+def follower_path(scenario: Scenario) -> Path:
+    """The geometric path the closed loop follows."""
+    try:
+        if scenario.mode == "trajectory":
+            return trajectory_path(scenario.trajectory)
+        return build_path(scenario.path)
+    except TrajectoryError as e:
+        raise ScenarioError(str(e)) from None
+
+
+def end_time(scenario: Scenario, nominal: float, duration: float | None) -> float:
+    """--duration, else the scenario's duration, else the nominal end plus the settle time."""
     if duration is not None:
         if not (math.isfinite(duration) and duration > 0.0):
             raise ScenarioError(f"--duration={duration!r} is out of range: allowed (0, inf) s")
         return duration
     if scenario.duration is not None:
         return scenario.duration
-    return reference.duration + scenario.settle_time
+    return nominal + scenario.settle_time
 
 
-def run_scenario(scenario: Scenario, seed: int | None = None, duration: float | None = None):
-    """Simulate ``scenario`` (open loop: trajectory feed-forward) and collect the run artifact."""
+def run_scenario(
+    scenario: Scenario,
+    seed: int | None = None,
+    duration: float | None = None,
+    slip_control: bool | None = None,
+    speed_law: str | None = None,
+    open_loop: bool | None = None,
+):
+    """Simulate ``scenario`` and collect the run artifact.
+
+    The keyword arguments override the scenario (the command line's --seed, --duration,
+    --no-slip-control, --speed-law, --open-loop). A closed-loop run ends when the trajectory (progress
+    Pi reaches its end) or the path (virtual target at its end) is complete plus ``settle_time``, or at
+    the duration limit (default: three times the nominal time).
+    """
     seed = scenario.seed if seed is None else int(seed)
     if not (0 <= seed < 2**31):
         raise ScenarioError(f"seed={seed!r} is out of range: allowed 0 .. 2**31-1")
+    speed_law = scenario.speed_law if speed_law is None else speed_law
+    if speed_law not in ("bounded", "constant"):
+        raise ScenarioError(f"--speed-law={speed_law!r} is unknown: allowed bounded, constant")
+    slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
+    open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
     rates = scenario.rates()
     robot = scenario.robot_parameters()
     sensor_params = scenario.sensor_parameters()
     reference, initial_speed = reference_for(scenario)
-    t_end = end_time(scenario, reference, duration)
+    pose0 = tuple(scenario.initial_pose)
 
-    v_R, v_L = reference.wheel_speeds(robot.track_width)
-    poses = np.column_stack([reference.x, reference.y, reference.phi])
-    built = build_open_loop_diagram(
-        robot,
-        sensor_params,
-        rates,
-        np.column_stack([v_R, v_L]),
-        poses,
-        seed,
-        initial_pose=tuple(scenario.initial_pose),
-        initial_speed=initial_speed,
-        navigation=scenario.navigation,
-    )
+    if open_loop:
+        v_R, v_L = reference.wheel_speeds(robot.track_width)
+        built = build_open_loop_diagram(
+            robot,
+            sensor_params,
+            rates,
+            np.column_stack([v_R, v_L]),
+            np.column_stack([reference.x, reference.y, reference.phi]),
+            seed,
+            initial_pose=pose0,
+            initial_speed=initial_speed,
+            navigation=scenario.navigation,
+        )
+        nominal = reference.duration
+        path = None
+    else:
+        path = follower_path(scenario)
+        if scenario.mode == "max_speed":
+            initial_speed = 0.0
+            nominal = path.length / (0.5 * robot.wheel_speed_limit)
+        else:
+            nominal = reference.duration
+        control = ControlSettings(
+            mode=scenario.mode,
+            path=path,
+            trajectory=reference,
+            follower=scenario.follower,
+            step_size=scenario.slip_control,
+            slip_control=slip_control,
+            speed_law=speed_law,
+        )
+        try:
+            built = build_closed_loop_diagram(
+                robot,
+                sensor_params,
+                rates,
+                scenario.navigation,
+                control,
+                seed,
+                initial_pose=pose0,
+                initial_speed=initial_speed,
+            )
+        except ValueError as e:
+            raise ScenarioError(str(e)) from None
+    limit = end_time(scenario, 3.0 * nominal + scenario.settle_time if not open_loop else nominal, duration)
+    if duration is None and scenario.duration is None and open_loop:
+        limit = nominal + scenario.settle_time
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     context = simulator.get_context()
     wall_start = time.perf_counter()
-    simulator.AdvanceTo(t_end)
+    completion = None
+    if open_loop:
+        simulator.AdvanceTo(limit)
+        completion = reference.duration if reference.duration <= limit else None
+    else:
+        done = _completion_check(built, context, scenario.mode, reference, path)
+        t = 0.0
+        while t < limit - 1e-12:
+            t = min(t + 0.1, limit)
+            simulator.AdvanceTo(t)
+            if completion is None:
+                completion = done()
+                if completion is not None and duration is None and scenario.duration is None:
+                    limit = min(limit, completion + scenario.settle_time)
     wall = time.perf_counter() - wall_start
 
     arrays = collect_arrays(built.loggers, context, robot.wheel_radius)
@@ -120,34 +203,75 @@ def run_scenario(scenario: Scenario, seed: int | None = None, duration: float | 
     for key in SERIES_KEYS:
         arrays.setdefault(key, np.full(n, np.nan))
     arrays.update(
-        path_length=np.array(reference.length),
+        path_length=np.array(reference.length if path is None else path.length),
         T_N=np.array(rates.T_N),
         T_C=np.array(rates.T_C),
         V_m=np.array(robot.wheel_speed_limit),
         track_width=np.array(robot.track_width),
     )
+    geometric = path if path is not None else None
     summary = {
         "scenario": scenario.name,
         "seed": seed,
         "robot": robot.name,
         "mode": scenario.mode,
-        "controller": "open-loop feed-forward",
+        "controller": "open-loop feed-forward" if open_loop else "closed loop",
+        "slip_control": bool(slip_control) if scenario.mode == "trajectory" and not open_loop else None,
+        "speed_law": speed_law if scenario.mode == "max_speed" and not open_loop else None,
         "sensor_faults": int(np.nansum(arrays["fault"])),
-        "path_length_m": reference.length,
+        "path_length_m": float(arrays["path_length"]),
         "duration_s": float(arrays["t"][-1]),
-        "completion_time_s": reference.duration if reference.duration <= t_end else None,
+        "completion_time_s": completion,
         "final_position_error_m": final_position_errors(arrays),
         "reference_final_distance_m": float(
             math.hypot(arrays["true_x"][-1] - reference.x[-1], arrays["true_y"][-1] - reference.y[-1])
         ),
-        "peak_abs_true_alpha_deg": float(np.degrees(np.nanmax(np.abs(moving_alpha(arrays))))),
+        "path_error_rms_m": None,
+        "path_error_max_m": None,
+        "peak_abs_true_alpha_deg": float(np.degrees(np.nanmax(np.abs(moving_alpha(arrays)), initial=0.0))),
         "peak_abs_slip_ratio": float(
             np.nanmax(np.abs(np.concatenate([arrays["true_slip_R"], arrays["true_slip_L"]])))
         ),
+        "max_abs_wheel_command_m_s": float(np.nanmax(np.abs(np.r_[arrays["cmd_R"], arrays["cmd_L"]]))),
+        "min_step_size": float(np.nanmin(arrays["step_size"]))
+        if np.isfinite(arrays["step_size"]).any()
+        else None,
         "wall_time_s": wall,
         "realtime_factor": float(arrays["t"][-1] / wall) if wall > 0 else None,
     }
+    if geometric is not None:  # until completion: the robot's braking after the end is not tracking
+        until = arrays["t"] <= (completion if completion is not None else np.inf)
+        err = path_distance(arrays["true_x"][until], arrays["true_y"][until], geometric)
+        summary["path_error_rms_m"] = float(np.sqrt(np.mean(err**2)))
+        summary["path_error_max_m"] = float(np.max(err))
     return RunResult(scenario=scenario, seed=seed, arrays=arrays, summary=summary, reference=reference)
+
+
+def _completion_check(built, context, mode, reference, path):
+    """A function returning the completion time once the reference is finished, else None."""
+    if mode == "trajectory":
+        logger, end = built.loggers["progress"], reference.num_samples - 1
+    else:
+        logger, end = built.loggers["virtual_target"], path.length - 1e-9
+
+    def done():
+        log = logger.FindLog(context)
+        values = log.data()[0]
+        hits = np.flatnonzero(values >= end)
+        return float(log.sample_times()[hits[0]]) if len(hits) else None
+
+    return done
+
+
+def path_distance(x, y, path: Path, chunk: int = 512) -> np.ndarray:
+    """Distance of each point (x, y) from the path polyline's nearest vertex (1 mm grid)."""
+    px, py = path.x[:, None], path.y[:, None]
+    out = np.empty(len(x))
+    for i in range(0, len(x), chunk):
+        dx = px - x[None, i : i + chunk]
+        dy = py - y[None, i : i + chunk]
+        out[i : i + chunk] = np.sqrt(np.min(dx * dx + dy * dy, axis=0))
+    return out
 
 
 def moving_alpha(arrays, min_speed: float = 0.2) -> np.ndarray:
@@ -198,6 +322,14 @@ def collect_arrays(loggers, context, wheel_radius: float) -> dict:
     a["meas_enc_R"], a["meas_enc_L"] = enc[0].copy(), enc[1].copy()
     cmd = data("command")
     a["cmd_R"], a["cmd_L"] = cmd[0].copy(), cmd[1].copy()
+    for key, name in (
+        ("V1", "V1"),
+        ("step_size", "step_size"),
+        ("progress", "progress"),
+        ("virtual_target", "virtual_target"),
+    ):
+        if name in logs:
+            a[key] = data(name)[0].copy()
     ref = data("reference_pose")
     a["ref_x"], a["ref_y"], a["ref_phi"] = ref[0].copy(), ref[1].copy(), ref[2].copy()
     if "nav_pose" in logs:

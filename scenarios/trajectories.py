@@ -357,3 +357,17 @@ def trajectory_along_path(path: Path, speed: float, T_C: float) -> Trajectory:
         kappa=kappa,
         s=s,
     )
+
+
+def trajectory_path(config: TrajectoryConfig, pose0=(0.0, 0.0, 0.0)) -> Path:
+    """The geometric path of a trajectory (its rolling segments, repeated), for the path follower."""
+    segments = []
+    for _ in range(config.repeat):
+        for i, seg in enumerate(config.segments):
+            if isinstance(seg, (SpotTurn, Pause)):
+                raise TrajectoryError(
+                    f"trajectory.segments[{i}] ({type(seg).__name__}): the closed loop follows the "
+                    "trajectory's path with a path follower, which needs rolling segments (CosineTurn, Arc)"
+                )
+            segments.append(dc.replace(seg, v_end=None, v_peak=None))
+    return build_path(PathConfig(segments=segments), pose0)

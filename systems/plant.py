@@ -203,7 +203,7 @@ def kurt3d() -> RobotParameters:
     Six 16 cm wheels lumped into one wheel per side (skid steering treated as differential drive, as the
     paper does); no shoes. Mass ~22 kg and a 0.45 m x 0.4 m box for the yaw inertia (assumptions).
     """
-    v_no_load = 4.3
+    v_no_load = 5.0  # headroom above V_m = 4.1 m/s so that the speed loop can hold V_m
     k = 24.0 * 0.08 / v_no_load
     return RobotParameters(
         name="kurt3d",

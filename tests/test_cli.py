@@ -38,29 +38,88 @@ def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, c
     for key in SCALAR_KEYS:
         assert data[key].shape == (), key
     assert float(data["T_N"]) == 0.002 and float(data["T_C"]) == 0.02
-    for key in ("step_size", "progress", "V1"):  # control blocks not in the open-loop diagram: NaN
-        assert np.all(np.isnan(data[key])), key
-    for key in ("true_x", "cmd_R", "est_x", "est_alpha", "odo_x", "gyro_phi", "C1", "C2", "C3", "delta_v"):
+    trajectory_mode = name in ("corner", "square")
+    for key in ("step_size", "progress"):  # slip control exists in trajectory mode only
+        assert np.all(np.isfinite(data[key]) == trajectory_mode), key
+    for key in (
+        "true_x",
+        "cmd_R",
+        "est_x",
+        "est_alpha",
+        "odo_x",
+        "gyro_phi",
+        "C1",
+        "C2",
+        "C3",
+        "delta_v",
+        "V1",
+        "ref_x",
+        "ref_phi",
+    ):
         assert np.all(np.isfinite(data[key])), key
     summary = json.loads((tmp_path / f"{name}.summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["seed"] == 3 and summary["scenario"] == name
     assert all(v is not None for v in summary["final_position_error_m"].values())
-    for fig in ("path", "speeds", "slip"):
+    for fig in ("path", "speeds", "slip", "navigation", "control"):
         assert (tmp_path / f"{name}.{fig}.png").stat().st_size > 10_000
 
 
 def test_corner_slides_sideways_and_square_spins_wheels_open_loop(tmp_path):
     """Issue 2's done-criterion: visible side-slip in the corner, tangential slip in the square."""
-    assert main(["run", "corner", "--out", str(tmp_path), "--no-figures"]) == 0
+    assert main(["run", "corner", "--out", str(tmp_path), "--no-figures", "--open-loop"]) == 0
     corner = json.loads((tmp_path / "corner.summary.json").read_text())
     assert corner["peak_abs_true_alpha_deg"] > 5.0
     assert corner["completion_time_s"] is not None
-    assert main(["run", "square", "--out", str(tmp_path), "--no-figures", "--duration", "1.0"]) == 0
+    assert (
+        main(["run", "square", "--out", str(tmp_path), "--no-figures", "--duration", "1.0", "--open-loop"])
+        == 0
+    )
     square = np.load(tmp_path / "square.npz")
     slip_speed = square["true_wheel_R"] - square["true_v_t"]
-    assert np.max(np.abs(slip_speed)) > 0.5  # wheels run 0.5 m/s ahead of / behind the body
+    assert np.max(np.abs(slip_speed)) > 0.4  # wheels run 0.4 m/s ahead of / behind the body
     assert np.max(np.abs(np.degrees(square["true_alpha"][square["true_v_t"] > 0.2]))) < 1.0
+    assert np.all(np.isnan(square["V1"]))  # no controller in the open loop
+
+
+def test_control_flags(tmp_path):
+    assert (
+        main(
+            [
+                "run",
+                "corner",
+                "--out",
+                str(tmp_path),
+                "--no-figures",
+                "--duration",
+                "0.5",
+                "--no-slip-control",
+            ]
+        )
+        == 0
+    )
+    data = np.load(tmp_path / "corner.npz")
+    assert np.all(data["step_size"] == 1.0)
+    summary = json.loads((tmp_path / "corner.summary.json").read_text())
+    assert summary["slip_control"] is False
+    assert (
+        main(
+            [
+                "run",
+                "circle",
+                "--out",
+                str(tmp_path),
+                "--no-figures",
+                "--duration",
+                "1.0",
+                "--speed-law",
+                "constant",
+            ]
+        )
+        == 0
+    )
+    data = np.load(tmp_path / "circle.npz")
+    assert np.max(data["cmd_R"]) <= 0.5 * float(data["V_m"]) * 1.3  # u = V_m/2 plus steering
 
 
 @pytest.mark.parametrize(
@@ -87,3 +146,10 @@ def test_yaml_file_scenario(tmp_path, capsys):
     bad.write_text("trajectory:\n  segmnts: []\n")
     assert main(["run", str(bad), "--out", str(tmp_path)]) == 2
     assert "trajectory.segmnts is an unknown key" in capsys.readouterr().err
+
+
+def test_bad_choice_exits_2(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["run", "corner", "--speed-law", "fast"])
+    assert e.value.code == 2
+    assert "invalid choice: 'fast'" in capsys.readouterr().err

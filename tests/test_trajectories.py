@@ -53,13 +53,16 @@ def test_corner_trajectory_closed_form():
 
 def test_square_closes_and_demands_high_acceleration():
     tr, _ = reference_for(load_scenario("square"))
-    assert tr.x[-1] == pytest.approx(0.0, abs=1e-9) and tr.y[-1] == pytest.approx(0.0, abs=1e-9)
+    # Four (1 m side + 90 deg turn) close the loop; the 5 cm run-up and run-out lie on the first side.
+    assert tr.x[-1] == pytest.approx(0.1, abs=1e-6) and tr.y[-1] == pytest.approx(0.0, abs=1e-6)
     assert tr.phi[-1] == pytest.approx(2 * math.pi, abs=1e-9)
-    assert tr.length == pytest.approx(4.0, abs=1e-9)
+    assert tr.length == pytest.approx(4 * 1.0 + 4 * 0.3 + 0.1, abs=1e-9)
     peak_accel = np.max(np.abs(np.diff(tr.v))) / tr.T_C
     assert peak_accel > 1.3 * 0.7 * 9.81 * 0.8  # beyond the traction limit: wheels must slip
-    # Sinusoidal speed: v_peak * sin^2, peak acceleration pi * v_peak / T with T = 2 L / v_peak.
-    assert peak_accel == pytest.approx(math.pi * 2.2 / (2 * 1.0 / 2.2), rel=0.01)
+    # Sinusoidal bump v0 + (v_peak - v0) sin^2: peak acceleration pi (v_peak - v0) / T, T = 2 L/(v0 + v_peak).
+    assert peak_accel == pytest.approx(math.pi * (2.2 - 0.3) / (2 * 1.0 / 2.5), rel=0.01)
+    # The turns are sinusoidal in yaw rate at 0.3 m/s: peak kappa = 2 * (pi/2) / 0.3.
+    assert np.max(tr.kappa) == pytest.approx(math.pi / 0.3, rel=1e-3)
 
 
 def test_circle_path_and_its_open_loop_trajectory():
@@ -77,7 +80,7 @@ def test_long_path_has_turns_of_different_radii():
     scenario = load_scenario("long_path")
     path = build_path(scenario.path)
     radii = {round(1.0 / abs(k), 3) for k in np.unique(np.round(path.kappa, 6)) if k != 0}
-    assert radii == {1.0, 1.5, 2.0, 3.0}
+    assert radii == {2.5, 3.0, 4.0, 5.0}
     assert path.max_abs_curvature < 1.0 / (0.5 * scenario.robot_parameters().track_width)  # I(7)
 
 

@@ -1,0 +1,214 @@
+"""Slip control of Seyr & Jakubek §V: step size S(22)-(23), progress S(24) and trajectory interpolation
+S(25) along a pre-planned trajectory, at T_C; plus the speed command that makes the path follower track
+the interpolated reference.
+
+How the follower uses the reference (our design, §V leaves the tracking controller open): the follower
+follows the trajectory's geometric path (Indiveri's law), with speed
+
+    u_K = delta_K v_ref(Pi_K) + k_s (s_ref(Pi_K) - s_K),
+
+the reference speed expanded by the step size (S(25): "the progression of velocities ... is expanded or
+compressed according to delta") plus a correction of the arc-length lag of the virtual target s behind
+the interpolated reference point. delta < 1 slows the robot along the same path; delta > 1 catches up.
+"""
+
+import dataclasses as dc
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from systems.mixing import logsig
+
+
+@dc.dataclass
+class StepSizeParameters:
+    """Tuning of S(22)-(23) (§V's list).
+
+    Args:
+        delta_min: minimum step size (< 1): the speed reduction under slip; 0.75. A deeper cut brakes
+            hard inside the corner and saturates the friction circle (corner: delta_min 0.4 slid more than
+            no slip control at all; 0.75 halves the peak side-slip angle).
+        delta_max: maximum step size (> 1): how fast the trajectory is recovered; 1.4.
+        q_delta: geometric growth factor of the step size after a reduction; 1.05 per T_C (too large
+            gives the limit cycle the paper warns of).
+        a4: steepness of the side-slip switch (1/rad); 150 -> 10 %-90 % over 1.7 deg.
+        b4: side-slip threshold (rad); 1.5 deg: react early, while braking is still cheap. False triggers
+            on straights are excluded by S(20), which zeroes alpha below c_alpha.
+        delta_rem: step size after overshooting the trajectory (< 1); 0.9.
+        c_delta, d_delta: upper/lower thresholds on K - Pi_K (control samples) of S(23); 0.5 and -0.5.
+        k_s: arc-length lag gain of the speed command (1/s); 2.
+    """
+
+    delta_min: float = 0.75
+    delta_max: float = 1.4
+    q_delta: float = 1.05
+    a4: float = 150.0
+    b4: float = math.radians(1.5)
+    delta_rem: float = 0.9
+    c_delta: float = 0.5
+    d_delta: float = -0.5
+    k_s: float = 2.0
+
+    def __post_init__(self):
+        checks = (
+            ("delta_min", 0.0 < self.delta_min < 1.0, "(0, 1)"),
+            ("delta_max", 1.0 < self.delta_max <= 10.0, "(1, 10]"),
+            ("q_delta", 1.0 < self.q_delta <= 10.0, "(1, 10]"),
+            ("a4", self.a4 > 0.0, "(0, inf)"),
+            ("b4", 0.0 < self.b4 < math.pi / 2, "(0, pi/2)"),
+            ("delta_rem", 0.0 < self.delta_rem < 1.0, "(0, 1)"),
+            ("c_delta", math.isfinite(self.c_delta), "finite"),
+            ("k_s", self.k_s >= 0.0, "[0, inf)"),
+        )
+        for name, ok, allowed in checks:
+            if not ok:
+                raise ValueError(
+                    f"slip_control.{name}={getattr(self, name)!r} is out of range: allowed {allowed}"
+                )
+        if not self.d_delta < self.c_delta:
+            raise ValueError(
+                f"slip_control.d_delta={self.d_delta!r} is out of range: "
+                f"allowed (-inf, c_delta={self.c_delta})"
+            )
+
+
+def max_step_size(lag: float, p: StepSizeParameters) -> float:
+    """S(23) on lag = K - Pi_K: delta_max behind, 1 near, delta_rem ahead of the trajectory."""
+    if lag > p.c_delta:
+        return p.delta_max
+    if lag > p.d_delta:
+        return 1.0
+    return p.delta_rem
+
+
+def step_size(delta_prev: float, c1: float, alpha: float, lag: float, p: StepSizeParameters) -> float:
+    """S(22): delta_K = min(max(delta_K-1 (delta_min + min(C1, logsig(a4(|alpha| - b4))) (q - delta_min)),
+    delta_min), delta_max,K)."""
+    safe = min(c1, logsig(p.a4, abs(alpha), p.b4))
+    grown = delta_prev * (p.delta_min + safe * (p.q_delta - p.delta_min))
+    return min(max(grown, p.delta_min), max_step_size(lag, p))
+
+
+def interpolate(table: np.ndarray, index: float) -> np.ndarray:
+    """S(25): ^T x(floor(i)) + (i - floor(i)) (^T x(ceil(i)) - ^T x(floor(i))), clamped to the table."""
+    last = len(table) - 1
+    index = min(max(index, 0.0), float(last))
+    lo = int(math.floor(index))
+    hi = min(lo + 1, last)
+    return table[lo] + (index - lo) * (table[hi] - table[lo])
+
+
+class StepSizeController(LeafSystem):
+    """Step size S(22)-(23) and progress S(24) every T_C.
+
+    .. pydrake_system::
+
+        name: StepSizeController
+        input_ports:
+        - C1
+        - side_slip_angle
+        output_ports:
+        - step_size
+        - progress
+
+    - C1: the navigation's tangential-slip mixing parameter; side_slip_angle: alpha_K of S(19).
+    - step_size: delta_K (state); progress: Pi_K (state), the position on the pre-planned trajectory.
+
+    Update at t_K = K T_C: delta_K from delta_K-1, C1 and alpha (S(22)) bounded by S(23) on K - Pi_K,
+    then Pi_K+1 = Pi_K + delta_K (S(24)). ``enabled=False`` keeps delta = 1 (Pi_K = K): slip control off.
+    """
+
+    def __init__(self, params: StepSizeParameters, T_C: float, enabled: bool = True):
+        super().__init__()
+        self._p, self._T_C, self._enabled = params, T_C, enabled
+        self._c1 = self.DeclareVectorInputPort("C1", 1)
+        self._alpha = self.DeclareVectorInputPort("side_slip_angle", 1)
+        self._delta = self.DeclareDiscreteState([1.0])
+        self._progress = self.DeclareDiscreteState([0.0])
+        self.DeclareStateOutputPort("step_size", self._delta)
+        self.DeclareStateOutputPort("progress", self._progress)
+        self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
+
+    def _update(self, context, discrete_state):
+        K = round(context.get_time() / self._T_C)
+        progress = context.get_discrete_state(self._progress).get_value()[0]
+        delta = context.get_discrete_state(self._delta).get_value()[0]
+        if self._enabled:
+            delta = step_size(
+                delta, self._c1.Eval(context)[0], self._alpha.Eval(context)[0], K - progress, self._p
+            )
+        else:
+            delta = 1.0
+        discrete_state.set_value(self._delta, [delta])
+        discrete_state.set_value(self._progress, [progress + delta])
+
+
+class TrajectoryInterpolator(LeafSystem):
+    """Reference horizon S(25) at Pi_K + i delta_K, i = 0..horizon-1, and the follower's speed command.
+
+    .. pydrake_system::
+
+        name: TrajectoryInterpolator
+        input_ports:
+        - step_size
+        - progress
+        - virtual_target
+        output_ports:
+        - reference_pose
+        - reference_horizon
+        - speed
+
+    - step_size, progress: delta_K and Pi_K from the StepSizeController (read at t_K, i.e. the values
+      set at the previous control instant: delta_K-1 and Pi_K).
+    - virtual_target: the follower's s.
+    - reference_pose: [x, y, phi] at Pi (direct feedthrough); reference_horizon: (horizon x 3) poses.
+    - speed: u = delta v_ref(Pi) + k_s (s_ref(Pi) - s), zero once the trajectory's end is reached.
+
+    Args:
+        trajectory: scenarios.trajectories.Trajectory (sampled at T_C). params: StepSizeParameters.
+        horizon: number of reference points.
+    """
+
+    def __init__(self, trajectory, params: StepSizeParameters, horizon: int = 10):
+        super().__init__()
+        if not (isinstance(horizon, int) and horizon >= 1):
+            raise ValueError(f"horizon={horizon!r} is out of range: allowed 1, 2, ...")
+        self._table = np.column_stack(
+            [trajectory.x, trajectory.y, trajectory.phi, trajectory.v, trajectory.s]
+        )
+        self._end = float(len(self._table) - 1)
+        self._k_s, self._H = params.k_s, horizon
+        self._delta = self.DeclareVectorInputPort("step_size", 1)
+        self._progress = self.DeclareVectorInputPort("progress", 1)
+        self._s = self.DeclareVectorInputPort("virtual_target", 1)
+        self.DeclareVectorOutputPort(
+            "reference_pose",
+            3,
+            lambda c, o: o.SetFromVector(interpolate(self._table, self._pi(c))[0:3]),
+            prerequisites_of_calc={self._progress.ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "reference_horizon",
+            3 * horizon,
+            self._calc_horizon,
+            prerequisites_of_calc={self._progress.ticket(), self._delta.ticket()},
+        )
+        self.DeclareVectorOutputPort("speed", 1, self._calc_speed)
+
+    def _pi(self, context):
+        return self._progress.Eval(context)[0]
+
+    def _calc_horizon(self, context, output):
+        pi, delta = self._pi(context), self._delta.Eval(context)[0]
+        rows = [interpolate(self._table, pi + i * delta)[0:3] for i in range(self._H)]
+        output.SetFromVector(np.concatenate(rows))
+
+    def _calc_speed(self, context, output):
+        pi = self._pi(context)
+        ref = interpolate(self._table, pi)
+        if pi >= self._end:
+            output.SetFromVector([0.0])
+            return
+        u = self._delta.Eval(context)[0] * ref[3] + self._k_s * (ref[4] - self._s.Eval(context)[0])
+        output.SetFromVector([max(u, 0.0)])
