@@ -6,10 +6,10 @@ import dataclasses as dc
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer
 
-from diagrams.navigation import NAVIGATION_OUTPUTS, build_navigation_diagram
+from diagrams.navigation import add_navigation
 from diagrams.open_loop import LoggedDiagram, add_loggers, robot_ports
 from diagrams.robot import add_robot_with_sensors
-from systems.navigation import NavigationInitialState, NavigationParameters
+from systems.navigation import NavigationParameters
 from systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
 from systems.plant import RobotParameters
 from systems.rates import SampleRates
@@ -54,17 +54,9 @@ def build_closed_loop_diagram(
     handles = add_robot_with_sensors(
         builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed
     )
-    nav = builder.AddSystem(
-        build_navigation_diagram(
-            navigation,
-            rates,
-            robot.wheel_radius,
-            robot.track_width,
-            NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
-        )
+    nav, nav_ports = add_navigation(
+        builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose
     )
-    for name in ("accelerometers", "gyro", "encoders"):
-        builder.Connect(handles.sensors.GetOutputPort(name), nav.GetInputPort(name))
 
     follower = builder.AddSystem(
         LyapunovPathFollower(control.follower, control.path, robot.track_width, rates.T_C)
@@ -95,9 +87,7 @@ def build_closed_loop_diagram(
     )
 
     ports = robot_ports(handles)
-    ports.update(
-        {f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"}
-    )
+    ports.update(nav_ports)
     ports["command"] = saturator.GetOutputPort("saturated_command")
     ports["V1"] = follower.GetOutputPort("lyapunov_value")
     ports["virtual_target"] = follower.GetOutputPort("virtual_target")

@@ -203,3 +203,25 @@ def build_navigation_replay(
     diagram = b.Build()
     diagram.set_name("navigation_replay")
     return diagram, loggers
+
+
+def add_navigation(
+    builder, sensors, navigation, rates, robot, initial_speed=0.0, initial_pose=(0.0, 0.0, 0.0)
+):
+    """Add the navigation diagram fed by ``sensors`` (ProprioceptiveSensors) to ``builder``.
+
+    Returns (navigation subsystem, its output ports keyed ``nav_<name>`` for logging).
+    """
+    nav = builder.AddSystem(
+        build_navigation_diagram(
+            navigation,
+            rates,
+            robot.wheel_radius,
+            robot.track_width,
+            NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
+        )
+    )
+    for name in ("accelerometers", "gyro", "encoders"):
+        builder.Connect(sensors.GetOutputPort(name), nav.GetInputPort(name))
+    ports = {f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"}
+    return nav, ports

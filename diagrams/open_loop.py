@@ -8,10 +8,10 @@ import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, VectorLogSink
 
-from diagrams.navigation import NAVIGATION_OUTPUTS, build_navigation_diagram
+from diagrams.navigation import add_navigation
 from diagrams.robot import RobotHandles, add_robot_with_sensors
 from systems.feedforward import TrajectoryFeedforward
-from systems.navigation import NavigationInitialState, NavigationParameters
+from systems.navigation import NavigationParameters
 from systems.plant import RobotParameters
 from systems.rates import SampleRates
 from systems.sensors import SensorParameters
@@ -68,20 +68,9 @@ def build_open_loop_diagram(
     )
     nav_ports = {}
     if navigation is not None:
-        nav = builder.AddSystem(
-            build_navigation_diagram(
-                navigation,
-                rates,
-                robot.wheel_radius,
-                robot.track_width,
-                NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
-            )
+        _, nav_ports = add_navigation(
+            builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose
         )
-        for name in ("accelerometers", "gyro", "encoders"):
-            builder.Connect(handles.sensors.GetOutputPort(name), nav.GetInputPort(name))
-        nav_ports = {
-            f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"
-        }
     feedforward = builder.AddSystem(TrajectoryFeedforward(rates.T_C, wheel_speeds, reference_poses))
     feedforward.set_name("Trajectory feed-forward")
     builder.Connect(

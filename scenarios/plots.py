@@ -170,44 +170,34 @@ def plot_associated_points(a, reference, ax, every: float = 0.2):
 
 
 def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
-    """path.png, speeds.png and slip.png prefixed with the scenario name; returns their paths."""
+    """<name>.path/.speeds/.navigation/.control/.slip.png (navigation and control when present)."""
     out = FilePath(out_dir)
     files = []
-    fig, ax = plt.subplots(figsize=(6, 6))
-    plot_path(a, reference, ax)
-    plot_associated_points(a, reference, ax)
-    ax.set_title(f"{name}: path" + (" (grey: nominal point K linked to Pi_K)" if _has(a, "progress") else ""))
-    files.append(out / f"{name}.path.png")
-    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-    plt.close(fig)
 
-    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
-    plot_speeds(a, reference, axes)
-    axes[0].set_title(f"{name}: speeds")
-    files.append(out / f"{name}.speeds.png")
-    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    def figure(suffix, rows, size, draw, title):
+        fig, axes = plt.subplots(rows, 1, figsize=size, sharex=rows > 1)
+        draw(axes)
+        (axes if rows == 1 else axes[0]).set_title(f"{name}: {title}")
+        files.append(out / f"{name}.{suffix}.png")
+        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+        plt.close(fig)
 
+    def path(ax):
+        plot_path(a, reference, ax)
+        plot_associated_points(a, reference, ax)
+
+    linked = " (grey: nominal point K linked to Pi_K)" if _has(a, "progress") else ""
+    figure("path", 1, (6, 6), path, "path" + linked)
+    figure("speeds", 3, (9, 8), lambda axes: plot_speeds(a, reference, axes), "speeds")
     if _has(a, "est_v_t"):
-        fig, axes = plt.subplots(5, 1, figsize=(9, 11), sharex=True)
-        plot_navigation(a, axes)
-        axes[0].set_title(f"{name}: navigation estimates vs truth (grey: detected tangential slip)")
-        files.append(out / f"{name}.navigation.png")
-        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-        plt.close(fig)
-
+        figure(
+            "navigation",
+            5,
+            (9, 11),
+            lambda axes: plot_navigation(a, axes),
+            "navigation estimates vs truth (grey: detected tangential slip)",
+        )
     if _has(a, "V1") or _has(a, "step_size"):
-        fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
-        plot_control(a, reference, axes)
-        axes[0].set_title(f"{name}: control")
-        files.append(out / f"{name}.control.png")
-        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-        plt.close(fig)
-
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
-    plot_slip(a, axes)
-    axes[0].set_title(f"{name}: slip")
-    files.append(out / f"{name}.slip.png")
-    fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-    plt.close(fig)
+        figure("control", 2, (9, 6), lambda axes: plot_control(a, reference, axes), "control")
+    figure("slip", 2, (9, 6), lambda axes: plot_slip(a, axes), "slip")
     return files
