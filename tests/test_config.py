@@ -1,5 +1,7 @@
 """Scenario YAML loading: strict schema, errors that name the key."""
 
+import math
+
 import pytest
 
 from scenarios.config import ScenarioError, builtin_scenarios, load_scenario, scenario_from_yaml
@@ -87,3 +89,19 @@ def test_missing_file_and_unknown_name(tmp_path):
         load_scenario(str(tmp_path / "nope.yaml"))
     with pytest.raises(ScenarioError, match="neither a built-in"):
         load_scenario("nope")
+
+
+def test_readme_example_scenario_loads_and_builds():
+    """The scenario example in README.md is valid as written."""
+    import re
+    from pathlib import Path
+
+    from scenarios.runner import follower_path, reference_for
+
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    example = re.search(r"```yaml\n(.*?)```", readme, re.S).group(1)
+    scenario = scenario_from_yaml(example, name="readme")
+    assert scenario.follower.epsilon == 0.05 and scenario.slip_control.delta_min == 0.75
+    reference, _ = reference_for(scenario)
+    assert reference.length == pytest.approx(1.0 + 1.0 + 0.5 * math.pi / 4 + 1.0 + 0.5)
+    assert follower_path(scenario).length == pytest.approx(reference.length)
