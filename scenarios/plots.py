@@ -142,7 +142,8 @@ def plot_control(a, reference, axes):
         ax2.plot(t, a["progress"] - K, "C1", lw=0.8, label="$\\Pi_K - K$")
         ax2.set_ylabel("$\\Pi_K - K$ (samples)", color="C1")
     else:
-        ax.semilogy(t, np.maximum(a["V1"], 1e-9), "C0", label="$V_1$ I(14)")
+        V1 = np.where(np.isfinite(a["V1"]), a["V1"], np.nan)
+        ax.semilogy(t, np.maximum(V1, 1e-9), "C0", label="$V_1$ I(14)")
     ax.legend(loc="upper left", fontsize=7)
     ax = axes[1]
     ax.plot(t, a["cmd_R"], "C1", lw=0.8, label="command R")

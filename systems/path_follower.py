@@ -166,7 +166,8 @@ class LyapunovPathFollower(LeafSystem):
         self._pose = self.DeclareVectorInputPort("estimated_pose", 3)
         self._measured_speed = self.DeclareVectorInputPort("estimated_speed", 1)
         self._speed = self.DeclareVectorInputPort("speed", 1)
-        self._state = self.DeclareDiscreteState(np.array([s0, 0.0, 0.0, 1e9, 0.0, 0.0, 0.0]))
+        # V1 = +inf until the first update: I(24) starts conservatively at V_m/2.
+        self._state = self.DeclareDiscreteState(np.array([s0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0]))
         self.DeclareVectorOutputPort(
             "wheel_speed_command",
             2,

@@ -52,11 +52,11 @@ def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, c
         "C2",
         "C3",
         "delta_v",
-        "V1",
         "ref_x",
         "ref_phi",
     ):
         assert np.all(np.isfinite(data[key])), key
+    assert data["V1"][0] == np.inf and np.all(np.isfinite(data["V1"][1:]))  # +inf before 1st update
     summary = json.loads((tmp_path / f"{name}.summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["seed"] == 3 and summary["scenario"] == name
