@@ -39,30 +39,39 @@ class ControlSettings:
     speed_law: str = "bounded"
 
 
-def build_closed_loop_diagram(
-    robot: RobotParameters,
-    sensor_params: SensorParameters,
-    rates: SampleRates,
-    navigation: NavigationParameters,
-    control: ControlSettings,
-    seed: int,
-    initial_pose=(0.0, 0.0, 0.0),
-    initial_speed: float = 0.0,
-) -> LoggedDiagram:
-    """The full closed loop, with every signal of the run artifact logged every T_N."""
-    builder = DiagramBuilder()
-    handles = add_robot_with_sensors(
-        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed
-    )
-    nav, nav_ports = add_navigation(
-        builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose
-    )
+CONTROL_OUTPUTS = ("wheel_speed_command", "V1", "virtual_target", "frenet_errors", "reference_pose")
+TRAJECTORY_OUTPUTS = ("step_size", "progress")
 
-    follower = builder.AddSystem(
-        LyapunovPathFollower(control.follower, control.path, robot.track_width, rates.T_C)
-    )
+
+def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: RobotParameters):
+    """The control blocks as one Diagram, acting on the navigation estimate.
+
+    .. pydrake_system::
+
+        name: control
+        input_ports:
+        - estimated_pose
+        - mixed_estimate
+        - C1
+        - side_slip_angle
+        output_ports:
+        - wheel_speed_command
+        - V1
+        - virtual_target
+        - frenet_errors
+        - reference_pose
+        - step_size
+        - progress
+
+    ``wheel_speed_command`` is the saturated command for the plant. ``step_size`` and ``progress`` exist
+    in trajectory mode only; C1 and side_slip_angle are inputs there only.
+    """
+    if control.mode not in ("trajectory", "max_speed"):
+        raise ValueError(f"mode={control.mode!r} is unknown: allowed 'trajectory', 'max_speed'")
+    b = DiagramBuilder()
+    follower = b.AddSystem(LyapunovPathFollower(control.follower, control.path, robot.track_width, rates.T_C))
     follower.set_name("Lyapunov path follower")
-    saturator = builder.AddSystem(
+    saturator = b.AddSystem(
         WheelSpeedSaturator(
             control.path,
             robot.wheel_speed_limit,
@@ -72,46 +81,78 @@ def build_closed_loop_diagram(
         )
     )
     saturator.set_name("Wheel-speed saturator")
-    builder.Connect(nav.GetOutputPort("pose"), follower.GetInputPort("estimated_pose"))
-    speed = builder.AddSystem(Demultiplexer([1, 4]))
+    speed = b.AddSystem(Demultiplexer([1, 4]))
     speed.set_name("Estimated speed")
-    builder.Connect(nav.GetOutputPort("mixed_estimate"), speed.get_input_port(0))
-    builder.Connect(speed.get_output_port(0), follower.GetInputPort("estimated_speed"))
-    builder.Connect(follower.GetOutputPort("lyapunov_value"), saturator.GetInputPort("lyapunov_value"))
-    builder.Connect(follower.GetOutputPort("virtual_target"), saturator.GetInputPort("virtual_target"))
-    builder.Connect(
-        follower.GetOutputPort("wheel_speed_command"), saturator.GetInputPort("wheel_speed_command")
+    b.ExportInput(follower.GetInputPort("estimated_pose"), "estimated_pose")
+    b.ExportInput(speed.get_input_port(0), "mixed_estimate")
+    b.Connect(speed.get_output_port(0), follower.GetInputPort("estimated_speed"))
+    b.Connect(follower.GetOutputPort("lyapunov_value"), saturator.GetInputPort("lyapunov_value"))
+    b.Connect(follower.GetOutputPort("virtual_target"), saturator.GetInputPort("virtual_target"))
+    b.Connect(follower.GetOutputPort("wheel_speed_command"), saturator.GetInputPort("wheel_speed_command"))
+    b.ExportOutput(saturator.GetOutputPort("saturated_command"), "wheel_speed_command")
+    b.ExportOutput(follower.GetOutputPort("lyapunov_value"), "V1")
+    b.ExportOutput(follower.GetOutputPort("virtual_target"), "virtual_target")
+    b.ExportOutput(follower.GetOutputPort("frenet_errors"), "frenet_errors")
+    if control.mode == "trajectory":
+        step = b.AddSystem(StepSizeController(control.step_size, rates.T_C, control.slip_control))
+        step.set_name("Step-size controller")
+        interpolator = b.AddSystem(TrajectoryInterpolator(control.trajectory, control.step_size))
+        interpolator.set_name("Trajectory interpolator")
+        b.ExportInput(step.GetInputPort("C1"), "C1")
+        b.ExportInput(step.GetInputPort("side_slip_angle"), "side_slip_angle")
+        b.Connect(step.GetOutputPort("step_size"), interpolator.GetInputPort("step_size"))
+        b.Connect(step.GetOutputPort("progress"), interpolator.GetInputPort("progress"))
+        b.Connect(follower.GetOutputPort("virtual_target"), interpolator.GetInputPort("virtual_target"))
+        b.Connect(interpolator.GetOutputPort("speed"), follower.GetInputPort("speed"))
+        b.ExportOutput(interpolator.GetOutputPort("reference_pose"), "reference_pose")
+        b.ExportOutput(step.GetOutputPort("step_size"), "step_size")
+        b.ExportOutput(step.GetOutputPort("progress"), "progress")
+    else:
+        b.Connect(saturator.GetOutputPort("speed"), follower.GetInputPort("speed"))
+        b.ExportOutput(follower.GetOutputPort("path_point"), "reference_pose")
+    diagram = b.Build()
+    diagram.set_name("control")
+    return diagram
+
+
+def build_closed_loop_diagram(
+    robot: RobotParameters,
+    sensor_params: SensorParameters,
+    rates: SampleRates,
+    navigation: NavigationParameters,
+    control: ControlSettings,
+    seed: int,
+    initial_pose=(0.0, 0.0, 0.0),
+    initial_speed: float = 0.0,
+    log: bool = True,
+) -> LoggedDiagram:
+    """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
+    (``log=False`` leaves the loggers out, e.g. for a block-diagram picture)."""
+    builder = DiagramBuilder()
+    handles = add_robot_with_sensors(
+        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed
     )
+    nav, nav_ports = add_navigation(
+        builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose
+    )
+    ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
+    builder.Connect(nav.GetOutputPort("pose"), ctrl.GetInputPort("estimated_pose"))
+    builder.Connect(nav.GetOutputPort("mixed_estimate"), ctrl.GetInputPort("mixed_estimate"))
+    if control.mode == "trajectory":
+        builder.Connect(nav.GetOutputPort("C1"), ctrl.GetInputPort("C1"))
+        builder.Connect(nav.GetOutputPort("side_slip_angle"), ctrl.GetInputPort("side_slip_angle"))
     builder.Connect(
-        saturator.GetOutputPort("saturated_command"), handles.plant.GetInputPort("wheel_speed_command")
+        ctrl.GetOutputPort("wheel_speed_command"), handles.plant.GetInputPort("wheel_speed_command")
     )
 
-    ports = robot_ports(handles)
-    ports.update(nav_ports)
-    ports["command"] = saturator.GetOutputPort("saturated_command")
-    ports["V1"] = follower.GetOutputPort("lyapunov_value")
-    ports["virtual_target"] = follower.GetOutputPort("virtual_target")
-    ports["frenet_errors"] = follower.GetOutputPort("frenet_errors")
-    if control.mode == "trajectory":
-        step = builder.AddSystem(StepSizeController(control.step_size, rates.T_C, control.slip_control))
-        step.set_name("Step-size controller")
-        interpolator = builder.AddSystem(TrajectoryInterpolator(control.trajectory, control.step_size))
-        interpolator.set_name("Trajectory interpolator")
-        builder.Connect(nav.GetOutputPort("C1"), step.GetInputPort("C1"))
-        builder.Connect(nav.GetOutputPort("side_slip_angle"), step.GetInputPort("side_slip_angle"))
-        builder.Connect(step.GetOutputPort("step_size"), interpolator.GetInputPort("step_size"))
-        builder.Connect(step.GetOutputPort("progress"), interpolator.GetInputPort("progress"))
-        builder.Connect(follower.GetOutputPort("virtual_target"), interpolator.GetInputPort("virtual_target"))
-        builder.Connect(interpolator.GetOutputPort("speed"), follower.GetInputPort("speed"))
-        ports["step_size"] = step.GetOutputPort("step_size")
-        ports["progress"] = step.GetOutputPort("progress")
-        ports["reference_pose"] = interpolator.GetOutputPort("reference_pose")
-    elif control.mode == "max_speed":
-        builder.Connect(saturator.GetOutputPort("speed"), follower.GetInputPort("speed"))
-        ports["reference_pose"] = follower.GetOutputPort("path_point")
-    else:
-        raise ValueError(f"mode={control.mode!r} is unknown: allowed 'trajectory', 'max_speed'")
-    loggers = add_loggers(builder, ports, rates.T_N)
+    loggers = {}
+    if log:
+        ports = robot_ports(handles)
+        ports.update(nav_ports)
+        ports["command"] = ctrl.GetOutputPort("wheel_speed_command")
+        names = CONTROL_OUTPUTS[1:] + (TRAJECTORY_OUTPUTS if control.mode == "trajectory" else ())
+        ports.update({name: ctrl.GetOutputPort(name) for name in names})
+        loggers = add_loggers(builder, ports, rates.T_N)
     diagram = builder.Build()
     diagram.set_name("closed_loop")
     return LoggedDiagram(diagram=diagram, robot=handles, loggers=loggers)

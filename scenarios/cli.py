@@ -4,6 +4,7 @@
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
                          [--speed-law bounded|constant] [--open-loop]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop]
+    slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
 
 User mistakes print one line to stderr and exit with status 2, without a traceback.
 """
@@ -34,6 +35,12 @@ def _parser() -> argparse.ArgumentParser:
         help="max_speed mode: I(24) (bounded) or u = V_m/2 (constant)",
     )
     run.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    dia = sub.add_parser("diagram", help="write a block diagram (graphviz)")
+    dia.add_argument("name", help="navigation, control or closed_loop")
+    dia.add_argument("--out", default=None, help="FILE.dot (default NAME.dot), FILE.svg or FILE.png")
+    dia.add_argument(
+        "--scenario", default="corner", help="scenario the diagram is built for (default corner)"
+    )
     acc = sub.add_parser("accuracy", help="navigation accuracy over seeds (benchmark)")
     acc.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
     acc.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
@@ -48,6 +55,11 @@ def main(argv=None) -> int:
         if args.command == "list":
             for name in builtin_scenarios():
                 print(name)
+            return 0
+        if args.command == "diagram":
+            from scenarios.block_diagrams import export_diagram
+
+            print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
             return 0
         if args.command == "accuracy":
             from scenarios.accuracy import accuracy

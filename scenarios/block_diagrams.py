@@ -1,0 +1,66 @@
+"""Block diagrams of the navigation, control and closed-loop Diagrams, from Drake's GetGraphvizString:
+``slipnav diagram NAME [--out FILE.dot|.svg|.png] [--scenario SCENARIO]``."""
+
+import shutil
+import subprocess
+from pathlib import Path as FilePath
+
+from diagrams.closed_loop import ControlSettings, build_closed_loop_diagram, build_control_diagram
+from diagrams.navigation import build_navigation_diagram
+from scenarios.config import ScenarioError, load_scenario
+from scenarios.runner import follower_path, reference_for
+
+DIAGRAM_NAMES = ("navigation", "control", "closed_loop")
+FORMATS = (".dot", ".svg", ".png")
+
+
+def named_diagram(name: str, scenario_name: str = "corner"):
+    """The Diagram called ``name`` built for ``scenario_name`` (its robot, rates, tuning and reference)."""
+    if name not in DIAGRAM_NAMES:
+        raise ScenarioError(f"diagram {name!r} is unknown: allowed {', '.join(DIAGRAM_NAMES)}")
+    scenario = load_scenario(scenario_name)
+    rates, robot = scenario.rates(), scenario.robot_parameters()
+    if name == "navigation":
+        return build_navigation_diagram(scenario.navigation, rates, robot.wheel_radius, robot.track_width)
+    reference, initial_speed = reference_for(scenario)
+    control = ControlSettings(
+        mode=scenario.mode,
+        path=follower_path(scenario),
+        trajectory=reference,
+        follower=scenario.follower,
+        step_size=scenario.slip_control,
+        slip_control=scenario.slip_control_enabled,
+        speed_law=scenario.speed_law,
+    )
+    if name == "control":
+        return build_control_diagram(control, rates, robot)
+    return build_closed_loop_diagram(
+        robot,
+        scenario.sensor_parameters(),
+        rates,
+        scenario.navigation,
+        control,
+        scenario.seed,
+        initial_speed=initial_speed,
+        log=False,
+    ).diagram
+
+
+def export_diagram(name: str, out, scenario_name: str = "corner") -> FilePath:
+    """Write the block diagram to ``out``: .dot always; .svg/.png through graphviz's ``dot`` program."""
+    out = FilePath(out)
+    if out.suffix not in FORMATS:
+        raise ScenarioError(f"--out {out}: the format {out.suffix or '(none)'} is unknown: allowed {FORMATS}")
+    dot_source = named_diagram(name, scenario_name).GetGraphvizString(max_depth=2)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix == ".dot":
+        out.write_text(dot_source)
+        return out
+    program = shutil.which("dot")
+    if program is None:
+        raise ScenarioError(
+            f"writing {out.suffix} needs graphviz's 'dot' program, which is not installed "
+            "(Debian: apt-get install graphviz); a .dot file needs nothing"
+        )
+    subprocess.run([program, f"-T{out.suffix[1:]}", "-o", str(out)], input=dot_source, text=True, check=True)
+    return out
