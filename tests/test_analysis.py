@@ -1,0 +1,133 @@
+"""Linear analysis of the navigation and slip-control recursions (issue 5): the EKF's error dynamics with
+Drake's observability/detectability helpers, fixed points of C1 S(12) and of the step size S(22), and the
+limit cycle the paper warns of for a large q_delta."""
+
+import dataclasses as dc
+import math
+
+import numpy as np
+import pytest
+from pydrake.systems.primitives import IsDetectable, IsObservable, LinearSystem
+
+from scenarios.config import load_scenario
+from scenarios.runner import run_scenario
+from systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
+from systems.mixing import MixingParameters, logsig, mixing_c1
+from systems.slip_control import StepSizeParameters, step_size
+
+T_N = 0.002
+OPERATING_POINT = np.array([1.5, 0.1, 3.0, 0.0, 0.0])  # v_t, v_n, omega, a_t, a_n: a steady turn
+
+
+def discrete_pair(G, C):
+    return LinearSystem(G, np.zeros((5, 1)), C, np.zeros((C.shape[0], 1)), T_N)
+
+
+def steady_gain(G, Q, R, P0, iterations=5000):
+    """Iterate S(6), S(7), S(9) at a fixed operating point until the gain settles."""
+    P = P0
+    for _ in range(iterations):
+        P_prior = G @ P @ G.T + Q
+        L = ekf_gain(P_prior, R)
+        P = ekf_joseph(P_prior, L, R)
+    return L
+
+
+def test_measurements_observe_omega_and_accelerations_but_not_the_velocities():
+    G = ekf_jacobian(OPERATING_POINT, T_N)
+    C = MEASUREMENT_MATRIX
+    assert not IsObservable(discrete_pair(G, C))
+    # The velocity block is a forward-Euler rotation with |lambda| = sqrt(1 + (omega T_N)^2) > 1 and is
+    # not seen by y = [omega, a_t, a_n]: not detectable, which is why Fig. 3 overwrites v_t, v_n.
+    assert not IsDetectable(discrete_pair(G, C))
+    velocity_block = np.linalg.eigvals(G[:2, :2])
+    np.testing.assert_allclose(np.abs(velocity_block), math.hypot(1.0, 3.0 * T_N))
+    # Observability matrix rank 3: exactly omega, a_t, a_n.
+    O = np.vstack([C @ np.linalg.matrix_power(G, k) for k in range(5)])
+    assert np.linalg.matrix_rank(O) == 3
+    # With odometric v_t and a v_n pseudo-measurement (the mixer's relaxation) the pair is observable.
+    C_mixed = np.vstack([C, np.eye(5)[0:2]])
+    assert IsObservable(discrete_pair(G, C_mixed))
+
+
+def test_ekf_error_dynamics_with_mixing_feedback_are_stable():
+    """(I - L C) G at a steady operating point: the measured block is stable; with the mixed estimate
+    fed back (C1 = 1: odometric v_t; C2 = 1: v_n relaxed by q2; C3 = 1: odometric omega) every mode is."""
+    Q, R, P0 = EkfParameters().matrices()
+    G = ekf_jacobian(OPERATING_POINT, T_N)
+    L = steady_gain(G, Q, R, P0)
+    A = (np.eye(5) - L @ MEASUREMENT_MATRIX) @ G
+    measured = np.linalg.eigvals(A[2:, 2:])
+    assert np.all(np.abs(measured) < 1.0)
+    q2 = MixingParameters().q2
+    for c1, c2, c3 in [(1.0, 1.0, 1.0), (0.0, 0.0, 0.0), (0.5, 0.5, 0.5)]:
+        # Error propagation of the mixed estimate: odometric parts carry no inertial error.
+        M = np.diag([1.0 - c1, (1.0 - c2) + c2 * q2, 1.0 - c3, 1.0, 1.0])
+        eig = np.abs(np.linalg.eigvals(M @ A))
+        if c1 > 0 and c2 > 0:
+            assert np.all(eig < 1.0), (c1, c2, c3, eig)
+    # Purely inertial (C1 = C2 = 0): the velocity error is not contracted, it grows by sqrt(1 + (wT)^2).
+    eig = np.abs(np.linalg.eigvals(np.diag([1.0, 1.0, 1.0, 1.0, 1.0]) @ A))
+    assert np.max(eig) == pytest.approx(math.hypot(1.0, 3.0 * T_N), rel=1e-9)
+
+
+def test_c1_pt1_fixed_point_and_pole():
+    p = MixingParameters()
+    for dv in (0.0, 0.03, 0.2):
+        fixed = logsig(p.a1, dv, p.b1)
+        c1 = 1.0 - fixed if fixed < 0.5 else 0.0
+        errors = []
+        for _ in range(30):
+            c1 = mixing_c1(c1, dv, p)
+            errors.append(c1 - fixed)
+        assert abs(errors[-1]) < 1e-8
+        ratios = np.array(errors[1:8]) / np.array(errors[:7])
+        np.testing.assert_allclose(ratios, p.p, rtol=1e-9)  # the PT1 pole S(12)
+    assert 0.0 <= p.p < 1.0
+
+
+def test_step_size_recursion_fixed_points():
+    """S(22) at constant C1 and alpha is delta_K = clip(g delta_K-1) with g = delta_min + s (q - delta_min):
+    g > 1 drives delta to the S(23) bound (stable, saturation); g < 1 to delta_min."""
+    p = StepSizeParameters()
+    for c1, alpha, lag, expected in [
+        (1.0, 0.0, 0.0, 1.0),
+        (1.0, 0.0, 2.0, p.delta_max),
+        (1.0, 0.0, -2.0, p.delta_rem),
+        (0.0, 0.0, 0.0, p.delta_min),
+        (1.0, math.radians(10), 0.0, p.delta_min),
+    ]:
+        for delta0 in (p.delta_min, 1.0, p.delta_max):
+            delta = delta0
+            for _ in range(200):
+                delta = step_size(delta, c1, alpha, lag, p)
+            assert delta == pytest.approx(expected), (c1, alpha, lag, delta0)
+    # The neutral switch value s* where g = 1 separates the two basins.
+    s_star = (1.0 - p.delta_min) / (p.q_delta - p.delta_min)
+    assert 0.0 < s_star < 1.0
+
+
+def step_sequence(a):
+    """delta_K once per control sample."""
+    return a["step_size"][:: int(round(float(a["T_C"]) / float(a["T_N"])))]
+
+
+def slip_speed(a):
+    return np.max(np.abs(0.5 * (a["true_wheel_R"] + a["true_wheel_L"]) - a["true_v_t"]))
+
+
+def test_large_q_delta_produces_the_limit_cycle_the_paper_warns_of():
+    """Square, closed loop. Default q_delta: after a cut delta grows geometrically (<= 5 % per T_C) and
+    settles. Large q_delta: delta saws between delta_min and delta_max, each jump re-accelerating the
+    robot into new wheel spin (S(22) with q too large, §V)."""
+    scenario = load_scenario("square")
+    default = run_scenario(scenario, duration=3.0).arrays
+    scenario.slip_control = dc.replace(scenario.slip_control, q_delta=2.5, delta_max=2.5)
+    large = run_scenario(scenario, duration=3.0).arrays
+    up_default = np.diff(step_sequence(default))
+    up_large = np.diff(step_sequence(large))
+    assert np.max(up_default) <= 0.06
+    assert np.sum(up_large > 0.2) >= 4  # repeated large jumps: the cycle recurs
+    lows = step_sequence(large) <= scenario.slip_control.delta_min + 1e-9
+    assert np.sum(np.diff(lows.astype(int)) == 1) >= 4  # and keeps falling back to delta_min
+    assert slip_speed(large) >= 2.0 * slip_speed(default)
