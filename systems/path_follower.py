@@ -68,10 +68,10 @@ def frenet_errors(pose, path_pose):
     return c * dx + s * dy, -s * dx + c * dy, wrap_angle(heading - phip)
 
 
-def approach_angle(y1: float, u: float, k3: float) -> tuple[float, float]:
-    """delta(y1, u) = -sign(u) k3 tanh(y1) and d delta / d y1."""
+def approach_angle(y1, u: float, k3: float, ops=math):
+    """delta(y1, u) = -sign(u) k3 tanh(y1) and d delta / d y1 (``ops``: math or pydrake.math)."""
     sgn = math.copysign(1.0, u) if u != 0.0 else 0.0
-    t = math.tanh(y1)
+    t = ops.tanh(y1)
     return -sgn * k3 * t, -sgn * k3 * (1.0 - t * t)
 
 
@@ -80,15 +80,24 @@ def lyapunov_value(s1: float, y1: float, theta: float, delta: float, gamma: floa
     return 0.5 * (s1 * s1 + y1 * y1) + (theta - delta) ** 2 / (2.0 * gamma)
 
 
-def path_following_law(s1, y1, theta, kappa, u, p: PathFollowerParameters):
-    """I(15)-(16): (s_dot, theta_dot, V1) for the errors, reference curvature kappa and speed u."""
-    delta, ddelta_dy1 = approach_angle(y1, u, p.k3)
-    s_dot = u * math.cos(theta) + p.k1 * s1
-    y1_dot = -kappa * s_dot * s1 + u * math.sin(theta)
+def path_following_law(s1, y1, theta, kappa, u, p: PathFollowerParameters, ops=math):
+    """I(15)-(16): (s_dot, theta_dot, V1) for the errors, reference curvature kappa and speed u.
+
+    ``ops`` supplies sin, cos, tanh: ``math`` for floats, ``pydrake.math`` for AutoDiff (Linearize).
+    """
+    delta, ddelta_dy1 = approach_angle(y1, u, p.k3, ops)
+    s_dot = u * ops.cos(theta) + p.k1 * s1
+    y1_dot = -kappa * s_dot * s1 + u * ops.sin(theta)
     e = theta - delta
-    sinc = math.cos(delta) if abs(e) < 1e-9 else (math.sin(theta) - math.sin(delta)) / e
+    # (sin theta - sin delta)/(theta - delta) -> cos(delta) as theta -> delta.
+    sinc = ops.cos(delta) if abs(float(_value(e))) < 1e-9 else (ops.sin(theta) - ops.sin(delta)) / e
     theta_dot = ddelta_dy1 * y1_dot - p.gamma * y1 * u * sinc - p.k2 * e
     return s_dot, theta_dot, lyapunov_value(s1, y1, theta, delta, p.gamma)
+
+
+def _value(x):
+    """The float value of a float or an AutoDiffXd."""
+    return x.value() if hasattr(x, "value") else x
 
 
 def wheel_commands(u: float, kappa: float, s_dot: float, theta_dot: float, half_track: float):

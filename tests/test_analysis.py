@@ -131,3 +131,59 @@ def test_large_q_delta_produces_the_limit_cycle_the_paper_warns_of():
     lows = step_sequence(large) <= scenario.slip_control.delta_min + 1e-9
     assert np.sum(np.diff(lows.astype(int)) == 1) >= 4  # and keeps falling back to delta_min
     assert slip_speed(large) >= 2.0 * slip_speed(default)
+
+
+# --- path following: Drake's Linearize on the scalar-generic closed loop --------------------------------
+
+
+def linearised_loop(params, kappa, u, T_C=0.02):
+    from pydrake.systems.framework import InputPortSelection, OutputPortSelection
+    from pydrake.systems.primitives import Linearize
+
+    from systems.frenet_loop import FrenetFollowingErrors
+
+    system = FrenetFollowingErrors(params, kappa, u, T_C)
+    context = system.CreateDefaultContext()  # zero error: an equilibrium for every kappa
+    return system, Linearize(system, context, InputPortSelection.kNoInput, OutputPortSelection.kNoOutput)
+
+
+@pytest.mark.parametrize("kappa", [0.0, 1.0 / 3.0, -0.5])
+@pytest.mark.parametrize("u", [0.5, 2.05, 4.1])
+def test_path_following_linearisation_is_stable_for_default_gains(kappa, u):
+    from systems.path_follower import PathFollowerParameters
+
+    _, lin = linearised_loop(PathFollowerParameters(), kappa, u)
+    assert lin.time_period() == 0.02
+    assert np.max(np.abs(np.linalg.eigvals(lin.A()))) < 1.0
+
+
+def test_unstable_gain_set_is_reported_unstable():
+    """k2 T_C > 2: the sampled heading loop overshoots within one sample (|1 - k2 T_C| > 1)."""
+    from systems.path_follower import PathFollowerParameters
+
+    gains = object.__new__(PathFollowerParameters)  # bypass the range checks on purpose
+    gains.__dict__.update(dc.asdict(PathFollowerParameters()), k2=150.0)
+    _, lin = linearised_loop(gains, 0.0, 2.0)
+    eig = np.abs(np.linalg.eigvals(lin.A()))
+    assert np.max(eig) > 1.0
+    assert np.max(eig) == pytest.approx(abs(1.0 - 150.0 * 0.02), rel=0.2)
+
+
+def test_linearised_and_nonlinear_responses_agree_for_small_perturbations():
+    from pydrake.systems.analysis import Simulator
+
+    from systems.path_follower import PathFollowerParameters
+
+    system, lin = linearised_loop(PathFollowerParameters(), 1.0 / 3.0, 2.0)
+    for scale in (1e-3, 1e-2):
+        x0 = scale * np.array([1.0, -1.0, 0.5])
+        simulator = Simulator(system)
+        simulator.get_mutable_context().SetDiscreteState(x0)
+        x_lin = x0.copy()
+        for k in range(1, 51):
+            simulator.AdvanceTo(k * 0.02)
+            x_lin = lin.A() @ x_lin
+            x_nl = simulator.get_context().get_discrete_state_vector().CopyToVector()
+            # The difference is second order in the perturbation.
+            assert np.linalg.norm(x_nl - x_lin) < 5.0 * scale**2 + 1e-12, (scale, k)
+        assert np.linalg.norm(x_nl) < 0.5 * np.linalg.norm(x0)  # and both decay
