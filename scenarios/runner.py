@@ -176,9 +176,8 @@ def run_scenario(
             )
         except ValueError as e:
             raise ScenarioError(str(e)) from None
-    limit = end_time(scenario, 3.0 * nominal + scenario.settle_time if not open_loop else nominal, duration)
-    if duration is None and scenario.duration is None and open_loop:
-        limit = nominal + scenario.settle_time
+    # Open loop: the reference's end; closed loop: a generous limit, cut at completion below.
+    limit = end_time(scenario, nominal if open_loop else 3.0 * nominal + scenario.settle_time, duration)
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     context = simulator.get_context()
     wall_start = time.perf_counter()
@@ -209,7 +208,6 @@ def run_scenario(
         V_m=np.array(robot.wheel_speed_limit),
         track_width=np.array(robot.track_width),
     )
-    geometric = path if path is not None else None
     summary = {
         "scenario": scenario.name,
         "seed": seed,
@@ -239,9 +237,9 @@ def run_scenario(
         "wall_time_s": wall,
         "realtime_factor": float(arrays["t"][-1] / wall) if wall > 0 else None,
     }
-    if geometric is not None:  # until completion: the robot's braking after the end is not tracking
+    if path is not None:  # until completion: the robot's braking after the end is not tracking
         until = arrays["t"] <= (completion if completion is not None else np.inf)
-        err = path_distance(arrays["true_x"][until], arrays["true_y"][until], geometric)
+        err = path_distance(arrays["true_x"][until], arrays["true_y"][until], path)
         summary["path_error_rms_m"] = float(np.sqrt(np.mean(err**2)))
         summary["path_error_max_m"] = float(np.max(err))
     return RunResult(scenario=scenario, seed=seed, arrays=arrays, summary=summary, reference=reference)
