@@ -5,6 +5,15 @@ import math
 
 import numpy as np
 
+MOVING_SPEED = 0.2
+"""m/s: below this track speed the side-slip angle atan2(v_n, v_t) is not meaningful."""
+
+
+def moving_alpha(a: dict, min_speed: float = MOVING_SPEED) -> np.ndarray:
+    """true_alpha where the robot moves faster than ``min_speed`` (NaN elsewhere)."""
+    speed = np.hypot(a["true_v_t"], a["true_v_n"])
+    return np.where(speed > min_speed, a["true_alpha"], np.nan)
+
 
 def final_position_error(a: dict, prefix: str) -> float:
     """Distance between the final estimated (``est``/``odo``/``gyro``) and true positions (m)."""
@@ -13,8 +22,8 @@ def final_position_error(a: dict, prefix: str) -> float:
 
 def side_slip_rms_error(a: dict, threshold_deg: float = 1.0) -> float:
     """RMS of est_alpha - true_alpha (rad) over the samples where |true_alpha| > threshold (NaN if none)."""
-    moving = np.hypot(a["true_v_t"], a["true_v_n"]) > 0.2
-    mask = moving & (np.abs(a["true_alpha"]) > math.radians(threshold_deg))
+    alpha = moving_alpha(a)
+    mask = np.abs(np.nan_to_num(alpha)) > math.radians(threshold_deg)
     if not mask.any():
         return float("nan")
     return float(np.sqrt(np.mean((a["est_alpha"][mask] - a["true_alpha"][mask]) ** 2)))

@@ -10,6 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from scenarios.metrics import moving_alpha  # noqa: E402
+
 
 def _has(a, key) -> bool:
     return key in a and np.any(np.isfinite(a[key]))
@@ -73,9 +75,7 @@ def plot_slip(a, axes):
     ax.set_ylabel("tangential slip")
     ax.legend(loc="best", fontsize=7)
     ax = axes[1]
-    speed = np.hypot(a["true_v_t"], a["true_v_n"])
-    moving = speed > 0.2
-    ax.plot(t, np.degrees(np.where(moving, a["true_alpha"], np.nan)), "C0", label="true $\\alpha$")
+    ax.plot(t, np.degrees(moving_alpha(a)), "C0", label="true $\\alpha$")
     if _has(a, "est_alpha"):
         ax.plot(t, np.degrees(a["est_alpha"]), "C3", lw=0.8, label="estimate $\\alpha$")
     ax.set_ylabel("side-slip angle (deg)")
@@ -112,8 +112,7 @@ def plot_navigation(a, axes):
         for key, name, color in series:
             ax.plot(t, a[key], color, lw=1.4 if name == "true" else 0.8, label=name)
         ax.set_ylabel(label)
-    moving = np.hypot(a["true_v_t"], a["true_v_n"]) > 0.2
-    axes[3].plot(t, np.degrees(np.where(moving, a["true_alpha"], np.nan)), "C0", lw=1.4, label="true")
+    axes[3].plot(t, np.degrees(moving_alpha(a)), "C0", lw=1.4, label="true")
     axes[3].plot(t, np.degrees(a["est_alpha"]), "C3", lw=0.8, label="estimate S(19)")
     axes[3].set_ylabel("$\\alpha$ (deg)")
     for key, color in (("C1", "C3"), ("C2", "C1"), ("C3", "C2")):

@@ -22,6 +22,7 @@ from diagrams.closed_loop import ControlSettings, build_closed_loop_diagram
 from diagrams.open_loop import build_open_loop_diagram
 from diagrams.robot import make_simulator
 from scenarios.config import Scenario, ScenarioError
+from scenarios.metrics import moving_alpha
 from scenarios.trajectories import (
     Path,
     Trajectory,
@@ -270,12 +271,6 @@ def path_distance(x, y, path: Path, chunk: int = 512) -> np.ndarray:
         dy = py - y[None, i : i + chunk]
         out[i : i + chunk] = np.sqrt(np.min(dx * dx + dy * dy, axis=0))
     return out
-
-
-def moving_alpha(arrays, min_speed: float = 0.2) -> np.ndarray:
-    """true_alpha where the robot moves faster than ``min_speed`` (NaN elsewhere)."""
-    speed = np.hypot(arrays["true_v_t"], arrays["true_v_n"])
-    return np.where(speed > min_speed, arrays["true_alpha"], np.nan)
 
 
 def final_position_errors(arrays) -> dict:

@@ -203,11 +203,6 @@ class Trajectory:
         half = 0.5 * track_width
         return self.v + half * self.omega, self.v - half * self.omega
 
-    def pose(self, k: int) -> np.ndarray:
-        """Reference pose [x, y, phi] at sample k (clamped to the ends)."""
-        k = min(max(k, 0), self.num_samples - 1)
-        return np.array([self.x[k], self.y[k], self.phi[k]])
-
 
 def build_trajectory(config: TrajectoryConfig, T_C: float, pose0=(0.0, 0.0, 0.0)) -> Trajectory:
     """Integrate the segments of ``config`` and sample the result every T_C."""
