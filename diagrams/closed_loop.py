@@ -11,7 +11,7 @@ from diagrams.open_loop import LoggedDiagram, add_loggers, robot_ports
 from diagrams.robot import add_robot_with_sensors
 from systems.navigation import NavigationParameters
 from systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
-from systems.plant import RobotParameters
+from systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from systems.rates import SampleRates
 from systems.sensors import SensorParameters
 from systems.slip_control import StepSizeController, StepSizeParameters, TrajectoryInterpolator
@@ -125,12 +125,14 @@ def build_closed_loop_diagram(
     initial_pose=(0.0, 0.0, 0.0),
     initial_speed: float = 0.0,
     log: bool = True,
+    plant_time_step: float = DEFAULT_TIME_STEP,
 ) -> LoggedDiagram:
     """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
-    (``log=False`` leaves the loggers out, e.g. for a block-diagram picture)."""
+    (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). ``plant_time_step``: see
+    DifferentialDrivePlant (0: continuous)."""
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
-        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed
+        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
     )
     nav, nav_ports = add_navigation(
         builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose

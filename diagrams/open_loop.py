@@ -12,7 +12,7 @@ from diagrams.navigation import add_navigation
 from diagrams.robot import RobotHandles, add_robot_with_sensors
 from systems.feedforward import TrajectoryFeedforward
 from systems.navigation import NavigationParameters
-from systems.plant import RobotParameters
+from systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from systems.rates import SampleRates
 from systems.sensors import SensorParameters
 
@@ -59,12 +59,13 @@ def build_open_loop_diagram(
     initial_pose=(0.0, 0.0, 0.0),
     initial_speed: float = 0.0,
     navigation: NavigationParameters | None = None,
+    plant_time_step: float = DEFAULT_TIME_STEP,
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
     the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out)."""
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
-        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed
+        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
     )
     nav_ports = {}
     if navigation is not None:

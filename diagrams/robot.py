@@ -10,7 +10,7 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import RandomSource
 
-from systems.plant import DifferentialDrivePlant, RobotParameters
+from systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
 from systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
 
 
@@ -29,14 +29,18 @@ def add_robot_with_sensors(
     seed: int,
     initial_pose=(0.0, 0.0, 0.0),
     initial_speed: float = 0.0,
+    plant_time_step: float = DEFAULT_TIME_STEP,
 ) -> RobotHandles:
     """Add the plant, a Gaussian RandomSource (seeded through SetRandomContext) and the sensors.
 
     The initial sensor biases are drawn from ``numpy.random.default_rng(seed)``; the white noise, drift
     and vibration draws come from the RandomSource, whose state the caller must seed with
-    ``diagram.SetRandomContext(context, RandomGenerator(seed))`` (see ``seed_context``).
+    ``diagram.SetRandomContext(context, RandomGenerator(seed))`` (see ``make_simulator``).
+    ``plant_time_step`` > 0 makes the plant discrete, updated with the sensors every T_N; 0: continuous.
     """
-    plant = builder.AddSystem(DifferentialDrivePlant(robot, initial_pose, initial_speed))
+    plant = builder.AddSystem(
+        DifferentialDrivePlant(robot, initial_pose, initial_speed, plant_time_step, update_period=T_N)
+    )
     plant.set_name("Robot plant")
     noise = builder.AddSystem(RandomSource(RandomDistribution.kGaussian, NOISE_CHANNELS, T_N))
     noise.set_name("Sensor noise")

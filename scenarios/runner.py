@@ -93,6 +93,27 @@ def follower_path(scenario: Scenario) -> Path:
         raise ScenarioError(str(e)) from None
 
 
+def closed_loop_settings(scenario: Scenario, slip_control: bool, speed_law: str):
+    """(ControlSettings, initial forward speed, nominal duration) of the scenario's closed loop."""
+    reference, initial_speed = reference_for(scenario)
+    path = follower_path(scenario)
+    if scenario.mode == "max_speed":
+        initial_speed = 0.0
+        nominal = path.length / (0.5 * scenario.robot_parameters().wheel_speed_limit)
+    else:
+        nominal = reference.duration
+    control = ControlSettings(
+        mode=scenario.mode,
+        path=path,
+        trajectory=reference,
+        follower=scenario.follower,
+        step_size=scenario.slip_control,
+        slip_control=slip_control,
+        speed_law=speed_law,
+    )
+    return control, initial_speed, nominal
+
+
 def end_time(scenario: Scenario, nominal: float, duration: float | None) -> float:
     """--duration, else the scenario's duration, else the nominal end plus the settle time."""
     if duration is not None:
@@ -145,25 +166,13 @@ def run_scenario(
             initial_pose=pose0,
             initial_speed=initial_speed,
             navigation=scenario.navigation,
+            plant_time_step=scenario.plant_time_step,
         )
         nominal = reference.duration
         path = None
     else:
-        path = follower_path(scenario)
-        if scenario.mode == "max_speed":
-            initial_speed = 0.0
-            nominal = path.length / (0.5 * robot.wheel_speed_limit)
-        else:
-            nominal = reference.duration
-        control = ControlSettings(
-            mode=scenario.mode,
-            path=path,
-            trajectory=reference,
-            follower=scenario.follower,
-            step_size=scenario.slip_control,
-            slip_control=slip_control,
-            speed_law=speed_law,
-        )
+        control, initial_speed, nominal = closed_loop_settings(scenario, slip_control, speed_law)
+        path = control.path
         try:
             built = build_closed_loop_diagram(
                 robot,
@@ -174,6 +183,7 @@ def run_scenario(
                 seed,
                 initial_pose=pose0,
                 initial_speed=initial_speed,
+                plant_time_step=scenario.plant_time_step,
             )
         except ValueError as e:
             raise ScenarioError(str(e)) from None

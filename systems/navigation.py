@@ -74,6 +74,87 @@ LOOP_KEYS = (
 ).split()
 
 
+class NavigationLoop:
+    """The navigation algorithm as a plain sequential stepper (the module's ordering), one T_N sample per
+    ``step``. ``navigation_loop`` runs it over logged rows; the closed-loop reference loop
+    (scenarios/plain_loop.py) runs it on line with the plant.
+
+    Args: as navigation_loop.
+    """
+
+    def __init__(
+        self,
+        params: NavigationParameters,
+        wheel_radius: float,
+        track_width: float,
+        T_N: float,
+        T_C: float,
+        initial: NavigationInitialState | None = None,
+    ):
+        initial = initial or NavigationInitialState()
+        self.params, self.wheel_radius, self.track_width, self.T_N = params, wheel_radius, track_width, T_N
+        self.n = int(round(T_C / T_N))
+        self.Q, self.R, self.P = params.ekf.matrices()
+        self.x = initial.ekf_state()
+        self.L = ekf_gain(ekf_prior_covariance(self.P, self.x, self.Q, T_N), self.R)
+        self.last_valid = np.zeros(5)
+        self.odo_state = initial.odometry_state()
+        self.det_state = [0.0, 0.0, initial.speed]
+        self.c1, self.dv_held, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0
+        self.pose = list(initial.pose)
+        self.odo_pose = list(initial.pose)
+        self.gyro_state = [*initial.pose, 0.0]
+        self.k = 0
+
+    def step(self, accelerometers, gyro: float, encoders) -> tuple:
+        """Process sample k; returns the values the blocks output at t_k, in LOOP_KEYS order (the covariance
+        P_k-1 is ``self.P`` before the call)."""
+        mp, T_N = self.params.mixing, self.T_N
+        sample, fault_imu = check_sample(np.append(accelerometers, gyro), self.last_valid)
+        acc, g = sample[0:4], sample[4]
+        odo_next, odo, fault_enc = odometry_step(
+            self.odo_state, encoders, self.wheel_radius, self.track_width, T_N
+        )
+        x = self.x
+        inertial = ekf_update(ekf_predict(x, T_N), self.L, ekf_measurement(acc, [g]))
+        P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
+        det_next, total = slip_detector_step(self.det_state, odo[0], acc, T_N)
+        c2 = mixing_c2(inertial[4], mp)
+        c3 = mixing_c3(odo[1], inertial[2], mp)
+        mixed = mix(odo, inertial, self.c1, c2, c3, x[1], mp.q2)
+        row = (
+            *self.pose,
+            *mixed,
+            self.alpha,
+            self.v_track,
+            *self.odo_pose,
+            *self.gyro_state[0:3],
+            self.c1,
+            c2,
+            c3,
+            self.dv_held,
+            odo[0],
+            odo[1],
+            max(fault_imu, fault_enc),
+        )
+        self.x = mixed
+        self.P = ekf_joseph(P_prior, self.L, self.R)
+        self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
+        self.odo_pose = pose_step(self.odo_pose, odo[0], 0.0, odo[1], T_N)
+        self.gyro_state = gyrodometry_step(self.gyro_state, odo[0], odo[1], g, self.params.gyrodometry, T_N)
+        self.last_valid = sample
+        self.odo_state = odo_next
+        self.det_state = det_next
+        if self.k % self.n == 0:
+            dv, self.det_state = slip_detector_batch_end(total, odo[0], self.n)
+            self.c1 = mixing_c1(self.c1, dv, mp)
+            self.dv_held = dv
+            self.L = ekf_gain(P_prior, self.R)
+            self.v_track, self.alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], self.params.sideslip)
+        self.k += 1
+        return row
+
+
 def navigation_loop(
     accelerometers,
     gyro,
@@ -93,68 +174,16 @@ def navigation_loop(
     Returns:
         dict of (N,) arrays keyed by LOOP_KEYS, plus ``P`` (N, 5, 5): the EKF covariance P_k-1 at t_k.
     """
-    initial = initial or NavigationInitialState()
     accelerometers = np.asarray(accelerometers, float)
     gyro = np.asarray(gyro, float).reshape(-1)
     encoders = np.asarray(encoders, float)
     N = len(gyro)
-    n = int(round(T_C / T_N))
-    Q, R, P = params.ekf.matrices()
-    mp, sp, gp = params.mixing, params.sideslip, params.gyrodometry
-    x = initial.ekf_state()
-    L = ekf_gain(ekf_prior_covariance(P, x, Q, T_N), R)
-    last_valid = np.zeros(5)
-    odo_state = initial.odometry_state()
-    det_state = [0.0, 0.0, initial.speed]
-    c1, dv_held, alpha, v_track = 1.0, 0.0, 0.0, 0.0
-    pose = list(initial.pose)
-    odo_pose = list(initial.pose)
-    gyro_state = [*initial.pose, 0.0]
-    out = {key: np.empty(N) for key in LOOP_KEYS}
-    out["P"] = np.empty((N, 5, 5))
+    loop = NavigationLoop(params, wheel_radius, track_width, T_N, T_C, initial)
+    rows = np.empty((N, len(LOOP_KEYS)))
+    P = np.empty((N, 5, 5))
     for k in range(N):
-        sample, fault_imu = check_sample(np.append(accelerometers[k], gyro[k]), last_valid)
-        acc, g = sample[0:4], sample[4]
-        odo_next, odo, fault_enc = odometry_step(odo_state, encoders[k], wheel_radius, track_width, T_N)
-        y = ekf_measurement(acc, [g])
-        inertial = ekf_update(ekf_predict(x, T_N), L, y)
-        P_prior = ekf_prior_covariance(P, x, Q, T_N)
-        det_next, total = slip_detector_step(det_state, odo[0], acc, T_N)
-        c2 = mixing_c2(inertial[4], mp)
-        c3 = mixing_c3(odo[1], inertial[2], mp)
-        mixed = mix(odo, inertial, c1, c2, c3, x[1], mp.q2)
-
-        row = (
-            *pose,
-            *mixed,
-            alpha,
-            v_track,
-            *odo_pose,
-            *gyro_state[0:3],
-            c1,
-            c2,
-            c3,
-            dv_held,
-            odo[0],
-            odo[1],
-            max(fault_imu, fault_enc),
-        )
-        for key, value in zip(LOOP_KEYS, row, strict=True):
-            out[key][k] = value
-        out["P"][k] = P
-
-        x = mixed
-        P = ekf_joseph(P_prior, L, R)
-        pose = pose_step(pose, mixed[0], mixed[1], mixed[2], T_N)
-        odo_pose = pose_step(odo_pose, odo[0], 0.0, odo[1], T_N)
-        gyro_state = gyrodometry_step(gyro_state, odo[0], odo[1], g, gp, T_N)
-        last_valid = sample
-        odo_state = odo_next
-        det_state = det_next
-        if k % n == 0:
-            dv, det_state = slip_detector_batch_end(total, odo[0], n)
-            c1 = mixing_c1(c1, dv, mp)
-            dv_held = dv
-            L = ekf_gain(P_prior, R)
-            v_track, alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], sp)
+        P[k] = loop.P
+        rows[k] = loop.step(accelerometers[k], gyro[k], encoders[k])
+    out = {key: rows[:, i].copy() for i, key in enumerate(LOOP_KEYS)}
+    out["P"] = P
     return out

@@ -7,11 +7,21 @@ matplotlib.use("Agg")
 from diagrams.open_loop import build_open_loop_diagram  # noqa: E402
 from diagrams.robot import make_simulator  # noqa: E402
 from scenarios.runner import collect_arrays  # noqa: E402
+from systems.plant import DEFAULT_TIME_STEP  # noqa: E402
 from systems.rates import SampleRates  # noqa: E402
 from systems.sensors import SensorParameters  # noqa: E402
 
 
-def run_open_loop(robot, wheel_speeds, duration, *, sensors=None, seed=0, initial_speed=0.0):
+def run_open_loop(
+    robot,
+    wheel_speeds,
+    duration,
+    *,
+    sensors=None,
+    seed=0,
+    initial_speed=0.0,
+    plant_time_step=DEFAULT_TIME_STEP,
+):
     """Drive the real open-loop diagram with a table of [v_R, v_L] rows at T_C; returns artifact arrays."""
     rates = SampleRates()
     wheel_speeds = np.asarray(wheel_speeds, float)
@@ -24,6 +34,7 @@ def run_open_loop(robot, wheel_speeds, duration, *, sensors=None, seed=0, initia
         poses,
         seed,
         initial_speed=initial_speed,
+        plant_time_step=plant_time_step,
     )
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     simulator.AdvanceTo(duration)

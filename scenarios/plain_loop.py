@@ -1,0 +1,153 @@
+"""The whole closed loop as a plain sequential Python loop over the same pure functions as the diagram.
+
+``run_plain_loop`` takes exactly what ``diagrams.closed_loop.build_closed_loop_diagram`` takes and steps,
+every T_N, the discrete plant (plant_advance), the sensors (sensor_update), the navigation
+(systems.navigation.NavigationLoop) and, every T_C, the control blocks (follower_step, the speed law,
+step_size, interpolate), in the order Drake's pre-update semantics imply: every block that updates at
+t_k reads the values all blocks held at t_k. With the diagram's sensor noise sequence it reproduces the
+diagram sample for sample (tests/test_plain_loop.py); it is also the baseline of ``slipnav bench``.
+"""
+
+import math
+
+import numpy as np
+from pydrake.common import RandomDistribution, RandomGenerator
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, RandomSource
+
+from diagrams.closed_loop import ControlSettings
+from systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
+from systems.path_follower import bounded_speed, check_path_curvature, follower_step, saturate_wheel_speeds
+from systems.plant import RobotParameters, motor_current, plant_advance, plant_derivatives, substeps_per
+from systems.rates import SampleRates
+from systems.sensors import NOISE_CHANNELS, SensorParameters, initial_biases, sensor_update
+from systems.slip_control import interpolate, step_size
+
+PLAIN_LOOP_KEYS = (
+    "true_x true_y true_phi true_v_t true_v_n true_omega true_theta_R true_theta_L true_w_R true_w_L "
+    "meas_a_t1 meas_a_n1 meas_a_t2 meas_a_n2 meas_gyro meas_enc_R meas_enc_L cmd_R cmd_L V1 "
+    "virtual_target step_size progress"
+).split() + [f"nav_{key}" for key in LOOP_KEYS]
+"""Columns of run_plain_loop's result, each the value at t_k (as a Drake logger at t_k records it)."""
+
+
+def run_plain_loop(
+    robot: RobotParameters,
+    sensor_params: SensorParameters,
+    rates: SampleRates,
+    navigation: NavigationParameters,
+    control: ControlSettings,
+    seed: int,
+    num_steps: int,
+    initial_pose=(0.0, 0.0, 0.0),
+    initial_speed: float = 0.0,
+    plant_time_step: float = 5e-4,
+    noise=None,
+) -> dict:
+    """Simulate ``num_steps`` samples t_0 ... t_{num_steps-1} of the closed loop.
+
+    Args:
+        as build_closed_loop_diagram, plus:
+        num_steps: number of T_N samples.
+        plant_time_step: the discrete plant's step (> 0; the continuous plant has no plain-loop twin).
+        noise: (num_steps, NOISE_CHANNELS) standard-normal draws that the sensors read at t_k (e.g. the
+            diagram's RandomSource output); None draws them from numpy.random.default_rng(seed).
+
+    Returns:
+        dict of (num_steps,) arrays keyed by PLAIN_LOOP_KEYS.
+    """
+    if not plant_time_step > 0.0:
+        raise ValueError(f"plant_time_step={plant_time_step!r} is out of range: allowed (0, 0.01] s")
+    T_N, T_C, p = rates.T_N, rates.T_C, robot
+    n = int(round(T_C / T_N))
+    plant_steps = substeps_per(T_N, plant_time_step, "T_N")
+    if noise is None:
+        noise = np.random.default_rng(seed).standard_normal((num_steps, NOISE_CHANNELS))
+    noise = np.asarray(noise, float)
+    if noise.shape != (num_steps, NOISE_CHANNELS):
+        raise ValueError(f"noise must have shape ({num_steps}, {NOISE_CHANNELS}), got {noise.shape}")
+
+    # Plant (DifferentialDrivePlant, discrete).
+    w0 = initial_speed / p.wheel_radius
+    x = [*initial_pose, initial_speed, 0.0, 0.0, 0.0, 0.0, w0, w0]
+    loop = [0.0] * 4
+    acc = list(plant_derivatives(x, (motor_current(0.0, w0, p), motor_current(0.0, w0, p)), p)[1])
+    # Sensors (ProprioceptiveSensors): outputs hold the previous sample.
+    bias0 = initial_biases(sensor_params, np.random.default_rng(seed))
+    internal = np.concatenate([bias0, np.zeros(4)])
+    step = sensor_params.encoder_step
+    meas_acc, meas_gyro = bias0[0:4].copy(), float(bias0[4])
+    meas_enc = np.floor(-np.array([w0, w0]) * T_N / step) * step
+    nav = NavigationLoop(
+        navigation,
+        p.wheel_radius,
+        p.track_width,
+        T_N,
+        T_C,
+        NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
+    )
+    # Control (build_control_diagram).
+    path, half = control.path, 0.5 * p.track_width
+    check_path_curvature(path.max_abs_curvature, p.track_width)
+    follower = [0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0]  # FollowerState
+    trajectory_mode = control.mode == "trajectory"
+    if trajectory_mode:
+        tr = control.trajectory
+        table = np.column_stack([tr.x, tr.y, tr.phi, tr.v, tr.s])
+        table_end = float(len(table) - 1)
+    delta, progress = 1.0, 0.0
+
+    out = np.empty((num_steps, len(PLAIN_LOOP_KEYS)))
+    for k in range(num_steps):
+        s = follower[0]
+        command = saturate_wheel_speeds(follower[1], follower[2], p.wheel_speed_limit)
+        nav_row = nav.step(meas_acc, meas_gyro, meas_enc)
+        out[k] = (*x, *meas_acc, meas_gyro, *meas_enc, *command, follower[3], s, delta, progress, *nav_row)
+
+        if k % n == 0:  # control instant: pre-update values of t_K
+            if trajectory_mode:
+                if progress >= table_end:
+                    u = 0.0
+                else:
+                    ref = interpolate(table, progress)
+                    u = max(delta * ref[3] + control.step_size.k_s * (ref[4] - s), 0.0)
+                if control.slip_control:
+                    c1, alpha = nav_row[LOOP_KEYS.index("C1")], nav_row[LOOP_KEYS.index("est_alpha")]
+                    delta = step_size(delta, c1, alpha, k // n - progress, control.step_size)
+                else:
+                    delta = 1.0
+                progress += delta
+            elif s >= path.length:
+                u = 0.0
+            elif control.speed_law == "constant":
+                u = 0.5 * p.wheel_speed_limit
+            else:
+                u = bounded_speed(
+                    follower[3], path.curvature(s), p.wheel_speed_limit, half, control.follower.epsilon
+                )
+            pose_k, v_t_k = nav_row[0:3], nav_row[3]
+            follower = follower_step(s, pose_k, u, path, control.follower, half, T_C, v_t_k)
+
+        internal, meas_acc, gyro, meas_enc = sensor_update(internal, x, acc, noise[k], sensor_params, T_N)
+        meas_gyro = float(gyro[0])
+        x, loop, acc = plant_advance(x, loop, command, k * plant_steps, plant_steps, plant_time_step, p)
+    return {key: out[:, i].copy() for i, key in enumerate(PLAIN_LOOP_KEYS)}
+
+
+def diagram_noise(seed: int, T_N: float, num_steps: int) -> np.ndarray:
+    """The (num_steps, NOISE_CHANNELS) draws the diagram's sensors read at t_0 ... t_{num_steps-1}.
+
+    Drake's RandomSource draws with an unrestricted update, which the simulator applies before the
+    discrete updates of the same instant: the sensors' update at t_k reads the draw of t_k, which a logger
+    (publishing before the updates) records at t_k+1. Seeded as diagrams.robot.make_simulator seeds it.
+    """
+    builder = DiagramBuilder()
+    source = builder.AddSystem(RandomSource(RandomDistribution.kGaussian, NOISE_CHANNELS, T_N))
+    logger = LogVectorOutput(source.get_output_port(0), builder, T_N)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    diagram.SetRandomContext(simulator.get_mutable_context(), RandomGenerator(seed))
+    simulator.Initialize()
+    simulator.AdvanceTo(num_steps * T_N)
+    return logger.FindLog(simulator.get_context()).data().T[1 : num_steps + 1].copy()
