@@ -5,6 +5,7 @@
                          [--speed-law bounded|constant] [--open-loop]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
+    slipnav bench [SCENARIO] [--repeat N]
 
 User mistakes print one line to stderr and exit with status 2, without a traceback.
 """
@@ -46,6 +47,9 @@ def _parser() -> argparse.ArgumentParser:
     acc.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
     acc.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     acc.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    ben = sub.add_parser("bench", help="speed of the closed-loop diagram vs the plain loop (benchmark)")
+    ben.add_argument("scenario", nargs="?", default="corner", help="closed-loop scenario (default corner)")
+    ben.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
     return parser
 
 
@@ -60,6 +64,11 @@ def main(argv=None) -> int:
             from scenarios.block_diagrams import export_diagram
 
             print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
+            return 0
+        if args.command == "bench":
+            from scenarios.bench import bench
+
+            bench(args.scenario, args.repeat)
             return 0
         if args.command == "accuracy":
             from scenarios.accuracy import accuracy

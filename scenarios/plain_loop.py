@@ -9,6 +9,7 @@ diagram sample for sample (tests/test_plain_loop.py); it is also the baseline of
 """
 
 import math
+import time
 
 import numpy as np
 from pydrake.common import RandomDistribution, RandomGenerator
@@ -44,6 +45,7 @@ def run_plain_loop(
     initial_speed: float = 0.0,
     plant_time_step: float = 5e-4,
     noise=None,
+    timings: dict | None = None,
 ) -> dict:
     """Simulate ``num_steps`` samples t_0 ... t_{num_steps-1} of the closed loop.
 
@@ -53,6 +55,8 @@ def run_plain_loop(
         plant_time_step: the discrete plant's step (> 0; the continuous plant has no plain-loop twin).
         noise: (num_steps, NOISE_CHANNELS) standard-normal draws that the sensors read at t_k (e.g. the
             diagram's RandomSource output); None draws them from numpy.random.default_rng(seed).
+        timings: if given, receives the wall time (s) spent in ``plant``, ``sensors``, ``navigation``
+            and ``control``.
 
     Returns:
         dict of (num_steps,) arrays keyed by PLAIN_LOOP_KEYS.
@@ -99,10 +103,15 @@ def run_plain_loop(
     delta, progress = 1.0, 0.0
 
     out = np.empty((num_steps, len(PLAIN_LOOP_KEYS)))
+    clock = time.perf_counter
+    spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
     for k in range(num_steps):
+        t0 = clock()
+        nav_row = nav.step(meas_acc, meas_gyro, meas_enc)
+        t1 = clock()
+        spent["navigation"] += t1 - t0
         s = follower[0]
         command = saturate_wheel_speeds(follower[1], follower[2], p.wheel_speed_limit)
-        nav_row = nav.step(meas_acc, meas_gyro, meas_enc)
         out[k] = (*x, *meas_acc, meas_gyro, *meas_enc, *command, follower[3], s, delta, progress, *nav_row)
 
         if k % n == 0:  # control instant: pre-update values of t_K
@@ -128,10 +137,16 @@ def run_plain_loop(
                 )
             pose_k, v_t_k = nav_row[0:3], nav_row[3]
             follower = follower_step(s, pose_k, u, path, control.follower, half, T_C, v_t_k)
-
+        t2 = clock()
+        spent["control"] += t2 - t1
         internal, meas_acc, gyro, meas_enc = sensor_update(internal, x, acc, noise[k], sensor_params, T_N)
         meas_gyro = float(gyro[0])
+        t3 = clock()
+        spent["sensors"] += t3 - t2
         x, loop, acc = plant_advance(x, loop, command, k * plant_steps, plant_steps, plant_time_step, p)
+        spent["plant"] += clock() - t3
+    if timings is not None:
+        timings.update(spent)
     return {key: out[:, i].copy() for i, key in enumerate(PLAIN_LOOP_KEYS)}
 
 

@@ -1,0 +1,124 @@
+"""Speed benchmark: ``slipnav bench [SCENARIO] [--repeat N]`` (a benchmark, not a test).
+
+Runs the scenario's closed loop as the Drake diagram (``run_scenario``, loggers included, as ``slipnav
+run`` does) and as the plain sequential loop over the same pure functions (scenarios/plain_loop.py, fed
+the diagram's own sensor noise, so both compute the same samples), best of ``repeat`` runs each. Prints
+the wall times, real-time factors, the plain loop's cost per part, the Drake framework's share, and a
+measured floor: the cost of one trivial Python LeafSystem update. The last line is
+``realtime_factor=<float> diagram_over_loop=<float>`` (../shared/DESIGN.md).
+"""
+
+import sys
+import time
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import ConstantVectorSource
+
+from scenarios.config import ScenarioError, load_scenario
+from scenarios.plain_loop import diagram_noise, run_plain_loop
+from scenarios.runner import closed_loop_settings, run_scenario
+
+
+class _PassThrough(LeafSystem):
+    """A trivial T_N block: state <- 0.5 * input (for the framework-floor measurement)."""
+
+    def __init__(self, period: float):
+        super().__init__()
+        self._u = self.DeclareVectorInputPort("u", 5)
+        self._x = self.DeclareDiscreteState(5)
+        self.DeclareStateOutputPort("y", self._x)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+
+    def _update(self, context, discrete_state):
+        discrete_state.set_value(self._x, 0.5 * self._u.Eval(context))
+
+
+def python_block_floor(period: float, blocks: int = 12, steps: int = 1000) -> float:
+    """Wall time (s) of one update of a trivial Python LeafSystem in a chain of ``blocks``."""
+    builder = DiagramBuilder()
+    port = builder.AddSystem(ConstantVectorSource(np.ones(5))).get_output_port()
+    for _ in range(blocks):
+        block = builder.AddSystem(_PassThrough(period))
+        builder.Connect(port, block.get_input_port())
+        port = block.get_output_port()
+    simulator = Simulator(builder.Build())
+    simulator.Initialize()
+    start = time.perf_counter()
+    simulator.AdvanceTo(steps * period)
+    return (time.perf_counter() - start) / (steps * blocks)
+
+
+def bench(name: str = "corner", repeat: int = 3, stream=sys.stdout) -> dict:
+    """Benchmark the closed loop of scenario ``name``; prints the report and returns its figures."""
+    if not (isinstance(repeat, int) and repeat >= 1):
+        raise ScenarioError(f"--repeat={repeat!r} is out of range: allowed 1, 2, ...")
+    scenario = load_scenario(name)
+    if scenario.controller != "closed_loop":
+        raise ScenarioError(f"scenario {name!r} is open loop: bench needs controller: closed_loop")
+    if scenario.plant_time_step <= 0.0:
+        raise ScenarioError("bench needs the discrete plant (plant_time_step > 0): the plain loop has none")
+    seed = scenario.seed
+    diagram_wall, arrays = [], None
+    for _ in range(repeat):
+        result = run_scenario(scenario, seed=seed)
+        diagram_wall.append(result.summary["wall_time_s"])
+        arrays = result.arrays
+    steps = len(arrays["t"])
+    simulated = steps * scenario.T_N
+    rates = scenario.rates()
+    control, initial_speed, _ = closed_loop_settings(
+        scenario, scenario.slip_control_enabled, scenario.speed_law
+    )
+    noise = diagram_noise(seed, rates.T_N, steps)
+    loop_wall, parts = [], {}
+    for _ in range(repeat):
+        timings = {}
+        start = time.perf_counter()
+        plain = run_plain_loop(
+            scenario.robot_parameters(),
+            scenario.sensor_parameters(),
+            rates,
+            scenario.navigation,
+            control,
+            seed,
+            steps,
+            tuple(scenario.initial_pose),
+            initial_speed,
+            scenario.plant_time_step,
+            noise=noise,
+            timings=timings,
+        )
+        loop_wall.append(time.perf_counter() - start)
+        if loop_wall[-1] == min(loop_wall):
+            parts = timings
+    same = float(
+        np.max(np.abs(plain["true_x"] - arrays["true_x"]) + np.abs(plain["true_y"] - arrays["true_y"]))
+    )
+    diagram, loop = min(diagram_wall), min(loop_wall)
+    floor = python_block_floor(rates.T_N)
+    per_step = 1e6 / steps
+    lines = [
+        f"{name}: closed loop, {steps} samples of T_N = {rates.T_N * 1e3:g} ms "
+        f"({simulated:.2f} s simulated), best of {repeat}",
+        f"  Drake diagram   {diagram:7.3f} s wall  real-time factor {simulated / diagram:6.2f}  "
+        f"({diagram * per_step:6.0f} us per T_N)",
+        f"  plain loop      {loop:7.3f} s wall  real-time factor {simulated / loop:6.2f}  "
+        f"({loop * per_step:6.0f} us per T_N; same samples: max position difference {same:.1e} m)",
+        "  plain loop per T_N: "
+        + ", ".join(f"{part} {seconds * per_step:.0f} us" for part, seconds in parts.items()),
+        f"  Drake framework share {max(diagram - loop, 0.0) * per_step:.0f} us per T_N; floor: one trivial "
+        f"Python LeafSystem update costs {floor * 1e6:.1f} us",
+        "  targets: real-time factor >= 20, diagram / plain loop <= 2",
+        f"realtime_factor={simulated / diagram:.3f} diagram_over_loop={diagram / loop:.3f}",
+    ]
+    print("\n".join(lines), file=stream)
+    return {
+        "realtime_factor": simulated / diagram,
+        "loop_realtime_factor": simulated / loop,
+        "diagram_over_loop": diagram / loop,
+        "position_difference_m": same,
+        "parts_s": parts,
+        "python_block_floor_s": floor,
+    }
