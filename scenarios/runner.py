@@ -32,6 +32,7 @@ from scenarios.trajectories import (
     trajectory_along_path,
     trajectory_path,
 )
+from systems.plant import RobotParameters, tyre_slip
 
 TRUTH_KEYS = (
     "true_x true_y true_phi true_v_t true_v_n true_omega true_alpha true_wheel_R true_wheel_L".split()
@@ -208,7 +209,7 @@ def run_scenario(
                     limit = min(limit, completion + scenario.settle_time)
     wall = time.perf_counter() - wall_start
 
-    arrays = collect_arrays(built.loggers, context, robot.wheel_radius)
+    arrays = collect_arrays(built.loggers, context, robot)
     n = len(arrays["t"])
     for key in SERIES_KEYS:
         arrays.setdefault(key, np.full(n, np.nan))
@@ -294,8 +295,9 @@ def final_position_errors(arrays) -> dict:
     return out
 
 
-def collect_arrays(loggers, context, wheel_radius: float) -> dict:
-    """Artifact arrays from the loggers of a diagram (every logger publishes on the T_N grid)."""
+def collect_arrays(loggers, context, robot: RobotParameters) -> dict:
+    """Artifact arrays from the loggers of a diagram (every logger publishes on the T_N grid). The wheel
+    speeds, angles and tyre slips are computed from the logged plant state (systems.plant.tyre_slip)."""
     logs = {name: logger.FindLog(context) for name, logger in loggers.items()}
     t = logs["state"].sample_times()
     n = len(t)
@@ -311,12 +313,10 @@ def collect_arrays(loggers, context, wheel_radius: float) -> dict:
     for i, key in enumerate(["true_x", "true_y", "true_phi", "true_v_t", "true_v_n", "true_omega"]):
         a[key] = x[i].copy()
     a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
-    wheels = data("wheel_speeds")
-    a["true_wheel_R"], a["true_wheel_L"] = wheels[0].copy(), wheels[1].copy()
-    angles = data("wheel_angles")
-    a["true_theta_R"], a["true_theta_L"] = angles[0].copy(), angles[1].copy()
-    slip = data("tyre_slip")
-    a["true_slip_R"], a["true_slip_L"] = slip[0].copy(), slip[1].copy()
+    a["true_wheel_R"], a["true_wheel_L"] = robot.wheel_radius * x[8], robot.wheel_radius * x[9]
+    a["true_theta_R"], a["true_theta_L"] = x[6].copy(), x[7].copy()
+    slip = np.array([tyre_slip(column, robot) for column in x.T]).reshape(-1, 4)
+    a["true_slip_R"], a["true_slip_L"] = slip[:, 0].copy(), slip[:, 1].copy()
     acc = data("accelerometers")
     for i, key in enumerate(["meas_a_t1", "meas_a_n1", "meas_a_t2", "meas_a_n2"]):
         a[key] = acc[i].copy()

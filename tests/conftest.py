@@ -38,7 +38,7 @@ def run_open_loop(
     )
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     simulator.AdvanceTo(duration)
-    return collect_arrays(built.loggers, simulator.get_context(), robot.wheel_radius)
+    return collect_arrays(built.loggers, simulator.get_context(), robot)
 
 
 @pytest.fixture
