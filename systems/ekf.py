@@ -69,15 +69,10 @@ def ekf_predict(x, T_N: float) -> np.ndarray:
 def ekf_jacobian(x, T_N: float) -> np.ndarray:
     """S(5): G = d(S(2))/dx at x."""
     v_t, v_n, omega, _, _ = x
-    return np.array(
-        [
-            [1.0, omega * T_N, v_n * T_N, T_N, 0.0],
-            [-omega * T_N, 1.0, -v_t * T_N, 0.0, T_N],
-            [0.0, 0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, 0.0, 1.0, 0.0],
-            [0.0, 0.0, 0.0, 0.0, 1.0],
-        ]
-    )
+    G = np.eye(5)
+    G[0, 1], G[0, 2], G[0, 3] = omega * T_N, v_n * T_N, T_N
+    G[1, 0], G[1, 2], G[1, 4] = -omega * T_N, -v_t * T_N, T_N
+    return G
 
 
 def ekf_prior_covariance(P, x, Q, T_N: float) -> np.ndarray:
@@ -94,13 +89,14 @@ def ekf_gain(P_prior, R) -> np.ndarray:
 
 
 def ekf_update(x_prior, L, y) -> np.ndarray:
-    """S(8): x = x_{k|k-1} + L (y - C x_{k|k-1})."""
-    return x_prior + L @ (y - MEASUREMENT_MATRIX @ x_prior)
+    """S(8): x = x_{k|k-1} + L (y - C x_{k|k-1}); C selects [omega, a_t, a_n] = x[2:5]."""
+    return x_prior + L @ (y - x_prior[2:5])
 
 
 def ekf_joseph(P_prior, L, R) -> np.ndarray:
     """S(9): P = (I - L C) P_{k|k-1} (I - L C)^T + L R L^T (Joseph form, stays symmetric PSD)."""
-    A = np.eye(5) - L @ MEASUREMENT_MATRIX
+    A = np.eye(5)
+    A[:, 2:5] -= L  # I - L C, C = [0 | I_3]
     P = A @ P_prior @ A.T + L @ R @ L.T
     return 0.5 * (P + P.T)
 

@@ -110,7 +110,7 @@ class NavigationLoop:
         """Process sample k; returns the values the blocks output at t_k, in LOOP_KEYS order (the covariance
         P_k-1 is ``self.P`` before the call)."""
         mp, T_N = self.params.mixing, self.T_N
-        sample, fault_imu = check_sample(np.append(accelerometers, gyro), self.last_valid)
+        sample, fault_imu = check_sample([*accelerometers, gyro], self.last_valid)
         acc, g = sample[0:4], sample[4]
         odo_next, odo, fault_enc = odometry_step(
             self.odo_state, encoders, self.wheel_radius, self.track_width, T_N
@@ -124,7 +124,7 @@ class NavigationLoop:
         mixed = mix(odo, inertial, self.c1, c2, c3, x[1], mp.q2)
         row = (
             *self.pose,
-            *mixed,
+            *mixed.tolist(),
             self.alpha,
             self.v_track,
             *self.odo_pose,

@@ -17,7 +17,6 @@ printed "sign(u) k3 tanh(y1)" implies the opposite orientation of y1. We use the
 import dataclasses as dc
 import math
 
-import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 
@@ -175,51 +174,34 @@ class LyapunovPathFollower(LeafSystem):
         self._pose = self.DeclareVectorInputPort("estimated_pose", 3)
         self._measured_speed = self.DeclareVectorInputPort("estimated_speed", 1)
         self._speed = self.DeclareVectorInputPort("speed", 1)
-        # V1 = +inf until the first update: I(24) starts conservatively at V_m/2.
-        self._state = self.DeclareDiscreteState(np.array([s0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0]))
-        self.DeclareVectorOutputPort(
-            "wheel_speed_command",
-            2,
-            lambda c, o: o.SetFromVector(self._x(c)[1:3]),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
-        self.DeclareVectorOutputPort(
-            "lyapunov_value",
-            1,
-            lambda c, o: o.SetFromVector(self._x(c)[3:4]),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
-        self.DeclareVectorOutputPort(
-            "virtual_target",
-            1,
-            lambda c, o: o.SetFromVector(self._x(c)[0:1]),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
-        self.DeclareVectorOutputPort(
-            "frenet_errors",
-            3,
-            lambda c, o: o.SetFromVector(self._x(c)[4:7]),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
+        # State groups in FollowerState order; V1 = +inf until the first update (I(24) starts at V_m/2).
+        self._s = self.DeclareDiscreteState([s0])
+        self._command = self.DeclareDiscreteState(2)
+        self._V1 = self.DeclareDiscreteState([math.inf])
+        self._errors = self.DeclareDiscreteState(3)
+        self.DeclareStateOutputPort("wheel_speed_command", self._command)
+        self.DeclareStateOutputPort("lyapunov_value", self._V1)
+        self.DeclareStateOutputPort("virtual_target", self._s)
+        self.DeclareStateOutputPort("frenet_errors", self._errors)
         self.DeclareVectorOutputPort(
             "path_point",
             3,
-            lambda c, o: o.SetFromVector(path.pose(self._x(c)[0])),
+            lambda c, o: o.SetFromVector(path.pose(c.get_discrete_state(self._s).get_value()[0])),
             prerequisites_of_calc={self.xd_ticket()},
         )
         self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
 
-    def _x(self, context):
-        return context.get_discrete_state(self._state).get_value()
-
     def _update(self, context, discrete_state):
-        s = self._x(context)[0]
+        s = context.get_discrete_state(self._s).get_value()[0]
         u = self._speed.Eval(context)[0]
         u_measured = self._measured_speed.Eval(context)[0]
         step = follower_step(
             s, self._pose.Eval(context), u, self._path, self._p, self._half, self._T_C, u_measured
         )
-        discrete_state.set_value(self._state, step)
+        discrete_state.set_value(self._s, step[0:1])
+        discrete_state.set_value(self._command, step[1:3])
+        discrete_state.set_value(self._V1, step[3:4])
+        discrete_state.set_value(self._errors, step[4:7])
 
 
 def follower_step(

@@ -105,7 +105,7 @@ def initial_biases(params: SensorParameters, rng: np.random.Generator) -> np.nda
     )
 
 
-def accelerometer_truth(body_acceleration, omega: float, position) -> np.ndarray:
+def accelerometer_truth(body_acceleration, omega: float, position) -> list:
     """True readings [a_t1, a_n1, a_t2, a_n2] of the two accelerometers at +/- position.
 
     a_P = a_cg + omega_dot x r + omega x (omega x r): tangential a_t - omega_dot*y - omega^2*x, lateral
@@ -116,7 +116,7 @@ def accelerometer_truth(body_acceleration, omega: float, position) -> np.ndarray
     w2 = omega * omega
     dt = -omega_dot * py - w2 * px
     dn = omega_dot * px - w2 * py
-    return np.array([a_t + dt, a_n + dn, a_t - dt, a_n - dn])
+    return [a_t + dt, a_n + dn, a_t - dt, a_n - dn]
 
 
 def sensor_update(internal, plant_state, body_acceleration, noise, params: SensorParameters, T_N: float):
@@ -126,33 +126,34 @@ def sensor_update(internal, plant_state, body_acceleration, noise, params: Senso
         internal: [accel bias (4), gyro bias, vibration (4)].
         plant_state: PlantState-ordered true state.
         body_acceleration: true [a_t, a_n, omega_dot].
-        noise: NOISE_CHANNELS standard-normal draws.
+        noise: NOISE_CHANNELS standard-normal draws: accelerometer white noise (0-3), accelerometer bias
+            drift (4-7), vibration (8-11), gyro white noise (12), gyro bias drift (13).
 
     Returns:
-        (internal', accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L])
+        (internal', accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]),
+        lists of floats.
     """
-    internal = np.asarray(internal, dtype=float)
-    noise = np.asarray(noise, dtype=float)
     v_t, omega = plant_state[3], plant_state[5]
-    accel_bias = internal[0:4] + params.accel_drift_density * math.sqrt(T_N) * noise[4:8]
-    gyro_bias = internal[4] + params.gyro_drift_density * math.sqrt(T_N) * noise[13]
+    drift = params.accel_drift_density * math.sqrt(T_N)
     phi = math.exp(-T_N / params.accel_vibration_time_constant)
-    sigma_vib = params.accel_vibration_per_speed * abs(v_t)
-    vibration = phi * internal[5:9] + math.sqrt(1.0 - phi * phi) * sigma_vib * noise[8:12]
-    accel = (
-        accelerometer_truth(body_acceleration, omega, params.accelerometer_position)
-        + accel_bias
-        + vibration
-        + params.accel_noise_std * noise[0:4]
-    )
-    accel = np.clip(accel, -params.accel_range, params.accel_range)
+    vib_gain = math.sqrt(1.0 - phi * phi) * params.accel_vibration_per_speed * abs(v_t)
+    truth = accelerometer_truth(body_acceleration, omega, params.accelerometer_position)
+    limit = params.accel_range
+    bias, vibration, accel = [], [], []
+    for i in range(4):
+        b = internal[i] + drift * noise[4 + i]
+        v = phi * internal[5 + i] + vib_gain * noise[8 + i]
+        a = truth[i] + b + v + params.accel_noise_std * noise[i]
+        bias.append(b)
+        vibration.append(v)
+        accel.append(min(max(a, -limit), limit))
+    gyro_bias = internal[4] + params.gyro_drift_density * math.sqrt(T_N) * noise[13]
     gyro = min(
         max(omega + gyro_bias + params.gyro_noise_std * noise[12], -params.gyro_range), params.gyro_range
     )
     step = params.encoder_step
-    encoders = np.floor(np.asarray(plant_state[6:8]) / step) * step
-    new_internal = np.concatenate([accel_bias, [gyro_bias], vibration])
-    return new_internal, accel, np.array([gyro]), encoders
+    encoders = [math.floor(plant_state[6] / step) * step, math.floor(plant_state[7] / step) * step]
+    return [*bias, gyro_bias, *vibration], accel, [gyro], encoders
 
 
 class ProprioceptiveSensors(LeafSystem):
