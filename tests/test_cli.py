@@ -153,3 +153,26 @@ def test_bad_choice_exits_2(capsys):
         main(["run", "corner", "--speed-law", "fast"])
     assert e.value.code == 2
     assert "invalid choice: 'fast'" in capsys.readouterr().err
+
+
+def test_bench_prints_the_contract_line(capsys):
+    """``slipnav bench``: the diagram and the plain loop compute the same samples; the last line is the
+    DESIGN.md contract. (A benchmark: the speeds are printed, not asserted.)"""
+    assert main(["bench", "corner", "--repeat", "1"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert "same samples: max position difference 0.0e+00 m" in "\n".join(lines)
+    last = dict(item.split("=") for item in lines[-1].split())
+    assert set(last) == {"realtime_factor", "diagram_over_loop"}
+    assert float(last["realtime_factor"]) > 0.0 and float(last["diagram_over_loop"]) > 0.0
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["bench", "nowhere"], "nowhere"),
+        (["bench", "corner", "--repeat", "0"], "--repeat=0 is out of range"),
+    ],
+)
+def test_bench_user_errors_exit_2(argv, message, capsys):
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
