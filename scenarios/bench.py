@@ -17,8 +17,8 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
 from scenarios.config import ScenarioError, load_scenario
-from scenarios.plain_loop import diagram_noise, run_plain_loop
-from scenarios.runner import closed_loop_settings, run_scenario
+from scenarios.plain_loop import diagram_noise, run_scenario_plain_loop
+from scenarios.runner import run_scenario
 
 
 class _PassThrough(LeafSystem):
@@ -68,28 +68,12 @@ def bench(name: str = "corner", repeat: int = 3, stream=sys.stdout) -> dict:
     steps = len(arrays["t"])
     simulated = steps * scenario.T_N
     rates = scenario.rates()
-    control, initial_speed, _ = closed_loop_settings(
-        scenario, scenario.slip_control_enabled, scenario.speed_law
-    )
     noise = diagram_noise(seed, rates.T_N, steps)
     loop_wall, parts = [], {}
     for _ in range(repeat):
         timings = {}
         start = time.perf_counter()
-        plain = run_plain_loop(
-            scenario.robot_parameters(),
-            scenario.sensor_parameters(),
-            rates,
-            scenario.navigation,
-            control,
-            seed,
-            steps,
-            tuple(scenario.initial_pose),
-            initial_speed,
-            scenario.plant_time_step,
-            noise=noise,
-            timings=timings,
-        )
+        plain = run_scenario_plain_loop(scenario, seed, steps, noise=noise, timings=timings)
         loop_wall.append(time.perf_counter() - start)
         if loop_wall[-1] == min(loop_wall):
             parts = timings

@@ -166,3 +166,28 @@ def diagram_noise(seed: int, T_N: float, num_steps: int) -> np.ndarray:
     simulator.Initialize()
     simulator.AdvanceTo(num_steps * T_N)
     return logger.FindLog(simulator.get_context()).data().T[1 : num_steps + 1].copy()
+
+
+def run_scenario_plain_loop(
+    scenario, seed: int, num_steps: int, slip_control=None, speed_law=None, noise=None, timings=None
+) -> dict:
+    """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (same overrides)."""
+    from scenarios.runner import closed_loop_settings
+
+    slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
+    speed_law = scenario.speed_law if speed_law is None else speed_law
+    control, initial_speed, _ = closed_loop_settings(scenario, slip_control, speed_law)
+    return run_plain_loop(
+        scenario.robot_parameters(),
+        scenario.sensor_parameters(),
+        scenario.rates(),
+        scenario.navigation,
+        control,
+        seed,
+        num_steps,
+        tuple(scenario.initial_pose),
+        initial_speed,
+        scenario.plant_time_step,
+        noise=noise,
+        timings=timings,
+    )

@@ -278,72 +278,6 @@ def tyre_force(v_x: float, v_y: float, wheel_speed: float, normal_load: float, p
     return force * kappa / sigma, -force * tan_alpha / sigma, kappa, tan_alpha
 
 
-def shoe_force(v_x: float, v_y: float, normal_load: float, p: RobotParameters):
-    """Felt-shoe force: tanh-regularised Coulomb friction plus viscous drag, opposing the sliding velocity."""
-    speed = math.hypot(v_x, v_y)
-    if speed < 1e-15:
-        return 0.0, 0.0
-    coulomb = p.shoe_friction * normal_load * math.tanh(speed / p.shoe_slip_speed) / speed
-    scale = -(coulomb + p.shoe_viscous_drag)
-    return scale * v_x, scale * v_y
-
-
-def motor_current(voltage: float, wheel_rate: float, p: RobotParameters) -> float:
-    """Armature current (V - k*w)/R, clipped to the driver's current limit (A)."""
-    current = (voltage - p.motor_constant * wheel_rate) / p.motor_resistance
-    return min(max(current, -p.motor_current_limit), p.motor_current_limit)
-
-
-def plant_derivatives(state, currents, p: RobotParameters):
-    """Time derivative of the continuous plant state.
-
-    Args:
-        state: sequence in PlantState order.
-        currents: (i_R, i_L) motor currents (A); zeros model motors switched off (open circuit).
-
-    Returns:
-        (xdot as a list in PlantState order, (a_t, a_n, omega_dot) absolute body accelerations)
-    """
-    x, y, phi, v_t, v_n, omega, _, _, w_R, w_L = state
-    half = 0.5 * p.track_width
-    r = p.wheel_radius
-    n_wheel = p.wheel_normal_load
-    # Wheels at (0, -half) right and (0, +half) left.
-    fx_R, fy_R, _, _ = tyre_force(v_t + omega * half, v_n, r * w_R, n_wheel, p)
-    fx_L, fy_L, _, _ = tyre_force(v_t - omega * half, v_n, r * w_L, n_wheel, p)
-    f_x = fx_R + fx_L
-    f_y = fy_R + fy_L
-    moment = half * (fx_R - fx_L)
-    if p.shoe_friction > 0.0 or p.shoe_viscous_drag > 0.0:
-        n_shoe = p.shoe_normal_load
-        for x_shoe in (p.shoe_offset, -p.shoe_offset):
-            sx, sy = shoe_force(v_t, v_n + omega * x_shoe, n_shoe, p)
-            f_x += sx
-            f_y += sy
-            moment += x_shoe * sy
-    a_t = f_x / p.mass
-    a_n = f_y / p.mass
-    omega_dot = moment / p.yaw_inertia
-    i_R, i_L = currents
-    k = p.motor_constant
-    w_R_dot = (k * i_R - r * fx_R - p.bearing_drag * w_R) / p.wheel_inertia
-    w_L_dot = (k * i_L - r * fx_L - p.bearing_drag * w_L) / p.wheel_inertia
-    c, s = math.cos(phi), math.sin(phi)
-    xdot = [
-        v_t * c - v_n * s,
-        v_t * s + v_n * c,
-        omega,
-        a_t + v_n * omega,
-        a_n - v_t * omega,
-        omega_dot,
-        w_R,
-        w_L,
-        w_R_dot,
-        w_L_dot,
-    ]
-    return xdot, (a_t, a_n, omega_dot)
-
-
 def tyre_force_and_stiffness(
     v_x: float, v_y: float, wheel_speed: float, normal_load: float, p: RobotParameters
 ):
@@ -364,21 +298,34 @@ def tyre_force_and_stiffness(
     return force * ck, -force * ca, (slope * ck * ck + force / sigma * ca * ca) / v_ref
 
 
-def plant_substep(state, voltages, h: float, p: RobotParameters):
-    """One semi-implicit Euler step of length h of the plant ODE (plant_derivatives) at fixed voltages.
+def shoe_force(v_x: float, v_y: float, normal_load: float, p: RobotParameters):
+    """Felt-shoe force: tanh-regularised Coulomb friction plus viscous drag, opposing the sliding velocity."""
+    speed = math.hypot(v_x, v_y)
+    if speed < 1e-15:
+        return 0.0, 0.0
+    coulomb = p.shoe_friction * normal_load * math.tanh(speed / p.shoe_slip_speed) / speed
+    scale = -(coulomb + p.shoe_viscous_drag)
+    return scale * v_x, scale * v_y
 
-    The wheel speeds take an exponential-Euler step in their own stiff slip mode: with the damping
-    D = -d(w_dot)/dw >= 0 (tyre slip stiffness, back-EMF unless the current is limited, bearing drag),
-    w+ = w + (1 - exp(-h D))/D w_dot, exact for the linearised mode and stable at any h (the tyre's slip
-    mode reaches D ~ 4000 1/s at low speed). The body velocities step explicitly; positions and wheel
-    angles use the new velocities (symplectic Euler) and the pose the mid-step heading. This mirrors the
-    implicit treatment of stiff contact in Drake's discrete MultibodyPlant, reduced to a diagonal part.
-    Returns (state+, (a_t, a_n, omega_dot) at state).
+
+def motor_current(voltage: float, wheel_rate: float, p: RobotParameters) -> float:
+    """Armature current (V - k*w)/R, clipped to the driver's current limit (A)."""
+    current = (voltage - p.motor_constant * wheel_rate) / p.motor_resistance
+    return min(max(current, -p.motor_current_limit), p.motor_current_limit)
+
+
+def contact_forces(state, p: RobotParameters):
+    """Tyre and shoe forces on the body at ``state`` (PlantState order).
+
+    Returns:
+        ((a_t, a_n, omega_dot) absolute body accelerations, (F_x, dF_x/d(r w)) of the right tyre, the
+        same of the left tyre); tyre_force_and_stiffness gives the stiffness.
     """
-    x, y, phi, v_t, v_n, omega, th_R, th_L, w_R, w_L = state
+    _, _, _, v_t, v_n, omega, _, _, w_R, w_L = state
     half = 0.5 * p.track_width
     r = p.wheel_radius
     n_wheel = p.wheel_normal_load
+    # Wheels at (0, -half) right and (0, +half) left.
     fx_R, fy_R, kx_R = tyre_force_and_stiffness(v_t + omega * half, v_n, r * w_R, n_wheel, p)
     fx_L, fy_L, kx_L = tyre_force_and_stiffness(v_t - omega * half, v_n, r * w_L, n_wheel, p)
     f_x = fx_R + fx_L
@@ -391,9 +338,57 @@ def plant_substep(state, voltages, h: float, p: RobotParameters):
             f_x += sx
             f_y += sy
             moment += x_shoe * sy
-    a_t = f_x / p.mass
-    a_n = f_y / p.mass
-    omega_dot = moment / p.yaw_inertia
+    accelerations = (f_x / p.mass, f_y / p.mass, moment / p.yaw_inertia)
+    return accelerations, (fx_R, kx_R), (fx_L, kx_L)
+
+
+def plant_derivatives(state, currents, p: RobotParameters):
+    """Time derivative of the continuous plant state.
+
+    Args:
+        state: sequence in PlantState order.
+        currents: (i_R, i_L) motor currents (A); zeros model motors switched off (open circuit).
+
+    Returns:
+        (xdot as a list in PlantState order, (a_t, a_n, omega_dot) absolute body accelerations)
+    """
+    x, y, phi, v_t, v_n, omega, _, _, w_R, w_L = state
+    r = p.wheel_radius
+    (a_t, a_n, omega_dot), (fx_R, _), (fx_L, _) = contact_forces(state, p)
+    i_R, i_L = currents
+    k = p.motor_constant
+    w_R_dot = (k * i_R - r * fx_R - p.bearing_drag * w_R) / p.wheel_inertia
+    w_L_dot = (k * i_L - r * fx_L - p.bearing_drag * w_L) / p.wheel_inertia
+    c, s = math.cos(phi), math.sin(phi)
+    xdot = [
+        v_t * c - v_n * s,
+        v_t * s + v_n * c,
+        omega,
+        a_t + v_n * omega,
+        a_n - v_t * omega,
+        omega_dot,
+        w_R,
+        w_L,
+        w_R_dot,
+        w_L_dot,
+    ]
+    return xdot, (a_t, a_n, omega_dot)
+
+
+def plant_substep(state, voltages, h: float, p: RobotParameters):
+    """One semi-implicit Euler step of length h of the plant ODE (plant_derivatives) at fixed voltages.
+
+    The wheel speeds take an exponential-Euler step in their own stiff slip mode: with the damping
+    D = -d(w_dot)/dw >= 0 (tyre slip stiffness, back-EMF unless the current is limited, bearing drag),
+    w+ = w + (1 - exp(-h D))/D w_dot, exact for the linearised mode and stable at any h (the tyre's slip
+    mode reaches D ~ 4000 1/s at low speed). The body velocities step explicitly; positions and wheel
+    angles use the new velocities (symplectic Euler) and the pose the mid-step heading. This mirrors the
+    implicit treatment of stiff contact in Drake's discrete MultibodyPlant, reduced to a diagonal part.
+    Returns (state+, (a_t, a_n, omega_dot) at state).
+    """
+    x, y, phi, v_t, v_n, omega, th_R, th_L, w_R, w_L = state
+    r = p.wheel_radius
+    (a_t, a_n, omega_dot), (fx_R, kx_R), (fx_L, kx_L) = contact_forces(state, p)
     k, J, R_m, b = p.motor_constant, p.wheel_inertia, p.motor_resistance, p.bearing_drag
     w_new = []
     for w, fx, kx, volts in ((w_R, fx_R, kx_R, voltages[0]), (w_L, fx_L, kx_L, voltages[1])):

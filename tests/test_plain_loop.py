@@ -4,28 +4,8 @@ import numpy as np
 import pytest
 
 from scenarios.config import load_scenario
-from scenarios.plain_loop import PLAIN_LOOP_KEYS, diagram_noise, run_plain_loop
+from scenarios.plain_loop import PLAIN_LOOP_KEYS, diagram_noise, run_plain_loop, run_scenario_plain_loop
 from scenarios.runner import closed_loop_settings, run_scenario
-
-
-def plain_twin(scenario, seed, num_steps, **overrides):
-    control, initial_speed, _ = closed_loop_settings(
-        scenario, overrides.get("slip_control", True), overrides.get("speed_law", "bounded")
-    )
-    rates = scenario.rates()
-    return run_plain_loop(
-        scenario.robot_parameters(),
-        scenario.sensor_parameters(),
-        rates,
-        scenario.navigation,
-        control,
-        seed,
-        num_steps,
-        tuple(scenario.initial_pose),
-        initial_speed,
-        scenario.plant_time_step,
-        noise=diagram_noise(seed, rates.T_N, num_steps),
-    )
 
 
 @pytest.mark.parametrize(
@@ -44,7 +24,8 @@ def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides):
     result = run_scenario(scenario, seed=seed, duration=duration, **overrides)
     a = result.arrays
     n = len(a["t"])
-    plain = plain_twin(scenario, seed, n, **overrides)
+    noise = diagram_noise(seed, scenario.T_N, n)
+    plain = run_scenario_plain_loop(scenario, seed, n, noise=noise, **overrides)
     compared = 0
     for key in PLAIN_LOOP_KEYS:
         artifact_key = key.removeprefix("nav_")
