@@ -113,7 +113,18 @@ def step_sequence(a):
 
 
 def slip_speed(a):
-    return np.max(np.abs(0.5 * (a["true_wheel_R"] + a["true_wheel_L"]) - a["true_v_t"]))
+    """|wheel-centre speed - ground speed| per sample (m/s): the tangential slip speed."""
+    return np.abs(0.5 * (a["true_wheel_R"] + a["true_wheel_L"]) - a["true_v_t"])
+
+
+def slip_distance(a):
+    """Wheel travel lost to tangential slip (m): the integral of the slip speed."""
+    return np.trapezoid(slip_speed(a), a["t"])
+
+
+def heavy_slip_episodes(a, threshold=0.3):
+    """Number of onsets of slip faster than `threshold` m/s."""
+    return int(np.sum(np.diff((slip_speed(a) > threshold).astype(int)) == 1))
 
 
 def test_large_q_delta_produces_the_limit_cycle_the_paper_warns_of():
@@ -130,7 +141,9 @@ def test_large_q_delta_produces_the_limit_cycle_the_paper_warns_of():
     assert np.sum(up_large > 0.2) >= 4  # repeated large jumps: the cycle recurs
     lows = step_sequence(large) <= scenario.slip_control.delta_min + 1e-9
     assert np.sum(np.diff(lows.astype(int)) == 1) >= 4  # and keeps falling back to delta_min
-    assert slip_speed(large) >= 2.0 * slip_speed(default)
+    # every jump re-spins the wheels: more heavy-slip episodes and more than twice the wheel travel lost
+    assert heavy_slip_episodes(large) >= 2 * heavy_slip_episodes(default)
+    assert slip_distance(large) >= 2.0 * slip_distance(default)
 
 
 # --- path following: Drake's Linearize on the scalar-generic closed loop --------------------------------
