@@ -106,6 +106,11 @@ class NavigationLoop:
         self.gyro_state = [*initial.pose, 0.0]
         self.k = 0
 
+    def velocity_mix(self, odo, inertial, c2: float, c3: float, v_n_prev: float) -> np.ndarray:
+        """S(15)-(17) at sample ``self.k`` with the C1 in force (scenarios/alpha_budget.py overrides it
+        to feed oracle inputs)."""
+        return mix(odo, inertial, self.c1, c2, c3, v_n_prev, self.params.mixing.q2)
+
     def step(self, accelerometers, gyro: float, encoders) -> tuple:
         """Process sample k; returns the values the blocks output at t_k, in LOOP_KEYS order (the covariance
         P_k-1 is ``self.P`` before the call)."""
@@ -121,7 +126,7 @@ class NavigationLoop:
         det_next, total = slip_detector_step(self.det_state, odo[0], acc, T_N)
         c2 = mixing_c2(inertial[4], mp)
         c3 = mixing_c3(odo[1], inertial[2], mp)
-        mixed = mix(odo, inertial, self.c1, c2, c3, x[1], mp.q2)
+        mixed = self.velocity_mix(odo, inertial, c2, c3, x[1])
         row = (
             *self.pose,
             *mixed.tolist(),
@@ -174,11 +179,16 @@ def navigation_loop(
     Returns:
         dict of (N,) arrays keyed by LOOP_KEYS, plus ``P`` (N, 5, 5): the EKF covariance P_k-1 at t_k.
     """
+    loop = NavigationLoop(params, wheel_radius, track_width, T_N, T_C, initial)
+    return run_navigation_loop(loop, accelerometers, gyro, encoders)
+
+
+def run_navigation_loop(loop: NavigationLoop, accelerometers, gyro, encoders) -> dict:
+    """Step ``loop`` over N sensor rows; returns what navigation_loop returns."""
     accelerometers = np.asarray(accelerometers, float)
     gyro = np.asarray(gyro, float).reshape(-1)
     encoders = np.asarray(encoders, float)
     N = len(gyro)
-    loop = NavigationLoop(params, wheel_radius, track_width, T_N, T_C, initial)
     rows = np.empty((N, len(LOOP_KEYS)))
     P = np.empty((N, 5, 5))
     for k in range(N):

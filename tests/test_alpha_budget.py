@@ -1,0 +1,54 @@
+"""The side-slip error budget (scenarios/alpha_budget.py): the replay is the diagram, the oracles act."""
+
+import math
+
+import numpy as np
+import pytest
+
+from scenarios.alpha_budget import VARIANTS, alpha_budget_of_run, replay
+from scenarios.cli import main
+from scenarios.config import load_scenario
+from scenarios.metrics import side_slip_rms_error
+from scenarios.runner import run_scenario
+
+
+@pytest.fixture(scope="module")
+def corner_run():
+    scenario = load_scenario("corner")
+    return scenario, run_scenario(scenario, seed=0).arrays
+
+
+def test_replay_is_the_diagram_and_the_oracles_replace_what_they_name(corner_run):
+    scenario, a = corner_run
+    paper = replay(a, scenario)
+    for key in ("est_v_t", "est_v_n", "est_omega", "est_alpha", "est_x", "C1", "C2"):
+        np.testing.assert_allclose(paper[key], a[key], rtol=0, atol=1e-12, err_msg=key)
+    perfect = replay(a, scenario, true_v_t=a["true_v_t"])
+    np.testing.assert_array_equal(perfect["est_v_t"], a["true_v_t"])
+    # C2 forced to 0 everywhere: S(17) becomes pure inertial integration, so v_n leaves the relaxed zero
+    # on the straights too (the noise integrates), unlike the paper's estimate.
+    free = replay(a, scenario, side_slip=np.ones(len(a["t"]), bool))
+    straight = np.abs(a["true_omega"]) < 0.01
+    assert np.max(np.abs(free["est_v_n"][straight])) > 3 * np.max(np.abs(paper["est_v_n"][straight]))
+
+
+def test_budget_of_the_corner(corner_run):
+    """Measured on seed 0: removing the relaxation of v_n at the side-slip onset (S(17) with C2 high while
+    |a_n| < b2) removes about half of the side-slip error."""
+    scenario, a = corner_run
+    budget = alpha_budget_of_run(a, scenario)
+    assert list(budget) == list(VARIANTS)
+    assert budget["paper"] == pytest.approx(math.degrees(side_slip_rms_error(a)), rel=1e-9)
+    assert budget["C2 = 0 from side-slip onset"] < 0.7 * budget["paper"]
+    assert budget["both, S(19) every T_N"] < 0.7 * budget["paper"]
+    with pytest.raises(ValueError, match="onset_deg"):
+        alpha_budget_of_run(a, scenario, onset_deg=0.0)
+
+
+def test_alpha_budget_command(capsys):
+    assert main(["alpha-budget", "corner", "--seeds", "1"]) == 0
+    out = capsys.readouterr().out
+    for variant in VARIANTS:
+        assert variant in out
+    assert main(["alpha-budget", "corner", "--seeds", "0"]) == 2
+    assert "--seeds=0 is out of range" in capsys.readouterr().err
