@@ -2,7 +2,7 @@
 
 Prints, per scenario, the mean and worst figures of scenarios.metrics.navigation_figures against the
 navigation targets (fused error <= 1 % of path length and <= 0.3 x odometry-only, side-slip RMS <= 0.5 deg
-where |alpha| > 1 deg, tangential slip detected within 2 T_C). Goals, not tests.
+where |alpha| > 1 deg, tangential slip detected, C1 < 0.75, within 2 T_C). Goals, not tests.
 """
 
 import math
@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from scenarios.config import load_scenario
-from scenarios.metrics import navigation_figures
+from scenarios.metrics import DETECTION_C1_LEVEL, navigation_figures
 from scenarios.runner import run_scenario
 
 
@@ -51,8 +51,14 @@ def summarise(name: str, figures: list, wall: float, stream=sys.stdout) -> None:
     if episodes:
         worst = np.nanmax(latency) if np.isfinite(latency).any() else math.nan
         lines.append(
-            f"  tangential slip        {int(detected)}/{int(episodes)} episodes detected, worst latency "
-            f"{worst:.1f} T_C (goal <= 2 T_C)"
+            f"  tangential slip        {int(detected)}/{int(episodes)} episodes detected (C1 < "
+            f"{DETECTION_C1_LEVEL}), worst latency {worst:.1f} T_C (goal <= 2 T_C)"
+        )
+        half, half_detected = col("max_latency_c1_half_T_C"), int(col("slip_detected_c1_half").sum())
+        worst_half = np.nanmax(half) if np.isfinite(half).any() else math.nan
+        lines.append(
+            f"{'':25}{half_detected}/{int(episodes)} with C1 < 0.5 (two batches), worst latency "
+            f"{worst_half:.1f} T_C"
         )
     print("\n".join(lines), file=stream)
 

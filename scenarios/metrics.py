@@ -48,7 +48,15 @@ def slip_episodes(a: dict, threshold: float = 0.15, min_gap: float = 0.2) -> lis
     return onsets
 
 
-def detection_latencies(a: dict, onsets: list[float], c1_level: float = 0.5, window: float = 0.2) -> list:
+DETECTION_C1_LEVEL = 0.75
+"""C1 below which a tangential slip counts as detected: half of the drop 1 - p = 0.5 that one batch of a
+clear detection (logsig ~ 0 in S(12)) gives with the default PT1 pole p = 0.5. C1 < 0.5 needs two
+consecutive batches (accuracy reports that figure too)."""
+
+
+def detection_latencies(
+    a: dict, onsets: list[float], c1_level: float = DETECTION_C1_LEVEL, window: float = 0.2
+) -> list:
     """For each onset, the delay until C1 first falls below ``c1_level`` (s), or None if not within
     ``window`` seconds. A drop that precedes the onset by up to one T_C counts as latency 0."""
     t, c1 = a["t"], a["C1"]
@@ -66,6 +74,8 @@ def navigation_figures(a: dict) -> dict:
     fused, odo, gyro = (final_position_error(a, p) for p in ("est", "odo", "gyro"))
     onsets = slip_episodes(a)
     latencies = detection_latencies(a, onsets)
+    two_batches = detection_latencies(a, onsets, c1_level=0.5)
+    T_C = float(a["T_C"])
     return {
         "fused_error_m": fused,
         "odometry_error_m": odo,
@@ -75,6 +85,8 @@ def navigation_figures(a: dict) -> dict:
         "alpha_rms_deg": math.degrees(side_slip_rms_error(a)),
         "slip_episodes": len(onsets),
         "slip_detected": sum(lat is not None for lat in latencies),
-        "max_latency_T_C": max((lat for lat in latencies if lat is not None), default=float("nan"))
-        / float(a["T_C"]),
+        "max_latency_T_C": max((lat for lat in latencies if lat is not None), default=float("nan")) / T_C,
+        "slip_detected_c1_half": sum(lat is not None for lat in two_batches),
+        "max_latency_c1_half_T_C": max((lat for lat in two_batches if lat is not None), default=float("nan"))
+        / T_C,
     }
