@@ -4,7 +4,7 @@
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
                          [--speed-law bounded|constant] [--open-loop]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop]
-    slipnav alpha-budget [SCENARIO ...] [--seeds N] [--open-loop]
+    slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
 
@@ -48,8 +48,8 @@ def _parser() -> argparse.ArgumentParser:
     acc.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
     acc.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     acc.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
-    bud = sub.add_parser("alpha-budget", help="side-slip angle error with oracle inputs (benchmark)")
-    bud.add_argument("scenarios", nargs="*", default=["corner"], help="default: corner")
+    bud = sub.add_parser("error-budget", help="navigation errors with oracle inputs (benchmark)")
+    bud.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
     bud.add_argument("--seeds", type=int, default=3, help="number of seeds (default 3)")
     bud.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
     ben = sub.add_parser("bench", help="speed of the closed-loop diagram vs the plain loop (benchmark)")
@@ -75,10 +75,10 @@ def main(argv=None) -> int:
 
             bench(args.scenario, args.repeat)
             return 0
-        if args.command == "alpha-budget":
-            from scenarios.alpha_budget import alpha_budget
+        if args.command == "error-budget":
+            from scenarios.error_budget import error_budget
 
-            alpha_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None)
+            error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None)
             return 0
         if args.command == "accuracy":
             from scenarios.accuracy import accuracy

@@ -107,7 +107,7 @@ class NavigationLoop:
         self.k = 0
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, v_n_prev: float) -> np.ndarray:
-        """S(15)-(17) at sample ``self.k`` with the C1 in force (scenarios/alpha_budget.py overrides it
+        """S(15)-(17) at sample ``self.k`` with the C1 in force (scenarios/error_budget.py overrides it
         to feed oracle inputs)."""
         return mix(odo, inertial, self.c1, c2, c3, v_n_prev, self.params.mixing.q2)
 

@@ -1,14 +1,14 @@
-"""The side-slip error budget (scenarios/alpha_budget.py): the replay is the diagram, the oracles act."""
+"""The navigation error budget (scenarios/error_budget.py): the replay is the diagram, the oracles act."""
 
 import math
 
 import numpy as np
 import pytest
 
-from scenarios.alpha_budget import VARIANTS, alpha_budget_of_run, replay
 from scenarios.cli import main
 from scenarios.config import load_scenario
-from scenarios.metrics import side_slip_rms_error
+from scenarios.error_budget import VARIANTS, error_budget_of_run, replay
+from scenarios.metrics import final_position_error, side_slip_rms_error, tangential_slip_speed
 from scenarios.runner import run_scenario
 
 
@@ -36,19 +36,34 @@ def test_budget_of_the_corner(corner_run):
     """Measured on seed 0: removing the relaxation of v_n at the side-slip onset (S(17) with C2 high while
     |a_n| < b2) removes about half of the side-slip error."""
     scenario, a = corner_run
-    budget = alpha_budget_of_run(a, scenario)
+    budget = error_budget_of_run(a, scenario)
     assert list(budget) == list(VARIANTS)
-    assert budget["paper"] == pytest.approx(math.degrees(side_slip_rms_error(a)), rel=1e-9)
-    assert budget["C2 = 0 from side-slip onset"] < 0.7 * budget["paper"]
-    assert budget["both, S(19) every T_N"] < 0.7 * budget["paper"]
+    pct = 100.0 * final_position_error(a, "est") / float(a["path_length"])
+    assert budget["paper"] == pytest.approx((pct, math.degrees(side_slip_rms_error(a))), rel=1e-9)
+    assert budget["C2 = 0 from side-slip onset"][1] < 0.7 * budget["paper"][1]
+    assert budget["... and S(19) every T_N"][1] < 0.7 * budget["paper"][1]
     with pytest.raises(ValueError, match="onset_deg"):
-        alpha_budget_of_run(a, scenario, onset_deg=0.0)
+        error_budget_of_run(a, scenario, onset_deg=0.0)
+    with pytest.raises(ValueError, match="slip_speed"):
+        error_budget_of_run(a, scenario, slip_speed=-1.0)
 
 
-def test_alpha_budget_command(capsys):
-    assert main(["alpha-budget", "corner", "--seeds", "1"]) == 0
+def test_c1_oracle_on_the_square():
+    """The closed-loop square's distance error is slipping odometry that S(11)-(12) report late or not at
+    all: with C1 = 0 exactly while the wheels slip, seed 0 ends several times closer."""
+    scenario = load_scenario("square")
+    a = run_scenario(scenario, seed=0).arrays
+    slipping = np.abs(tangential_slip_speed(a)) > 0.03
+    oracle = replay(a, scenario, slipping=slipping)
+    np.testing.assert_array_equal(oracle["C1"], np.where(slipping, 0.0, 1.0))
+    paper = final_position_error(a, "est")
+    assert final_position_error({**a, **oracle}, "est") < paper / 3
+
+
+def test_error_budget_command(capsys):
+    assert main(["error-budget", "corner", "--seeds", "1"]) == 0
     out = capsys.readouterr().out
     for variant in VARIANTS:
         assert variant in out
-    assert main(["alpha-budget", "corner", "--seeds", "0"]) == 2
+    assert main(["error-budget", "corner", "--seeds", "0"]) == 2
     assert "--seeds=0 is out of range" in capsys.readouterr().err

@@ -1,0 +1,179 @@
+"""Error budget of the navigation: ``slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop]``.
+
+Runs each scenario, then replays its logged sensor samples through the plain navigation loop
+(systems.navigation.NavigationLoop, the diagram's own functions) with oracle inputs that remove one
+cause of error at a time, and prints for each variant the fused final position error (% of path length)
+and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the figures of
+``slipnav accuracy``):
+
+- ``paper``: the replay as is; it equals the diagram's estimate sample for sample (checked).
+- ``C1 oracle``: C1 = 0 exactly while the wheels slip (|mean wheel speed - v_t| > ``slip_speed``),
+  1 otherwise, instead of S(11)-(12), which report a slip one batch late, and a slip whose batch speed
+  difference stays below b1 (or a stationary one) never.
+- ``true v_t``: the mixed v_t of S(15) replaced by the true v_t. v_t enters alpha directly and the v_n
+  integration of S(2) through -v_t omega T_N.
+- ``C2 = 0 from side-slip onset``: S(17) takes the inertial v_n wherever |true alpha| exceeds
+  ``onset_deg``, i.e. v_n is not relaxed to zero while the side slip builds up below b2.
+- ``true v_t, C2 = 0 from onset``: the two together.
+- ``... and S(19) every T_N``: as the previous, with S(18)-(20) evaluated every sample instead of held
+  over T_C (side-slip angle only).
+
+A benchmark for understanding the estimator, not a test of it.
+"""
+
+import math
+import sys
+import time
+
+import numpy as np
+
+from scenarios.accuracy import progress
+from scenarios.config import ScenarioError, load_scenario
+from scenarios.metrics import final_position_error, moving_alpha, side_slip_rms_error, tangential_slip_speed
+from scenarios.runner import run_scenario
+from systems.navigation import NavigationInitialState, NavigationLoop, run_navigation_loop
+from systems.sideslip import side_slip_angle
+
+VARIANTS = (
+    "paper",
+    "C1 oracle",
+    "true v_t",
+    "C2 = 0 from side-slip onset",
+    "true v_t, C2 = 0 from onset",
+    "... and S(19) every T_N",
+)
+
+
+class OracleNavigationLoop(NavigationLoop):
+    """NavigationLoop whose velocity mixer S(15)-(17) gets oracle inputs from the true run.
+
+    Args:
+        slipping: (N,) bool, C1 = 0 where True and 1 elsewhere (None: the C1 of S(12)).
+        true_v_t: (N,) true tangential speed, replacing the mixed v_t of S(15) (None: S(15) as is).
+        side_slip: (N,) bool, samples where C2 is forced to 0 (None: C2 of S(13)).
+        other arguments: as NavigationLoop.
+    """
+
+    def __init__(self, *args, slipping=None, true_v_t=None, side_slip=None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._slipping, self._true_v_t, self._side_slip = slipping, true_v_t, side_slip
+
+    def velocity_mix(self, odo, inertial, c2, c3, v_n_prev):
+        if self._side_slip is not None and self._side_slip[self.k]:
+            c2 = 0.0
+        if self._slipping is not None:
+            self.c1 = 0.0 if self._slipping[self.k] else 1.0
+        mixed = super().velocity_mix(odo, inertial, c2, c3, v_n_prev)
+        if self._true_v_t is not None:
+            mixed[0] = self._true_v_t[self.k]
+        return mixed
+
+
+def replay(a: dict, scenario, **oracles) -> dict:
+    """Replay the navigation over the run artifact ``a``'s sensor samples; returns the LOOP_KEYS arrays.
+
+    The initial state is the true speed and pose at t_0, as the runner gives both plant and navigation.
+    ``oracles``: the keyword arguments of OracleNavigationLoop.
+    """
+    robot, rates = scenario.robot_parameters(), scenario.rates()
+    loop = OracleNavigationLoop(
+        scenario.navigation,
+        robot.wheel_radius,
+        robot.track_width,
+        rates.T_N,
+        rates.T_C,
+        NavigationInitialState(
+            speed=float(a["true_v_t"][0]),
+            pose=(float(a["true_x"][0]), float(a["true_y"][0]), float(a["true_phi"][0])),
+        ),
+        **oracles,
+    )
+    accelerometers = np.column_stack([a[f"meas_{k}"] for k in ("a_t1", "a_n1", "a_t2", "a_n2")])
+    encoders = np.column_stack([a["meas_enc_R"], a["meas_enc_L"]])
+    return run_navigation_loop(loop, accelerometers, a["meas_gyro"], encoders)
+
+
+def alpha_every_sample(out: dict, scenario) -> np.ndarray:
+    """S(18)-(20) of every sample's mixed estimate (no hold over T_C)."""
+    p = scenario.navigation.sideslip
+    samples = zip(out["est_v_t"], out["est_v_n"], out["est_omega"], strict=True)
+    return np.array([side_slip_angle(v_t, v_n, omega, p)[1] for v_t, v_n, omega in samples])
+
+
+def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: float = 0.03) -> dict:
+    """{variant: (final position error in % of path length, side-slip RMS error in deg)} on one run
+    artifact ``a`` of ``scenario``, for each of VARIANTS.
+
+    Args:
+        onset_deg: |true alpha| (deg) from which the C2 oracle holds C2 at 0 (> 0).
+        slip_speed: |mean wheel speed - v_t| (m/s) above which the C1 oracle sets C1 = 0 (> 0).
+
+    Raises:
+        RuntimeError: if the plain replay does not reproduce the run's estimate (to 1e-9).
+    """
+    if not onset_deg > 0.0:
+        raise ValueError(f"onset_deg={onset_deg!r} is out of range: allowed (0, inf)")
+    if not slip_speed > 0.0:
+        raise ValueError(f"slip_speed={slip_speed!r} is out of range: allowed (0, inf) m/s")
+    side_slip = np.abs(np.nan_to_num(moving_alpha(a))) > math.radians(onset_deg)
+    slipping = np.abs(tangential_slip_speed(a)) > slip_speed
+    length = float(a["path_length"])
+
+    def figures(out, est_alpha=None):
+        b = {**a, **out}
+        if est_alpha is not None:
+            b["est_alpha"] = est_alpha
+        return (
+            100.0 * final_position_error(b, "est") / length,
+            math.degrees(side_slip_rms_error(b)),
+        )
+
+    paper = replay(a, scenario)
+    for key in ("est_x", "est_y", "est_alpha"):
+        mismatch = float(np.max(np.abs(paper[key] - a[key])))
+        if mismatch > 1e-9:
+            raise RuntimeError(f"the replay's {key} differs from the run's by {mismatch:.1e}")
+    both = replay(a, scenario, true_v_t=a["true_v_t"], side_slip=side_slip)
+    return {
+        "paper": figures(paper),
+        "C1 oracle": figures(replay(a, scenario, slipping=slipping)),
+        "true v_t": figures(replay(a, scenario, true_v_t=a["true_v_t"])),
+        "C2 = 0 from side-slip onset": figures(replay(a, scenario, side_slip=side_slip)),
+        "true v_t, C2 = 0 from onset": figures(both),
+        "... and S(19) every T_N": (math.nan, figures(both, alpha_every_sample(both, scenario))[1]),
+    }
+
+
+def _mean_worst(values) -> str:
+    values = np.asarray(values, float)
+    if not np.isfinite(values).any():
+        return f"{'-':>15}"
+    return f"{np.nanmean(values):6.2f} ({np.nanmax(values):5.2f})"
+
+
+def error_budget(names, seeds: int, open_loop=None, stream=None) -> dict:
+    """Print (to ``stream``, default stdout) and return, per scenario, the budget of each seed; the
+    printed figures are mean (worst) over seeds."""
+    stream = stream or sys.stdout
+    if not (isinstance(seeds, int) and seeds >= 1):
+        raise ScenarioError(f"--seeds={seeds!r} is out of range: allowed 1, 2, ...")
+    results = {}
+    for name in names:
+        scenario = load_scenario(name)
+        start, budgets = time.perf_counter(), []
+        for seed in range(seeds):
+            progress(seed, seeds, name)
+            a = run_scenario(scenario, seed=seed, open_loop=open_loop).arrays
+            budgets.append(error_budget_of_run(a, scenario))
+        progress(seeds, seeds, name)
+        results[name] = budgets
+        lines = [
+            f"{name}: {seeds} seeds in {time.perf_counter() - start:.1f} s, mean (worst)",
+            f"  {'variant':<30} {'final error %':>15}  {'alpha RMS deg':>15}",
+        ]
+        for variant in VARIANTS:
+            pct = [b[variant][0] for b in budgets]
+            alpha = [b[variant][1] for b in budgets]
+            lines.append(f"  {variant:<30} {_mean_worst(pct)}  {_mean_worst(alpha)}")
+        print("\n".join(lines), file=stream)
+    return results
