@@ -16,8 +16,9 @@ from scenarios.metrics import DETECTION_C1_LEVEL, navigation_figures
 from scenarios.runner import run_scenario
 
 
-def progress(done: int, total: int, label: str, stream=sys.stderr) -> None:
-    """A one-line text progress bar, redrawn in place."""
+def progress(done: int, total: int, label: str, stream=None) -> None:
+    """A one-line text progress bar, redrawn in place (on ``stream``, default stderr)."""
+    stream = stream or sys.stderr
     width = 30
     filled = int(width * done / total)
     stream.write(f"\r{label:<12} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
@@ -26,8 +27,10 @@ def progress(done: int, total: int, label: str, stream=sys.stderr) -> None:
     stream.flush()
 
 
-def summarise(name: str, figures: list, wall: float, stream=sys.stdout) -> None:
-    """Print the mean and worst figures of one scenario against the goals."""
+def summarise(name: str, figures: list, wall: float, stream=None) -> None:
+    """Print the mean and worst figures of one scenario against the goals (to ``stream``, default
+    stdout)."""
+    stream = stream or sys.stdout
 
     def col(key):
         return np.array([f[key] for f in figures], dtype=float)
@@ -63,7 +66,7 @@ def summarise(name: str, figures: list, wall: float, stream=sys.stdout) -> None:
     print("\n".join(lines), file=stream)
 
 
-def accuracy(names, seeds: int, duration=None, stream=sys.stdout, open_loop=None) -> dict:
+def accuracy(names, seeds: int, duration=None, stream=None, open_loop=None) -> dict:
     """Run each scenario for seeds 0..seeds-1; print and return the per-scenario figures."""
     results = {}
     for name in names:

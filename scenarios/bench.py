@@ -50,8 +50,10 @@ def python_block_floor(period: float, blocks: int = 12, steps: int = 1000) -> fl
     return (time.perf_counter() - start) / (steps * blocks)
 
 
-def bench(name: str = "corner", repeat: int = 3, stream=sys.stdout) -> dict:
-    """Benchmark the closed loop of scenario ``name``; prints the report and returns its figures."""
+def bench(name: str = "corner", repeat: int = 3, stream=None) -> dict:
+    """Benchmark the closed loop of scenario ``name``; prints the report (to ``stream``, default stdout)
+    and returns its figures."""
+    stream = stream or sys.stdout
     if not (isinstance(repeat, int) and repeat >= 1):
         raise ScenarioError(f"--repeat={repeat!r} is out of range: allowed 1, 2, ...")
     scenario = load_scenario(name)
