@@ -35,6 +35,9 @@ def summarise(name: str, figures: list, wall: float, stream=None) -> None:
     def col(key):
         return np.array([f[key] for f in figures], dtype=float)
 
+    def worst(values):
+        return np.nanmax(values) if np.isfinite(values).any() else math.nan
+
     pct, ratio, alpha = col("fused_error_pct"), col("fused_over_odometry"), col("alpha_rms_deg")
     episodes, detected = col("slip_episodes").sum(), col("slip_detected").sum()
     latency = col("max_latency_T_C")
@@ -52,16 +55,13 @@ def summarise(name: str, figures: list, wall: float, stream=None) -> None:
             " (goal <= 0.5 deg where |alpha| > 1 deg)"
         )
     if episodes:
-        worst = np.nanmax(latency) if np.isfinite(latency).any() else math.nan
         lines.append(
             f"  tangential slip        {int(detected)}/{int(episodes)} episodes detected (C1 < "
-            f"{DETECTION_C1_LEVEL}), worst latency {worst:.1f} T_C (goal <= 2 T_C)"
+            f"{DETECTION_C1_LEVEL}), worst latency {worst(latency):.1f} T_C (goal <= 2 T_C)"
         )
-        half, half_detected = col("max_latency_c1_half_T_C"), int(col("slip_detected_c1_half").sum())
-        worst_half = np.nanmax(half) if np.isfinite(half).any() else math.nan
         lines.append(
-            f"{'':25}{half_detected}/{int(episodes)} with C1 < 0.5 (two batches), worst latency "
-            f"{worst_half:.1f} T_C"
+            f"{'':25}{int(col('slip_detected_c1_half').sum())}/{int(episodes)} with C1 < 0.5 (two "
+            f"batches), worst latency {worst(col('max_latency_c1_half_T_C')):.1f} T_C"
         )
     print("\n".join(lines), file=stream)
 

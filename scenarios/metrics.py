@@ -84,9 +84,16 @@ def navigation_figures(a: dict) -> dict:
         "fused_over_odometry": fused / odo if odo > 0 else float("nan"),
         "alpha_rms_deg": math.degrees(side_slip_rms_error(a)),
         "slip_episodes": len(onsets),
-        "slip_detected": sum(lat is not None for lat in latencies),
-        "max_latency_T_C": max((lat for lat in latencies if lat is not None), default=float("nan")) / T_C,
-        "slip_detected_c1_half": sum(lat is not None for lat in two_batches),
-        "max_latency_c1_half_T_C": max((lat for lat in two_batches if lat is not None), default=float("nan"))
-        / T_C,
+        "slip_detected": _detected(latencies),
+        "max_latency_T_C": _worst_latency(latencies) / T_C,
+        "slip_detected_c1_half": _detected(two_batches),
+        "max_latency_c1_half_T_C": _worst_latency(two_batches) / T_C,
     }
+
+
+def _detected(latencies: list) -> int:
+    return sum(lat is not None for lat in latencies)
+
+
+def _worst_latency(latencies: list) -> float:
+    return max((lat for lat in latencies if lat is not None), default=float("nan"))
