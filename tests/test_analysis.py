@@ -10,6 +10,7 @@ import pytest
 from pydrake.systems.primitives import IsDetectable, IsObservable, LinearSystem
 
 from scenarios.config import load_scenario
+from scenarios.metrics import tangential_slip_speed
 from scenarios.runner import run_scenario
 from systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
 from systems.mixing import MixingParameters, logsig, mixing_c1
@@ -114,7 +115,7 @@ def step_sequence(a):
 
 def slip_speed(a):
     """|wheel-centre speed - ground speed| per sample (m/s): the tangential slip speed."""
-    return np.abs(0.5 * (a["true_wheel_R"] + a["true_wheel_L"]) - a["true_v_t"])
+    return np.abs(tangential_slip_speed(a))
 
 
 def slip_distance(a):

@@ -30,8 +30,8 @@ def test_slip_episodes_and_latency():
     assert latencies[0] == pytest.approx(0.024) and latencies[1] == 0.0
     a["C1"][:] = 1.0
     assert detection_latencies(a, onsets) == [None, None]
-    # One batch of a clear detection with p = 0.5: C1 = 0.5 p + ... just above 0.5, i.e. counted at the
-    # default level 0.75, not at 0.5 (which needs a second batch).
+    # One batch of a clear detection with p = 0.5: C1 = p * 1 + (1 - p) * logsig, just above 0.5, is
+    # counted at the default level 0.75, not at 0.5 (which needs a second batch).
     a["C1"][110:120] = 0.5 + 0.5 * 1e-3
     assert detection_latencies(a, onsets)[0] == pytest.approx(0.02)
     assert detection_latencies(a, onsets, c1_level=0.5)[0] is None
