@@ -1,5 +1,10 @@
 """Mixing of odometric and inertial estimates, Seyr & Jakubek §IV-D: C1 S(12), C2 S(13), C3 S(14) and
-the mixing laws S(15)-(17), whose result is fed back into the EKF (Fig. 3)."""
+the mixing laws S(15)-(17), whose result is fed back into the EKF (Fig. 3).
+
+S(17) relaxes v_n towards zero while |a_n| < b2. Rubber tyres side-slip well below b2, in proportion to
+the lateral acceleration, so here v_n relaxes towards the linear-tyre value instead (lateral_velocity_model);
+cornering_stiffness = inf restores the paper's S(17) exactly.
+"""
 
 import dataclasses as dc
 import math
@@ -28,6 +33,11 @@ class MixingParameters:
             felt shoes (square: fused heading error 5.8 deg with b3 = 0.5, 0.9 deg with 0.05).
         q2: geometric relaxation of v_n towards zero per T_N, S(17): as small as possible but large enough
             for consistent velocity (0.99 -> 0.2 s time constant).
+        cornering_stiffness: K_alpha, lateral acceleration per radian of side slip in the tyres' linear
+            range (m/s^2/rad), the target of S(17)'s relaxation (lateral_velocity_model). Default: Tinyphoon's
+            rubber tyres, g * wheel load fraction * mu * B * C = 107 (RobotParameters.cornering_stiffness);
+            rounded down to 100, the secant up to |a_n| = b2 where the relaxation acts. inf: the paper's
+            S(17) (relax to zero).
     """
 
     a1: float = 150.0
@@ -38,6 +48,7 @@ class MixingParameters:
     a3: float = 60.0
     b3: float = 0.05
     q2: float = 0.99
+    cornering_stiffness: float = 100.0
 
     def __post_init__(self):
         for name in ("a1", "b1", "a2", "b2", "a3", "b3"):
@@ -49,6 +60,9 @@ class MixingParameters:
             if not (math.isfinite(v) and 0.0 <= v < 1.0) or (name == "q2" and v == 0.0):
                 bracket = "(0, 1)" if name == "q2" else "[0, 1)"
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed {bracket}")
+        k = self.cornering_stiffness
+        if not k > 0.0:  # also rejects NaN; inf selects the paper's S(17)
+            raise ValueError(f"mixing.cornering_stiffness={k!r} is out of range: allowed (0, inf] m/s^2/rad")
 
 
 def logsig(a: float, x: float, b: float) -> float:
@@ -75,17 +89,34 @@ def mixing_c3(odometric_omega: float, inertial_omega: float, p: MixingParameters
     return logsig(p.a3, abs(odometric_omega - inertial_omega), p.b3)
 
 
-def mix(odo, inertial, c1: float, c2: float, c3: float, v_n_prev: float, q2: float) -> np.ndarray:
+def lateral_velocity_model(v_t: float, omega: float, cornering_stiffness: float) -> float:
+    """Side-slip velocity of linear tyres in a steady turn: tan(alpha) = v_n/|v_t| = -a_n/K_alpha with the
+    steady lateral acceleration a_n = v_t omega (S(2) with dv_n/dt = 0); zero for K_alpha = inf.
+
+    v_t omega, from odometry and gyro, is used rather than the EKF's a_n: it carries none of the
+    accelerometers' commotion (2.0 -> 0.5 mm/s rms v_n noise on the corner's straights)."""
+    return -abs(v_t) * v_t * omega / cornering_stiffness
+
+
+def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
     """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n].
 
     v_t = C1 ^O v_t + (1 - C1) ^I v_t; omega = C3 ^O omega + (1 - C3) ^I omega;
-    v_n = C2 v_n,k-1 q2 + (1 - C2) ^I v_n (relaxed to zero while |a_n| is below the threshold).
+    v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) ^I v_n: below the a_n threshold v_n relaxes towards
+    the tyre model m = lateral_velocity_model(v_t, omega) (m = 0, the paper's S(17), for K_alpha = inf).
+
+    Args:
+        previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
     """
+    v_t = c1 * odo[0] + (1.0 - c1) * inertial[0]
+    omega = c3 * odo[1] + (1.0 - c3) * inertial[2]
+    model = lateral_velocity_model(v_t, omega, p.cornering_stiffness)
+    model_prev = lateral_velocity_model(previous[0], previous[2], p.cornering_stiffness)
     return np.array(
         [
-            c1 * odo[0] + (1.0 - c1) * inertial[0],
-            c2 * v_n_prev * q2 + (1.0 - c2) * inertial[1],
-            c3 * odo[1] + (1.0 - c3) * inertial[2],
+            v_t,
+            c2 * (model + p.q2 * (previous[1] - model_prev)) + (1.0 - c2) * inertial[1],
+            omega,
             inertial[3],
             inertial[4],
         ]
@@ -173,14 +204,15 @@ class VelocityMixer(LeafSystem):
         - mixed_estimate
         - body_velocity
 
-    - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 in S(17).
+    - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 and the tyre
+      model's previous value in S(17).
     - mixed_estimate: [v_t, v_n, omega, ^I a_t, ^I a_n] (direct feedthrough).
     - body_velocity: [v_t, v_n, omega] for pose integration and the side-slip angle.
     """
 
     def __init__(self, params: MixingParameters):
         super().__init__()
-        self._q2 = params.q2
+        self._p = params
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._c1 = self.DeclareVectorInputPort("C1", 1)
@@ -200,7 +232,7 @@ class VelocityMixer(LeafSystem):
                 self._c1.Eval(context)[0],
                 c2,
                 c3,
-                self._prev.Eval(context)[1],
-                self._q2,
+                self._prev.Eval(context),
+                self._p,
             )
         )

@@ -106,10 +106,10 @@ class NavigationLoop:
         self.gyro_state = [*initial.pose, 0.0]
         self.k = 0
 
-    def velocity_mix(self, odo, inertial, c2: float, c3: float, v_n_prev: float) -> np.ndarray:
-        """S(15)-(17) at sample ``self.k`` with the C1 in force (scenarios/error_budget.py overrides it
-        to feed oracle inputs)."""
-        return mix(odo, inertial, self.c1, c2, c3, v_n_prev, self.params.mixing.q2)
+    def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
+        """S(15)-(17) at sample ``self.k`` with the C1 in force; ``previous`` is the EKF state x_k-1
+        (scenarios/error_budget.py overrides this to feed oracle inputs)."""
+        return mix(odo, inertial, self.c1, c2, c3, previous, self.params.mixing)
 
     def step(self, accelerometers, gyro: float, encoders) -> tuple:
         """Process sample k; returns the values the blocks output at t_k, in LOOP_KEYS order (the covariance
@@ -126,7 +126,7 @@ class NavigationLoop:
         det_next, total = slip_detector_step(self.det_state, odo[0], acc, T_N)
         c2 = mixing_c2(inertial[4], mp)
         c3 = mixing_c3(odo[1], inertial[2], mp)
-        mixed = self.velocity_mix(odo, inertial, c2, c3, x[1])
+        mixed = self.velocity_mix(odo, inertial, c2, c3, x)
         row = (
             *self.pose,
             *mixed.tolist(),

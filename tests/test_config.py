@@ -20,6 +20,14 @@ def test_builtins_load():
     for name in builtin_scenarios():
         scenario = load_scenario(name)
         assert scenario.name == name
+        # The navigation's tyre model is its robot's (the linear-range slope, secant up to b2 allowed).
+        k_robot = scenario.robot_parameters().cornering_stiffness
+        assert scenario.navigation.mixing.cornering_stiffness == pytest.approx(k_robot, rel=0.1), name
+
+
+def test_cornering_stiffness_inf_is_the_papers_S17():
+    scenario = scenario_from_yaml(GOOD + "navigation: {mixing: {cornering_stiffness: .inf}}\n")
+    assert scenario.navigation.mixing.cornering_stiffness == math.inf
 
 
 def test_good_yaml_and_overrides():
@@ -50,6 +58,7 @@ def test_good_yaml_and_overrides():
         ("plant_time_step: 0.002\n", r"time_step=0.002 must divide speed_loop_period"),
         ("navigation: {mixing: {q2: 1.5}}\n", r"mixing.q2=1.5 is out of range"),
         ("navigation: {mixing: {b1: -0.1}}\n", r"mixing.b1=-0.1 is out of range"),
+        ("navigation: {mixing: {cornering_stiffness: 0}}\n", r"mixing.cornering_stiffness=0.* \(0, inf\]"),
         ("navigation: {ekf: {R: [1.0, 1.0]}}\n", r"ekf.R must list 3"),
         ("navigation: {sideslip: {c_alpha: 2.0, d_alpha: 1.0}}\n", r"sideslip.d_alpha=1.0"),
         ("navigation: {gyrodometry: {drift_rate: 1.0}}\n", r"gyrodometry.drift_rate=1.0"),

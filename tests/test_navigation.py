@@ -21,7 +21,15 @@ from systems.ekf import (
     ekf_update,
 )
 from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
-from systems.mixing import MixingParameters, logsig, mix, mixing_c1, mixing_c2, mixing_c3
+from systems.mixing import (
+    MixingParameters,
+    lateral_velocity_model,
+    logsig,
+    mix,
+    mixing_c1,
+    mixing_c2,
+    mixing_c3,
+)
 from systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationParameters, navigation_loop
 from systems.odometry import odometry, odometry_step
 from systems.pose import pose_step
@@ -141,10 +149,36 @@ def test_c1_pt1_relaxation_S12():
 def test_mixing_laws_S15_to_S17():
     odo = [2.0, 1.0, 2.0, 2.0]
     inertial = [1.5, 0.3, 0.8, 4.0, 5.0]
-    out = mix(odo, inertial, c1=0.25, c2=0.4, c3=0.75, v_n_prev=0.2, q2=0.9)
+    previous = [1.2, 0.2, 0.7, 3.0, 2.0]  # x_k-1: v_t, v_n, omega, a_t, a_n
+    p = MixingParameters(q2=0.9, cornering_stiffness=50.0)
+    out = mix(odo, inertial, c1=0.25, c2=0.4, c3=0.75, previous=previous, p=p)
+    v_t, omega = 0.25 * 2.0 + 0.75 * 1.5, 0.75 * 1.0 + 0.25 * 0.8
+    model, model_prev = -v_t * v_t * omega / 50.0, -1.2 * 1.2 * 0.7 / 50.0  # -|v_t| (v_t omega) / K_alpha
+    # Reversing through the same turn (v_t < 0, omega < 0): the same lateral acceleration, the same v_n.
+    assert lateral_velocity_model(-v_t, -omega, 50.0) == pytest.approx(model, rel=1e-14)
     np.testing.assert_allclose(
-        out, [0.25 * 2.0 + 0.75 * 1.5, 0.4 * 0.2 * 0.9 + 0.6 * 0.3, 0.75 * 1.0 + 0.25 * 0.8, 4.0, 5.0]
+        out, [v_t, 0.4 * (model + 0.9 * (0.2 - model_prev)) + 0.6 * 0.3, omega, 4.0, 5.0], rtol=1e-14
     )
+    # K_alpha = inf is the paper's S(17): v_n relaxed towards zero.
+    paper = mix(
+        odo, inertial, 0.25, 0.4, 0.75, previous, MixingParameters(q2=0.9, cornering_stiffness=math.inf)
+    )
+    assert paper[1] == pytest.approx(0.4 * 0.2 * 0.9 + 0.6 * 0.3, rel=1e-14)
+
+
+def test_S17_relaxes_v_n_geometrically_towards_the_tyre_model():
+    """C2 = 1 in a steady turn: v_n - m shrinks by q2 per sample, m = -|v_t| (v_t omega) / K_alpha."""
+    p = MixingParameters()
+    odo, inertial = [1.5, 1.0, 0.0, 0.0], [1.5, 0.4, 1.0, 0.0, 1.5]
+    model = lateral_velocity_model(1.5, 1.0, p.cornering_stiffness)
+    assert model == pytest.approx(-1.5 * 1.5 / 100.0)
+    x = np.array([1.5, 0.0, 1.0, 0.0, 1.5])
+    gaps = []
+    for _ in range(1000):  # 0.99^1000 = 4e-5
+        x = mix(odo, inertial, 1.0, 1.0, 1.0, x, p)
+        gaps.append(x[1] - model)
+    np.testing.assert_allclose(np.array(gaps[1:10]) / np.array(gaps[0:9]), p.q2, rtol=1e-9)
+    assert abs(gaps[-1]) < 1e-3 * abs(model)
 
 
 def test_mixing_parameter_validation():
@@ -152,6 +186,10 @@ def test_mixing_parameter_validation():
         MixingParameters(q2=1.0)
     with pytest.raises(ValueError, match=r"mixing.a1=-1.0"):
         MixingParameters(a1=-1.0)
+    for bad in (0.0, -5.0, math.nan):
+        with pytest.raises(ValueError, match=r"mixing.cornering_stiffness=.* allowed \(0, inf\] m/s\^2/rad"):
+            MixingParameters(cornering_stiffness=bad)
+    assert MixingParameters(cornering_stiffness=math.inf).cornering_stiffness == math.inf
 
 
 # --- side slip S(18)-S(20), pose S(21), Gyrodometry --------------------------------------------------

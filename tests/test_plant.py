@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from systems.mixing import lateral_velocity_model
 from systems.plant import (
     DEFAULT_TIME_STEP,
     GRAVITY,
@@ -325,3 +326,18 @@ def test_discrete_and_continuous_plant_diagrams_agree(open_loop):
 def test_discrete_plant_rejects_inconsistent_steps(time_step, update_period, message):
     with pytest.raises(ValueError, match=message):
         DifferentialDrivePlant(tinyphoon(), time_step=time_step, update_period=update_period)
+
+
+@pytest.mark.parametrize("robot", [tinyphoon, kurt3d])
+@pytest.mark.parametrize("speed, omega_frac", [(1.0, 1.0), (1.0, 1.5)])
+def test_steady_turn_side_slip_follows_the_cornering_stiffness(robot, speed, omega_frac):
+    """Below 2 m/s^2 of lateral acceleration the tyres side-slip linearly: in a steady turn the plant's
+    v_n is the navigation's tyre model -|v_t| (v_t omega) / K_alpha, K_alpha = mu g f_w B C, to 10 %."""
+    p = robot()
+    table = ramp(speed, 0.5, 3.0, omega_frac=omega_frac, track_width=p.track_width)
+    states, acc = discrete_run(p, table, 3.0, [0.0] * 10, DEFAULT_TIME_STEP)
+    x, a_n = states[-1], acc[-1][1]
+    assert a_n == pytest.approx(speed**2 * omega_frac, rel=0.05)  # steady: a_n = v_t omega
+    assert x[4] < -0.005  # a real side slip, to the outside of the turn
+    assert a_n == pytest.approx(x[3] * x[5], rel=1e-3)
+    assert lateral_velocity_model(x[3], x[5], p.cornering_stiffness) == pytest.approx(x[4], rel=0.1)
