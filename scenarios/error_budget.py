@@ -15,7 +15,8 @@ and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the f
 - ``true v_t``: the mixed v_t of S(15) replaced by the true v_t. v_t enters alpha directly and the v_n
   integration of S(2) through -v_t omega T_N.
 - ``C2 = 0 from side-slip onset``: S(17) takes the inertial v_n wherever |true alpha| exceeds
-  ``onset_deg``, i.e. v_n is not relaxed to zero while the side slip builds up below b2.
+  ``onset_deg``, i.e. v_n is not relaxed (towards the tyre model, or zero) while the side slip builds up
+  below b2.
 - ``true v_t, C2 = 0 from onset``: the two together.
 - ``... and S(19) every T_N``: as the previous, with S(18)-(20) evaluated every sample instead of held
   over T_C (side-slip angle only).

@@ -56,8 +56,8 @@ def test_c1_oracle_on_the_square():
     slipping = np.abs(tangential_slip_speed(a)) > 0.03
     oracle = replay(a, scenario, slipping=slipping)
     np.testing.assert_array_equal(oracle["C1"], np.where(slipping, 0.0, 1.0))
-    paper = final_position_error(a, "est")
-    assert final_position_error({**a, **oracle}, "est") < paper / 3
+    default = final_position_error(a, "est")
+    assert final_position_error({**a, **oracle}, "est") < default / 3
 
 
 def test_error_budget_command(capsys):
