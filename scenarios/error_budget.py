@@ -7,16 +7,16 @@ and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the f
 ``slipnav accuracy``):
 
 - ``default``: the replay as is; it equals the diagram's estimate sample for sample (checked).
-- ``paper's S(17)``: v_n relaxed towards zero below b2 (mixing.cornering_stiffness = inf) instead of
-  towards the linear-tyre side slip.
+- ``paper's S(17)``: v_n relaxed towards zero below b2 and integrated above (mixing
+  tyre_peak_acceleration = inf, q2_inertial = 1) instead of relaxed towards the tyre curve's side slip.
 - ``C1 oracle``: C1 = 0 exactly while the wheels slip (|mean wheel speed - v_t| > ``slip_speed``),
   1 otherwise, instead of S(11)-(12), which report a slip one batch late, and a slip whose batch speed
   difference stays below b1 (or a stationary one) never.
 - ``true v_t``: the mixed v_t of S(15) replaced by the true v_t. v_t enters alpha directly and the v_n
   integration of S(2) through -v_t omega T_N.
-- ``C2 = 0 from side-slip onset``: S(17) takes the inertial v_n wherever |true alpha| exceeds
-  ``onset_deg``, i.e. v_n is not relaxed (towards the tyre model, or zero) while the side slip builds up
-  below b2.
+- ``C2 = 0 from side-slip onset``: S(17) takes the inertial branch wherever |true alpha| exceeds
+  ``onset_deg``, i.e. v_n is not relaxed with q2 (towards the tyre model, or zero) while the side slip
+  builds up below b2.
 - ``true v_t, C2 = 0 from onset``: the two together.
 - ``... and S(19) every T_N``: as the previous, with S(18)-(20) evaluated every sample instead of held
   over T_C (side-slip angle only).
@@ -141,7 +141,7 @@ def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: f
             raise RuntimeError(f"the replay's {key} differs from the run's by {mismatch:.1e}")
     both = replay(a, scenario, true_v_t=a["true_v_t"], side_slip=side_slip)
     nav = scenario.navigation
-    paper = dc.replace(nav, mixing=dc.replace(nav.mixing, cornering_stiffness=math.inf))
+    paper = dc.replace(nav, mixing=dc.replace(nav.mixing, tyre_peak_acceleration=math.inf, q2_inertial=1.0))
     return {
         "default": figures(default),
         "paper's S(17): v_n relaxed to 0": figures(replay(a, scenario, navigation=paper)),

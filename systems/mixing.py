@@ -1,9 +1,10 @@
 """Mixing of odometric and inertial estimates, Seyr & Jakubek §IV-D: C1 S(12), C2 S(13), C3 S(14) and
 the mixing laws S(15)-(17), whose result is fed back into the EKF (Fig. 3).
 
-S(17) relaxes v_n towards zero while |a_n| < b2. Rubber tyres side-slip well below b2, in proportion to
-the lateral acceleration, so here v_n relaxes towards the linear-tyre value instead (lateral_velocity_model);
-cornering_stiffness = inf restores the paper's S(17) exactly.
+S(17) relaxes v_n towards zero while |a_n| < b2 and integrates it above. Rubber tyres side-slip from the
+first m/s^2 of lateral acceleration, increasingly so towards the friction limit, so here v_n relaxes towards
+the steady-turn side slip of the tyre curve instead (lateral_velocity_model), strongly below b2 (q2) and
+weakly above (q2_inertial). tyre_peak_acceleration = inf and q2_inertial = 1 restore the paper's S(17).
 """
 
 import dataclasses as dc
@@ -31,13 +32,19 @@ class MixingParameters:
             so C3 hands part of the yaw rate to the gyro whenever the quantisation error is large; that
             costs less heading than trusting odometry through the 1-2 % scrub of spot turns against the
             felt shoes (square: fused heading error 5.8 deg with b3 = 0.5, 0.9 deg with 0.05).
-        q2: geometric relaxation of v_n towards zero per T_N, S(17): as small as possible but large enough
-            for consistent velocity (0.99 -> 0.2 s time constant).
-        cornering_stiffness: K_alpha, lateral acceleration per radian of side slip in the tyres' linear
-            range (m/s^2/rad), the target of S(17)'s relaxation (lateral_velocity_model). Default: Tinyphoon's
-            rubber tyres, g * wheel load fraction * mu * B * C = 107 (RobotParameters.cornering_stiffness);
-            rounded down to 100, the secant up to |a_n| = b2 where the relaxation acts. inf: the paper's
-            S(17) (relax to zero).
+        q2: geometric relaxation of v_n towards the tyre model per T_N while |a_n| < b2, S(17): as small
+            as possible but large enough for consistent velocity (0.99 -> 0.2 s time constant).
+        q2_inertial: the same for the inertial v_n, weighted 1 - C2 (|a_n| > b2), at zero lateral
+            acceleration; the pull fades with the tyre curve's slope factor sqrt(1 - (a_n/a_peak)^2) to
+            nothing at the friction limit, where any slip angle past the peak gives about the same force.
+            Close to 1, because the model holds in steady turns only, but below 1 so that the side slip of
+            a hard turn is held to the tyre curve rather than integrated with the odometric v_t's bias
+            (0.95 -> 40 ms at small a_n; open corner alpha 2.1 -> 1.3 deg, 6 seeds). 1: the paper's S(17).
+        tyre_peak_acceleration: the tyres' largest lateral acceleration mu g f_w (m/s^2), identified with
+            the two shape factors below from steady turns. Default: Tinyphoon, 0.7 * 9.81 * 0.8 = 5.49.
+            inf: no side slip (the paper's S(17) relaxes v_n to zero).
+        tyre_stiffness_factor: Pacejka B of the lateral tyre curve (1/rad). Default: Tinyphoon, 15.
+        tyre_shape_factor: Pacejka C, in (1, 2). Default: Tinyphoon, 1.3.
     """
 
     a1: float = 150.0
@@ -48,10 +55,13 @@ class MixingParameters:
     a3: float = 60.0
     b3: float = 0.05
     q2: float = 0.99
-    cornering_stiffness: float = 100.0
+    q2_inertial: float = 0.95
+    tyre_peak_acceleration: float = 5.49
+    tyre_stiffness_factor: float = 15.0
+    tyre_shape_factor: float = 1.3
 
     def __post_init__(self):
-        for name in ("a1", "b1", "a2", "b2", "a3", "b3"):
+        for name in ("a1", "b1", "a2", "b2", "a3", "b3", "tyre_stiffness_factor"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
@@ -60,9 +70,14 @@ class MixingParameters:
             if not (math.isfinite(v) and 0.0 <= v < 1.0) or (name == "q2" and v == 0.0):
                 bracket = "(0, 1)" if name == "q2" else "[0, 1)"
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed {bracket}")
-        k = self.cornering_stiffness
-        if not k > 0.0:  # also rejects NaN; inf selects the paper's S(17)
-            raise ValueError(f"mixing.cornering_stiffness={k!r} is out of range: allowed (0, inf] m/s^2/rad")
+        if not 0.0 < self.q2_inertial <= 1.0:
+            raise ValueError(f"mixing.q2_inertial={self.q2_inertial!r} is out of range: allowed (0, 1]")
+        a = self.tyre_peak_acceleration
+        if not a > 0.0:  # also rejects NaN; inf: no side slip, the paper's S(17)
+            raise ValueError(f"mixing.tyre_peak_acceleration={a!r} is out of range: allowed (0, inf] m/s^2")
+        c = self.tyre_shape_factor
+        if not 1.0 < c < 2.0:
+            raise ValueError(f"mixing.tyre_shape_factor={c!r} is out of range: allowed (1, 2)")
 
 
 def logsig(a: float, x: float, b: float) -> float:
@@ -89,33 +104,47 @@ def mixing_c3(odometric_omega: float, inertial_omega: float, p: MixingParameters
     return logsig(p.a3, abs(odometric_omega - inertial_omega), p.b3)
 
 
-def lateral_velocity_model(v_t: float, omega: float, cornering_stiffness: float) -> float:
-    """Side-slip velocity of linear tyres in a steady turn: tan(alpha) = v_n/|v_t| = -a_n/K_alpha with the
-    steady lateral acceleration a_n = v_t omega (S(2) with dv_n/dt = 0); zero for K_alpha = inf.
+def tyre_utilisation(v_t: float, omega: float, p: MixingParameters) -> float:
+    """|a_n| / a_peak with the steady-turn lateral acceleration a_n = v_t omega, capped at 1."""
+    return min(abs(v_t * omega) / p.tyre_peak_acceleration, 1.0)
 
-    v_t omega, from odometry and gyro, is used rather than the EKF's a_n: it carries none of the
-    accelerometers' commotion (2.0 -> 0.5 mm/s rms v_n noise on the corner's straights)."""
-    return -abs(v_t) * v_t * omega / cornering_stiffness
+
+def lateral_velocity_model(v_t: float, omega: float, p: MixingParameters) -> float:
+    """Side-slip velocity v_n in a steady turn at lateral acceleration a_n = v_t omega (S(2) with
+    dv_n/dt = 0): the inverse of the lateral magic formula |a_n| = a_peak sin(C atan(B tan|alpha|)),
+    tan(alpha) = v_n/|v_t|, capped at the peak (|a_n| >= a_peak); zero for a_peak = inf.
+
+    In the linear range tan(alpha) = -a_n/K_alpha with K_alpha = a_peak B C (Tinyphoon: 107 m/s^2/rad).
+    The two tyres are lumped at the axle centre, which holds while |omega| track/2 << |v_t|. v_t omega,
+    from odometry and gyro, is used rather than the EKF's a_n: it carries none of the accelerometers'
+    commotion (2.0 -> 0.5 mm/s rms v_n noise on the corner's straights)."""
+    ratio = tyre_utilisation(v_t, omega, p)
+    tan_alpha = math.tan(math.asin(ratio) / p.tyre_shape_factor) / p.tyre_stiffness_factor
+    return -abs(v_t) * math.copysign(tan_alpha, v_t * omega)
 
 
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
     """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n].
 
     v_t = C1 ^O v_t + (1 - C1) ^I v_t; omega = C3 ^O omega + (1 - C3) ^I omega;
-    v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) ^I v_n: below the a_n threshold v_n relaxes towards
-    the tyre model m = lateral_velocity_model(v_t, omega) (m = 0, the paper's S(17), for K_alpha = inf).
+    v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) [m_k + q_I (^I v_n - m_k)]: v_n relaxes towards the
+    tyre model m = lateral_velocity_model(v_t, omega), fast below the a_n threshold and slowly above, with
+    q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u = tyre_utilisation (the paper's S(17) for a_peak = inf,
+    m = 0, and q2_inertial = 1).
 
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
     """
     v_t = c1 * odo[0] + (1.0 - c1) * inertial[0]
     omega = c3 * odo[1] + (1.0 - c3) * inertial[2]
-    model = lateral_velocity_model(v_t, omega, p.cornering_stiffness)
-    model_prev = lateral_velocity_model(previous[0], previous[2], p.cornering_stiffness)
+    model = lateral_velocity_model(v_t, omega, p)
+    model_prev = lateral_velocity_model(previous[0], previous[2], p)
+    q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - tyre_utilisation(v_t, omega, p) ** 2)
     return np.array(
         [
             v_t,
-            c2 * (model + p.q2 * (previous[1] - model_prev)) + (1.0 - c2) * inertial[1],
+            c2 * (model + p.q2 * (previous[1] - model_prev))
+            + (1.0 - c2) * (model + q_inertial * (inertial[1] - model)),
             omega,
             inertial[3],
             inertial[4],

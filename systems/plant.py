@@ -162,13 +162,6 @@ class RobotParameters:
         """Largest acceleration the tyres can transmit, mu * N_wheels / m (m/s^2), shoes neglected."""
         return self.tyre_friction * self.wheel_load_fraction * GRAVITY
 
-    @property
-    def cornering_stiffness(self) -> float:
-        """Lateral acceleration per radian of side slip in the tyres' linear range (m/s^2/rad): the slope
-        mu N B C of the magic formula at zero slip, over the mass, for both wheels; shoes neglected (their
-        lateral forces cancel in a turn). The navigation's mixing.cornering_stiffness."""
-        return self.traction_limit_acceleration * self.tyre_stiffness_factor * self.tyre_shape_factor
-
     def replace(self, **changes) -> RobotParameters:
         return dc.replace(self, **changes)
 

@@ -13,7 +13,7 @@ from scenarios.config import load_scenario
 from scenarios.metrics import tangential_slip_speed
 from scenarios.runner import run_scenario
 from systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
-from systems.mixing import MixingParameters, logsig, mixing_c1
+from systems.mixing import MixingParameters, logsig, mixing_c1, tyre_utilisation
 from systems.slip_control import StepSizeParameters, step_size
 
 T_N = 0.002
@@ -53,23 +53,32 @@ def test_measurements_observe_omega_and_accelerations_but_not_the_velocities():
 
 def test_ekf_error_dynamics_with_mixing_feedback_are_stable():
     """(I - L C) G at a steady operating point: the measured block is stable; with the mixed estimate
-    fed back (C1 = 1: odometric v_t; C2 = 1: v_n relaxed by q2; C3 = 1: odometric omega) every mode is."""
+    fed back (C1 = 1: odometric v_t; C2 = 1: v_n relaxed by q2, C2 = 0: by the slope-weighted q_I of
+    S(17) with the tyre model; C3 = 1: odometric omega) every mode is. The tyre model's own dependence on
+    v_t and omega is neglected (second order: dm/dv_t ~ 2 alpha)."""
     Q, R, P0 = EkfParameters().matrices()
     G = ekf_jacobian(OPERATING_POINT, T_N)
     L = steady_gain(G, Q, R, P0)
     A = (np.eye(5) - L @ MEASUREMENT_MATRIX) @ G
     measured = np.linalg.eigvals(A[2:, 2:])
     assert np.all(np.abs(measured) < 1.0)
-    q2 = MixingParameters().q2
+    p = MixingParameters()
+    v_t, omega = OPERATING_POINT[0], OPERATING_POINT[2]
+    q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - tyre_utilisation(v_t, omega, p) ** 2)
+    assert q_inertial < 1.0
     for c1, c2, c3 in [(1.0, 1.0, 1.0), (0.0, 0.0, 0.0), (0.5, 0.5, 0.5)]:
         # Error propagation of the mixed estimate: odometric parts carry no inertial error.
-        M = np.diag([1.0 - c1, (1.0 - c2) + c2 * q2, 1.0 - c3, 1.0, 1.0])
+        M = np.diag([1.0 - c1, (1.0 - c2) * q_inertial + c2 * p.q2, 1.0 - c3, 1.0, 1.0])
         eig = np.abs(np.linalg.eigvals(M @ A))
         if c1 > 0 and c2 > 0:
             assert np.all(eig < 1.0), (c1, c2, c3, eig)
-    # Purely inertial (C1 = C2 = 0): the velocity error is not contracted, it grows by sqrt(1 + (wT)^2).
+    # Purely inertial (C1 = C2 = 0) with the paper's S(17) (q_I = 1): the velocity error is not
+    # contracted, it grows by sqrt(1 + (wT)^2). The tyre model's pull on v_n contracts both (v_t's error
+    # only through the rotation into v_n, slowly).
     eig = np.abs(np.linalg.eigvals(np.diag([1.0, 1.0, 1.0, 1.0, 1.0]) @ A))
     assert np.max(eig) == pytest.approx(math.hypot(1.0, 3.0 * T_N), rel=1e-9)
+    eig = np.abs(np.linalg.eigvals(np.diag([1.0, q_inertial, 1.0, 1.0, 1.0]) @ A))
+    assert np.max(eig) < 1.0
 
 
 def test_c1_pt1_fixed_point_and_pole():

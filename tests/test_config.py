@@ -20,14 +20,18 @@ def test_builtins_load():
     for name in builtin_scenarios():
         scenario = load_scenario(name)
         assert scenario.name == name
-        # The navigation's tyre model is its robot's (the linear-range slope, secant up to b2 allowed).
-        k_robot = scenario.robot_parameters().cornering_stiffness
-        assert scenario.navigation.mixing.cornering_stiffness == pytest.approx(k_robot, rel=0.1), name
+        # The navigation's tyre curve (S(17)'s side-slip model) is its robot's, as identified.
+        robot, mixing = scenario.robot_parameters(), scenario.navigation.mixing
+        assert mixing.tyre_peak_acceleration == pytest.approx(robot.traction_limit_acceleration, rel=0.01)
+        assert mixing.tyre_stiffness_factor == robot.tyre_stiffness_factor, name
+        assert mixing.tyre_shape_factor == robot.tyre_shape_factor, name
 
 
-def test_cornering_stiffness_inf_is_the_papers_S17():
-    scenario = scenario_from_yaml(GOOD + "navigation: {mixing: {cornering_stiffness: .inf}}\n")
-    assert scenario.navigation.mixing.cornering_stiffness == math.inf
+def test_no_tyre_side_slip_is_the_papers_S17():
+    scenario = scenario_from_yaml(
+        GOOD + "navigation: {mixing: {tyre_peak_acceleration: .inf, q2_inertial: 1.0}}\n"
+    )
+    assert scenario.navigation.mixing.tyre_peak_acceleration == math.inf
 
 
 def test_good_yaml_and_overrides():
@@ -58,7 +62,8 @@ def test_good_yaml_and_overrides():
         ("plant_time_step: 0.002\n", r"time_step=0.002 must divide speed_loop_period"),
         ("navigation: {mixing: {q2: 1.5}}\n", r"mixing.q2=1.5 is out of range"),
         ("navigation: {mixing: {b1: -0.1}}\n", r"mixing.b1=-0.1 is out of range"),
-        ("navigation: {mixing: {cornering_stiffness: 0}}\n", r"mixing.cornering_stiffness=0.* \(0, inf\]"),
+        ("navigation: {mixing: {tyre_peak_acceleration: 0}}\n", r"tyre_peak_acceleration=0.* \(0, inf\]"),
+        ("navigation: {mixing: {tyre_shape_factor: 2.5}}\n", r"mixing.tyre_shape_factor=2.5.* \(1, 2\)"),
         ("navigation: {ekf: {R: [1.0, 1.0]}}\n", r"ekf.R must list 3"),
         ("navigation: {sideslip: {c_alpha: 2.0, d_alpha: 1.0}}\n", r"sideslip.d_alpha=1.0"),
         ("navigation: {gyrodometry: {drift_rate: 1.0}}\n", r"gyrodometry.drift_rate=1.0"),

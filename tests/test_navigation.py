@@ -29,6 +29,7 @@ from systems.mixing import (
     mixing_c1,
     mixing_c2,
     mixing_c3,
+    tyre_utilisation,
 )
 from systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationParameters, navigation_loop
 from systems.odometry import odometry, odometry_step
@@ -146,39 +147,84 @@ def test_c1_pt1_relaxation_S12():
         assert c1 == pytest.approx(target + 0.6**K * (1.0 - target), rel=1e-12)
 
 
+def tyre_curve_side_slip(a_n, a_peak=5.49, B=15.0, C=1.3):
+    """tan(alpha) at lateral acceleration a_n by bisection on the forward magic formula (independent of
+    the closed-form inverse in lateral_velocity_model)."""
+    lo, hi = 0.0, math.tan(math.pi / (2 * C)) / B  # the peak
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if a_peak * math.sin(C * math.atan(B * mid)) < abs(a_n) else (lo, mid)
+    return math.copysign(lo, a_n)
+
+
+def test_tyre_model_inverts_the_magic_formula():
+    p = MixingParameters()
+    for v_t, omega in [(1.0, 1.0), (2.0, 1.0), (2.0, -2.2), (-1.5, 3.0), (0.5, 0.1)]:
+        expected = -abs(v_t) * tyre_curve_side_slip(v_t * omega)
+        assert lateral_velocity_model(v_t, omega, p) == pytest.approx(expected, rel=1e-9, abs=1e-15)
+    # Linear range: tan(alpha) = -a_n / K_alpha, K_alpha = a_peak B C = 107 m/s^2/rad.
+    assert lateral_velocity_model(1.0, 0.05, p) == pytest.approx(-0.05 / (5.49 * 15.0 * 1.3), rel=2e-3)
+    # At and beyond the friction limit: the peak slip angle tan(pi / 2C) / B (10 deg).
+    peak = math.tan(math.pi / 2.6) / 15.0
+    assert lateral_velocity_model(2.0, 2.745, p) == pytest.approx(-2.0 * peak, rel=1e-12)
+    assert lateral_velocity_model(2.0, 5.0, p) == pytest.approx(-2.0 * peak, rel=1e-12)
+    assert tyre_utilisation(2.0, -2.0, p) == pytest.approx(4.0 / 5.49)
+    assert tyre_utilisation(3.0, 5.0, p) == 1.0
+    # Reversing through the same turn (v_t < 0, omega < 0): the same lateral acceleration, the same v_n.
+    assert lateral_velocity_model(-2.0, -1.0, p) == lateral_velocity_model(2.0, 1.0, p)
+    # a_peak = inf: no side slip (the paper's S(17) relaxes towards zero).
+    assert lateral_velocity_model(2.0, 2.0, MixingParameters(tyre_peak_acceleration=math.inf)) == 0.0
+
+
 def test_mixing_laws_S15_to_S17():
     odo = [2.0, 1.0, 2.0, 2.0]
     inertial = [1.5, 0.3, 0.8, 4.0, 5.0]
     previous = [1.2, 0.2, 0.7, 3.0, 2.0]  # x_k-1: v_t, v_n, omega, a_t, a_n
-    p = MixingParameters(q2=0.9, cornering_stiffness=50.0)
+    p = MixingParameters(q2=0.9, q2_inertial=0.8, tyre_peak_acceleration=3.0)
     out = mix(odo, inertial, c1=0.25, c2=0.4, c3=0.75, previous=previous, p=p)
     v_t, omega = 0.25 * 2.0 + 0.75 * 1.5, 0.75 * 1.0 + 0.25 * 0.8
-    model, model_prev = -v_t * v_t * omega / 50.0, -1.2 * 1.2 * 0.7 / 50.0  # -|v_t| (v_t omega) / K_alpha
-    # Reversing through the same turn (v_t < 0, omega < 0): the same lateral acceleration, the same v_n.
-    assert lateral_velocity_model(-v_t, -omega, 50.0) == pytest.approx(model, rel=1e-14)
+    model = -v_t * tyre_curve_side_slip(v_t * omega, a_peak=3.0)
+    model_prev = -1.2 * tyre_curve_side_slip(1.2 * 0.7, a_peak=3.0)
+    q_inertial = 1.0 - 0.2 * math.sqrt(1.0 - (v_t * omega / 3.0) ** 2)  # the pull fades with the slope
     np.testing.assert_allclose(
-        out, [v_t, 0.4 * (model + 0.9 * (0.2 - model_prev)) + 0.6 * 0.3, omega, 4.0, 5.0], rtol=1e-14
+        out,
+        [
+            v_t,
+            0.4 * (model + 0.9 * (0.2 - model_prev)) + 0.6 * (model + q_inertial * (0.3 - model)),
+            omega,
+            4.0,
+            5.0,
+        ],
+        rtol=1e-9,
     )
-    # K_alpha = inf is the paper's S(17): v_n relaxed towards zero.
-    paper = mix(
-        odo, inertial, 0.25, 0.4, 0.75, previous, MixingParameters(q2=0.9, cornering_stiffness=math.inf)
-    )
-    assert paper[1] == pytest.approx(0.4 * 0.2 * 0.9 + 0.6 * 0.3, rel=1e-14)
+    # a_peak = inf and q2_inertial = 1 are the paper's S(17): v_n relaxed towards zero, or integrated.
+    paper = MixingParameters(q2=0.9, q2_inertial=1.0, tyre_peak_acceleration=math.inf)
+    out = mix(odo, inertial, 0.25, 0.4, 0.75, previous, paper)
+    assert out[1] == pytest.approx(0.4 * 0.2 * 0.9 + 0.6 * 0.3, rel=1e-14)
 
 
 def test_S17_relaxes_v_n_geometrically_towards_the_tyre_model():
-    """C2 = 1 in a steady turn: v_n - m shrinks by q2 per sample, m = -|v_t| (v_t omega) / K_alpha."""
+    """In a steady turn v_n - m shrinks by q2 per sample below b2 (C2 = 1), and by the slope-weighted
+    q_I above (C2 = 0, inertial v_n held at its previous value); at the friction limit not at all."""
     p = MixingParameters()
-    odo, inertial = [1.5, 1.0, 0.0, 0.0], [1.5, 0.4, 1.0, 0.0, 1.5]
-    model = lateral_velocity_model(1.5, 1.0, p.cornering_stiffness)
-    assert model == pytest.approx(-1.5 * 1.5 / 100.0)
+    odo = [1.5, 1.0, 0.0, 0.0]
+    model = lateral_velocity_model(1.5, 1.0, p)
+    assert model == pytest.approx(-1.5 * tyre_curve_side_slip(1.5), rel=1e-9)
     x = np.array([1.5, 0.0, 1.0, 0.0, 1.5])
     gaps = []
     for _ in range(1000):  # 0.99^1000 = 4e-5
-        x = mix(odo, inertial, 1.0, 1.0, 1.0, x, p)
+        x = mix(odo, [1.5, 0.4, 1.0, 0.0, 1.5], 1.0, 1.0, 1.0, x, p)
         gaps.append(x[1] - model)
     np.testing.assert_allclose(np.array(gaps[1:10]) / np.array(gaps[0:9]), p.q2, rtol=1e-9)
     assert abs(gaps[-1]) < 1e-3 * abs(model)
+    for omega, q in [(1.0, 1.0 - 0.05 * math.sqrt(1.0 - (1.5 / 5.49) ** 2)), (4.0, 1.0)]:
+        model = lateral_velocity_model(1.5, omega, p)
+        v_n, gaps = 0.0, []
+        for _ in range(10):
+            x = [1.5, v_n, omega, 0.0, 0.0]  # inertial v_n = previous v_n (no integration)
+            v_n = mix([1.5, omega, 0.0, 0.0], x, 1.0, 0.0, 1.0, x, p)[1]
+            gaps.append(v_n - model)
+        np.testing.assert_allclose(np.array(gaps[1:]) / np.array(gaps[:-1]), q, rtol=1e-9)
 
 
 def test_mixing_parameter_validation():
@@ -187,9 +233,16 @@ def test_mixing_parameter_validation():
     with pytest.raises(ValueError, match=r"mixing.a1=-1.0"):
         MixingParameters(a1=-1.0)
     for bad in (0.0, -5.0, math.nan):
-        with pytest.raises(ValueError, match=r"mixing.cornering_stiffness=.* allowed \(0, inf\] m/s\^2/rad"):
-            MixingParameters(cornering_stiffness=bad)
-    assert MixingParameters(cornering_stiffness=math.inf).cornering_stiffness == math.inf
+        with pytest.raises(ValueError, match=r"mixing.tyre_peak_acceleration=.* allowed \(0, inf\] m/s\^2"):
+            MixingParameters(tyre_peak_acceleration=bad)
+        with pytest.raises(ValueError, match=r"mixing.q2_inertial=.* allowed \(0, 1\]"):
+            MixingParameters(q2_inertial=bad)
+        with pytest.raises(ValueError, match=r"mixing.tyre_stiffness_factor=.* allowed \(0, inf\)"):
+            MixingParameters(tyre_stiffness_factor=bad)
+    for bad in (1.0, 2.0, math.nan):
+        with pytest.raises(ValueError, match=r"mixing.tyre_shape_factor=.* allowed \(1, 2\)"):
+            MixingParameters(tyre_shape_factor=bad)
+    assert MixingParameters(tyre_peak_acceleration=math.inf, q2_inertial=1.0).q2_inertial == 1.0
 
 
 # --- side slip S(18)-S(20), pose S(21), Gyrodometry --------------------------------------------------

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from systems.mixing import lateral_velocity_model
+from systems.mixing import MixingParameters, lateral_velocity_model
 from systems.plant import (
     DEFAULT_TIME_STEP,
     GRAVITY,
@@ -328,11 +328,22 @@ def test_discrete_plant_rejects_inconsistent_steps(time_step, update_period, mes
         DifferentialDrivePlant(tinyphoon(), time_step=time_step, update_period=update_period)
 
 
-@pytest.mark.parametrize("robot", [tinyphoon, kurt3d])
-@pytest.mark.parametrize("speed, omega_frac", [(1.0, 1.0), (1.0, 1.5)])
-def test_steady_turn_side_slip_follows_the_cornering_stiffness(robot, speed, omega_frac):
-    """Below 2 m/s^2 of lateral acceleration the tyres side-slip linearly: in a steady turn the plant's
-    v_n is the navigation's tyre model -|v_t| (v_t omega) / K_alpha, K_alpha = mu g f_w B C, to 10 %."""
+@pytest.mark.parametrize(
+    "robot, speed, omega_frac",
+    [
+        (tinyphoon, 1.0, 1.0),
+        (tinyphoon, 1.0, 1.5),
+        (tinyphoon, 1.5, 1.33),
+        (tinyphoon, 2.0, 1.0),
+        (tinyphoon, 2.0, 1.25),
+        (kurt3d, 1.0, 1.0),
+        (kurt3d, 1.0, 1.5),
+    ],
+)
+def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, omega_frac):
+    """In a steady turn the plant's v_n is the navigation's tyre model (the inverse magic formula at
+    a_n = v_t omega with the robot's a_peak = mu g f_w, B, C) to 10 %, from the linear range up to 0.9 of
+    the friction limit (Tinyphoon; Kurt3D's wide track only while |omega| track/2 << v_t)."""
     p = robot()
     table = ramp(speed, 0.5, 3.0, omega_frac=omega_frac, track_width=p.track_width)
     states, acc = discrete_run(p, table, 3.0, [0.0] * 10, DEFAULT_TIME_STEP)
@@ -340,4 +351,9 @@ def test_steady_turn_side_slip_follows_the_cornering_stiffness(robot, speed, ome
     assert a_n == pytest.approx(speed**2 * omega_frac, rel=0.05)  # steady: a_n = v_t omega
     assert x[4] < -0.005  # a real side slip, to the outside of the turn
     assert a_n == pytest.approx(x[3] * x[5], rel=1e-3)
-    assert lateral_velocity_model(x[3], x[5], p.cornering_stiffness) == pytest.approx(x[4], rel=0.1)
+    tyres = MixingParameters(
+        tyre_peak_acceleration=p.traction_limit_acceleration,
+        tyre_stiffness_factor=p.tyre_stiffness_factor,
+        tyre_shape_factor=p.tyre_shape_factor,
+    )
+    assert lateral_velocity_model(x[3], x[5], tyres) == pytest.approx(x[4], rel=0.1)
