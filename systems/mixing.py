@@ -24,6 +24,12 @@ class MixingParameters:
         b1: C1 threshold (m/s): as small as possible but above the dv produced by accelerometer bias and
             encoder quantisation (~5 mm/s per batch).
         p: PT1 pole of C1: as fast as possible without limit cycles; 0.5 halves the gap every T_C.
+        dv_memory: weight of the earlier batches in the accumulated speed difference that C1 also sees
+            (accumulate_delta_v, an extension of S(12)): a wheel lock that builds up over several batches,
+            each below b1, sums up to the slip speed itself. 0.7 (~3 batches): long enough to catch the
+            square's gradual locks (closed loop 78/83 -> 78/78 episodes, all within 1 T_C, 10 seeds),
+            short enough that the inertial v_t taken meanwhile hardly drifts (accelerometer bias sums to
+            3.3 x its ~0.4 mm/s per batch, far below b1). 0: the paper's S(12).
         a2: C2 steepness (s^2/m): 4 gives a 10 %-90 % transition over 1.1 m/s^2.
         b2: C2 threshold on |a_n| (m/s^2): above the EKF's a_n noise (commotion) at speed.
         a3: C3 steepness (s/rad): 60 gives a 10 %-90 % transition over 0.07 rad/s.
@@ -50,6 +56,7 @@ class MixingParameters:
     a1: float = 150.0
     b1: float = 0.04
     p: float = 0.5
+    dv_memory: float = 0.7
     a2: float = 4.0
     b2: float = 2.0
     a3: float = 60.0
@@ -65,7 +72,7 @@ class MixingParameters:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
-        for name in ("p", "q2"):
+        for name in ("p", "q2", "dv_memory"):
             v = getattr(self, name)
             if not (math.isfinite(v) and 0.0 <= v < 1.0) or (name == "q2" and v == 0.0):
                 bracket = "(0, 1)" if name == "q2" else "[0, 1)"
@@ -92,6 +99,17 @@ def logsig(a: float, x: float, b: float) -> float:
 def mixing_c1(c1_prev: float, delta_v: float, p: MixingParameters) -> float:
     """S(12): C1_K = p C1_K-1 + (1 - p) logsig(a1 (|dv_K| - b1))."""
     return p.p * c1_prev + (1.0 - p.p) * logsig(p.a1, abs(delta_v), p.b1)
+
+
+def accumulate_delta_v(accumulated: float, delta_v: float, p: MixingParameters) -> tuple[float, float]:
+    """Leaky sum of S(11)'s batch speed differences, A_K = dv_memory A_K-1 + dv_K, and the value that
+    S(12)'s logsig sees instead of |dv_K|: max(|dv_K|, |A_K|) (|dv_K| alone for dv_memory = 0, the paper).
+
+    Returns:
+        (A_K, max(|dv_K|, |A_K|))
+    """
+    accumulated = p.dv_memory * accumulated + delta_v
+    return accumulated, max(abs(delta_v), abs(accumulated))
 
 
 def mixing_c2(inertial_a_n: float, p: MixingParameters) -> float:
@@ -153,7 +171,8 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
 
 
 class MixerC1(LeafSystem):
-    """Mixing parameter C1 S(12): double-sided logsig of the slip detector's dv, PT1-relaxed, every T_C.
+    """Mixing parameter C1 S(12): double-sided logsig of the slip detector's dv (or of its leaky sum over
+    the recent batches, accumulate_delta_v, when larger), PT1-relaxed, every T_C.
 
     .. pydrake_system::
 
@@ -163,10 +182,12 @@ class MixerC1(LeafSystem):
         output_ports:
         - C1
         - delta_v_held
+        - delta_v_accumulated
 
     - delta_v: dv_K from the TangentialSlipDetector, sampled at t = K*T_C.
     - C1: C1_K (state); computed at t_K and used by the velocity mixer from the next sample on.
     - delta_v_held: dv_K as sampled (state), for logging.
+    - delta_v_accumulated: A_K = dv_memory A_K-1 + dv_K (state).
 
     Args:
         params: MixingParameters. T_C: control period (s). c1_initial: C1_-1 (1 = trust odometry).
@@ -178,15 +199,20 @@ class MixerC1(LeafSystem):
         self._dv = self.DeclareVectorInputPort("delta_v", 1)
         self._c1 = self.DeclareDiscreteState([c1_initial])
         self._dv_held = self.DeclareDiscreteState(1)
+        self._dv_sum = self.DeclareDiscreteState(1)
         self.DeclareStateOutputPort("C1", self._c1)
         self.DeclareStateOutputPort("delta_v_held", self._dv_held)
+        self.DeclareStateOutputPort("delta_v_accumulated", self._dv_sum)
         self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
 
     def _update(self, context, discrete_state):
         dv = self._dv.Eval(context)[0]
         c1 = context.get_discrete_state(self._c1).get_value()[0]
-        discrete_state.set_value(self._c1, [mixing_c1(c1, dv, self._p)])
+        dv_sum = context.get_discrete_state(self._dv_sum).get_value()[0]
+        dv_sum, evidence = accumulate_delta_v(dv_sum, dv, self._p)
+        discrete_state.set_value(self._c1, [mixing_c1(c1, evidence, self._p)])
         discrete_state.set_value(self._dv_held, [dv])
+        discrete_state.set_value(self._dv_sum, [dv_sum])
 
 
 class MixerC2C3(LeafSystem):

@@ -29,7 +29,7 @@ from systems.ekf import (
     ekf_update,
 )
 from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
-from systems.mixing import MixingParameters, mix, mixing_c1, mixing_c2, mixing_c3
+from systems.mixing import MixingParameters, accumulate_delta_v, mix, mixing_c1, mixing_c2, mixing_c3
 from systems.odometry import odometry_step
 from systems.pose import pose_step
 from systems.sensor_check import check_sample
@@ -100,7 +100,7 @@ class NavigationLoop:
         self.last_valid = np.zeros(5)
         self.odo_state = initial.odometry_state()
         self.det_state = [0.0, 0.0, initial.speed]
-        self.c1, self.dv_held, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0
+        self.c1, self.dv_held, self.dv_sum, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0, 0.0
         self.pose = list(initial.pose)
         self.odo_pose = list(initial.pose)
         self.gyro_state = [*initial.pose, 0.0]
@@ -152,7 +152,8 @@ class NavigationLoop:
         self.det_state = det_next
         if self.k % self.n == 0:
             dv, self.det_state = slip_detector_batch_end(total, odo[0], self.n)
-            self.c1 = mixing_c1(self.c1, dv, mp)
+            self.dv_sum, evidence = accumulate_delta_v(self.dv_sum, dv, mp)
+            self.c1 = mixing_c1(self.c1, evidence, mp)
             self.dv_held = dv
             self.L = ekf_gain(P_prior, self.R)
             self.v_track, self.alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], self.params.sideslip)

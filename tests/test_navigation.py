@@ -22,7 +22,9 @@ from systems.ekf import (
 )
 from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from systems.mixing import (
+    MixerC1,
     MixingParameters,
+    accumulate_delta_v,
     lateral_velocity_model,
     logsig,
     mix,
@@ -147,6 +149,33 @@ def test_c1_pt1_relaxation_S12():
         assert c1 == pytest.approx(target + 0.6**K * (1.0 - target), rel=1e-12)
 
 
+@pytest.mark.parametrize("dv_memory", [0.7, 0.0])
+def test_c1_sees_a_gradual_wheel_lock_through_the_accumulated_dv(dv_memory):
+    """Four batches of dv = -25 mm/s, each below b1 = 40 mm/s: the paper's S(12) (dv_memory = 0) keeps
+    trusting odometry; the leaky sum A_K = 0.7 A_K-1 + dv_K reaches b1 in the second batch and C1 falls.
+    The MixerC1 block against the hand-computed recursion."""
+    p = MixingParameters(dv_memory=dv_memory)
+    T_C = 0.02
+    block = MixerC1(p, T_C)
+    simulator = Simulator(block)
+    context = simulator.get_mutable_context()
+    block.GetInputPort("delta_v").FixValue(context, [-0.025])
+    c1, total, history = 1.0, 0.0, []
+    for K in range(4):
+        simulator.AdvanceTo(K * T_C + 1e-9)  # the update at t_K = K T_C has happened
+        total = dv_memory * total - 0.025
+        c1 = 0.5 * c1 + 0.5 / (1.0 + math.exp(150.0 * (max(0.025, abs(total)) - 0.04)))
+        assert block.GetOutputPort("C1").Eval(context)[0] == pytest.approx(c1, rel=1e-12)
+        assert block.GetOutputPort("delta_v_accumulated").Eval(context)[0] == pytest.approx(total, rel=1e-12)
+        history.append(c1)
+    assert accumulate_delta_v(0.05, 0.01, MixingParameters(dv_memory=0.5)) == pytest.approx((0.035, 0.035))
+    assert accumulate_delta_v(0.05, -0.03, MixingParameters(dv_memory=0.5)) == pytest.approx((-0.005, 0.03))
+    if dv_memory:
+        assert history[1] < 0.75 and history[3] < 0.25  # detected from the second batch (A = -42.5 mm/s)
+    else:
+        assert min(history) > 0.9  # logsig(150 (0.025 - 0.04)) = 0.905
+
+
 def tyre_curve_side_slip(a_n, a_peak=5.49, B=15.0, C=1.3):
     """tan(alpha) at lateral acceleration a_n by bisection on the forward magic formula (independent of
     the closed-form inverse in lateral_velocity_model)."""
@@ -239,6 +268,9 @@ def test_mixing_parameter_validation():
             MixingParameters(q2_inertial=bad)
         with pytest.raises(ValueError, match=r"mixing.tyre_stiffness_factor=.* allowed \(0, inf\)"):
             MixingParameters(tyre_stiffness_factor=bad)
+    for bad in (1.0, -0.1, math.nan):
+        with pytest.raises(ValueError, match=r"mixing.dv_memory=.* allowed \[0, 1\)"):
+            MixingParameters(dv_memory=bad)
     for bad in (1.0, 2.0, math.nan):
         with pytest.raises(ValueError, match=r"mixing.tyre_shape_factor=.* allowed \(1, 2\)"):
             MixingParameters(tyre_shape_factor=bad)
