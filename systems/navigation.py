@@ -10,8 +10,9 @@ Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K
 3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry;
 4. mixing S(15)-(17) with the C1 in force -> mixed estimate (the navigation output of sample k);
 5. updates: EKF state <- mixed estimate, P <- S(9); pose S(21); odometry-only and Gyrodometry poses;
-   at control instants also C1 S(12) from this batch's dv, L S(7) from P_{k|k-1}, S(18)-(20) from the
-   mixed estimate, and the detector's reset. C1, L and alpha computed at t_K act from sample k+1 on.
+   at control instants also C1 S(12) from this batch's dv and the batches' leaky sum, L S(7) from
+   P_{k|k-1}, S(18)-(20) from the mixed estimate, and the detector's reset. C1, L and alpha computed
+   at t_K act from sample k+1 on.
 Logged values are those the blocks read at t_k: states before step 5, outputs of steps 1-4.
 """
 
