@@ -11,6 +11,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
 
 from systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
+from systems.gyro_bias import GyroBiasEstimator
 from systems.gyrodometry import Gyrodometry
 from systems.mixing import MixerC1, MixerC2C3, VelocityMixer
 from systems.navigation import NavigationInitialState, NavigationParameters
@@ -35,6 +36,7 @@ NAVIGATION_OUTPUTS = (
     "inertial_fault",
     "encoder_fault",
     "covariance",
+    "gyro_bias",
 )
 
 
@@ -68,6 +70,7 @@ def build_navigation_diagram(
         - inertial_fault
         - encoder_fault
         - covariance
+        - gyro_bias
     """
     params.validate()
     initial = initial or NavigationInitialState()
@@ -87,7 +90,8 @@ def build_navigation_diagram(
     )
     detector = add(TangentialSlipDetector(T_N, T_C, initial.speed), "Tangential slip detector")
     c1 = add(MixerC1(params.mixing, T_C), "Mixer C1")
-    c23 = add(MixerC2C3(params.mixing), "Mixer C2 C3")
+    c23 = add(MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
+    bias = add(GyroBiasEstimator(params.gyro_bias, T_N), "Gyro bias")
     mixer = add(VelocityMixer(params.mixing), "Velocity mixer")
     sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
     pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
@@ -104,7 +108,12 @@ def build_navigation_diagram(
         odometry.GetOutputPort("odometry"),
     )
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
-    b.Connect(gyro, ekf.GetInputPort("gyro"))
+    b.Connect(gyro, bias.GetInputPort("gyro"))
+    b.Connect(odo, bias.GetInputPort("odometry"))
+    b.Connect(c1.GetOutputPort("C1"), bias.GetInputPort("C1"))
+    b.Connect(check.GetOutputPort("fault"), bias.GetInputPort("inertial_fault"))
+    b.Connect(odometry.GetOutputPort("fault"), bias.GetInputPort("encoder_fault"))
+    b.Connect(bias.GetOutputPort("gyro"), ekf.GetInputPort("gyro"))
     b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
     b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
     b.Connect(odo, detector.GetInputPort("odometry"))
@@ -137,6 +146,7 @@ def build_navigation_diagram(
     b.ExportOutput(check.GetOutputPort("fault"), "inertial_fault")
     b.ExportOutput(odometry.GetOutputPort("fault"), "encoder_fault")
     b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")
+    b.ExportOutput(bias.GetOutputPort("bias"), "gyro_bias")
     diagram = b.Build()
     diagram.set_name("navigation")
     return diagram

@@ -32,12 +32,15 @@ class MixingParameters:
             3.3 x its ~0.4 mm/s per batch, far below b1). 0: the paper's S(12).
         a2: C2 steepness (s^2/m): 4 gives a 10 %-90 % transition over 1.1 m/s^2.
         b2: C2 threshold on |a_n| (m/s^2): above the EKF's a_n noise (commotion) at speed.
-        a3: C3 steepness (s/rad): 60 gives a 10 %-90 % transition over 0.07 rad/s.
-        b3: C3 threshold on |^O omega - ^I omega| (rad/s): 0.05, a few gyro noise sigmas after the EKF.
-            The single-sample odometric yaw rate is quantised in steps of 0.11 rad/s (7.7 mm/s / 68 mm),
-            so C3 hands part of the yaw rate to the gyro whenever the quantisation error is large; that
-            costs less heading than trusting odometry through the 1-2 % scrub of spot turns against the
-            felt shoes (square: fused heading error 5.8 deg with b3 = 0.5, 0.9 deg with 0.05).
+        a3: C3 steepness (s/rad): 200 gives a 10 %-90 % transition over 0.022 rad/s.
+        b3: C3 threshold on |^O omega - ^I omega| (rad/s), after the PT1 below: 0.02. The single-sample
+            odometric yaw rate is quantised in steps of 0.11 rad/s (7.7 mm/s / 68 mm); filtered over one
+            T_C its error is < 0.011 rad/s and the gyro's noise 0.003 rad/s, while the felt shoes' 1-2 %
+            scrub in a 3 rad/s spot turn gives 0.03-0.06 rad/s: with the gyro's bias estimated
+            (systems/gyro_bias.py) the turn is the gyro's (square, 10 seeds: fused heading error RMS
+            1.5 -> 0.3 deg open loop).
+        c3_residual_time_constant: PT1 of ^O omega - ^I omega before S(14) (s): 0.02 (one T_C, the
+            batch of S(11)); 0: the paper's per-sample residual.
         q2: geometric relaxation of v_n towards the tyre model per T_N while |a_n| < b2, S(17): as small
             as possible but large enough for consistent velocity (0.99 -> 0.2 s time constant).
         q2_inertial: the same for the inertial v_n, weighted 1 - C2 (|a_n| > b2), at zero lateral
@@ -59,8 +62,9 @@ class MixingParameters:
     dv_memory: float = 0.7
     a2: float = 4.0
     b2: float = 2.0
-    a3: float = 60.0
-    b3: float = 0.05
+    a3: float = 200.0
+    b3: float = 0.02
+    c3_residual_time_constant: float = 0.02
     q2: float = 0.99
     q2_inertial: float = 0.95
     tyre_peak_acceleration: float = 5.49
@@ -77,6 +81,9 @@ class MixingParameters:
             if not (math.isfinite(v) and 0.0 <= v < 1.0) or (name == "q2" and v == 0.0):
                 bracket = "(0, 1)" if name == "q2" else "[0, 1)"
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed {bracket}")
+        tau = self.c3_residual_time_constant
+        if not (math.isfinite(tau) and tau >= 0.0):
+            raise ValueError(f"mixing.c3_residual_time_constant={tau!r} is out of range: allowed [0, inf) s")
         if not 0.0 < self.q2_inertial <= 1.0:
             raise ValueError(f"mixing.q2_inertial={self.q2_inertial!r} is out of range: allowed (0, 1]")
         a = self.tyre_peak_acceleration
@@ -117,9 +124,19 @@ def mixing_c2(inertial_a_n: float, p: MixingParameters) -> float:
     return logsig(p.a2, abs(inertial_a_n), p.b2)
 
 
-def mixing_c3(odometric_omega: float, inertial_omega: float, p: MixingParameters) -> float:
-    """S(14): C3 = logsig(a3 (|^O omega - ^I omega| - b3))."""
-    return logsig(p.a3, abs(odometric_omega - inertial_omega), p.b3)
+def c3_residual(
+    previous: float, odometric_omega: float, inertial_omega: float, p: MixingParameters, T_N: float
+):
+    """^O omega - ^I omega, PT1-filtered with c3_residual_time_constant (0: this sample's, as in S(14))."""
+    residual = odometric_omega - inertial_omega
+    if p.c3_residual_time_constant == 0.0:
+        return residual
+    return previous + (1.0 - math.exp(-T_N / p.c3_residual_time_constant)) * (residual - previous)
+
+
+def mixing_c3(residual: float, p: MixingParameters) -> float:
+    """S(14): C3 = logsig(a3 (|^O omega - ^I omega| - b3)), on the (filtered) residual of c3_residual."""
+    return logsig(p.a3, abs(residual), p.b3)
 
 
 def tyre_utilisation(v_t: float, omega: float, p: MixingParameters) -> float:
@@ -226,21 +243,40 @@ class MixerC2C3(LeafSystem):
         - odometry
         output_ports:
         - C2_C3
+        - C3_residual
 
-    Memoryless (direct feedthrough): evaluated on each T_N sample's EKF estimate and odometry.
+    - C2_C3: [C2, C3] of this sample's EKF estimate and odometry (direct feedthrough; C3 of the residual
+      below).
+    - C3_residual: ^O omega - ^I omega, PT1-filtered up to this sample (c3_residual; direct feedthrough).
+
+    Update every T_N: the filtered residual (state).
+
+    Args:
+        params: MixingParameters. T_N: navigation period (s).
     """
 
-    def __init__(self, params: MixingParameters):
+    def __init__(self, params: MixingParameters, T_N: float):
         super().__init__()
-        self._p = params
+        self._p, self._T_N = params, T_N
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._odo = self.DeclareVectorInputPort("odometry", 4)
+        self._residual = self.DeclareDiscreteState(1)
+        self._residual_out = self.DeclareVectorOutputPort("C3_residual", 1, self._calc_residual)
         self.DeclareVectorOutputPort("C2_C3", 2, self._calc)
+        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
+
+    def _calc_residual(self, context, output):
+        previous = context.get_discrete_state(self._residual).get_value()[0]
+        omega_i, omega_o = self._inertial.Eval(context)[2], self._odo.Eval(context)[1]
+        output.SetFromVector([c3_residual(previous, omega_o, omega_i, self._p, self._T_N)])
 
     def _calc(self, context, output):
-        inertial = self._inertial.Eval(context)
-        odo = self._odo.Eval(context)
-        output.SetFromVector([mixing_c2(inertial[4], self._p), mixing_c3(odo[1], inertial[2], self._p)])
+        a_n = self._inertial.Eval(context)[4]
+        residual = self._residual_out.Eval(context)[0]
+        output.SetFromVector([mixing_c2(a_n, self._p), mixing_c3(residual, self._p)])
+
+    def _update(self, context, discrete_state):
+        discrete_state.set_value(self._residual, self._residual_out.Eval(context))
 
 
 class VelocityMixer(LeafSystem):

@@ -6,10 +6,13 @@ diagram's multi-rate wiring (sample-for-sample agreement) and the baseline of th
 
 Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K n):
 1. check the inertial sample (hold non-finite channels), odometry S(10) from the encoder difference;
+   the gyro minus the bias b learned up to sample k-1 (systems/gyro_bias.py);
 2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
-3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry;
+3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry (C3 of the residual's
+   PT1 up to sample k);
 4. mixing S(15)-(17) with the C1 in force -> mixed estimate (the navigation output of sample k);
-5. updates: EKF state <- mixed estimate, P <- S(9); pose S(21); odometry-only and Gyrodometry poses;
+5. updates: EKF state <- mixed estimate, P <- S(9); pose S(21); odometry-only and Gyrodometry poses (the
+   raw gyro); the gyro bias from the raw gyro, the odometry and the C1 in force; the C3 residual;
    at control instants also C1 S(12) from this batch's dv and the batches' leaky sum, L S(7) from
    P_{k|k-1}, S(18)-(20) from the mixed estimate, and the detector's reset. C1, L and alpha computed
    at t_K act from sample k+1 on.
@@ -29,8 +32,17 @@ from systems.ekf import (
     ekf_prior_covariance,
     ekf_update,
 )
+from systems.gyro_bias import GyroBiasParameters, gyro_bias_initial_state, gyro_bias_step
 from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
-from systems.mixing import MixingParameters, accumulate_delta_v, mix, mixing_c1, mixing_c2, mixing_c3
+from systems.mixing import (
+    MixingParameters,
+    accumulate_delta_v,
+    c3_residual,
+    mix,
+    mixing_c1,
+    mixing_c2,
+    mixing_c3,
+)
 from systems.odometry import odometry_step
 from systems.pose import pose_step
 from systems.sensor_check import check_sample
@@ -46,10 +58,11 @@ class NavigationParameters:
     mixing: MixingParameters = dc.field(default_factory=MixingParameters)
     sideslip: SideSlipParameters = dc.field(default_factory=SideSlipParameters)
     gyrodometry: GyrodometryParameters = dc.field(default_factory=GyrodometryParameters)
+    gyro_bias: GyroBiasParameters = dc.field(default_factory=GyroBiasParameters)
 
     def validate(self) -> "NavigationParameters":
         """Re-run every part's range checks (YAML loading sets fields after construction)."""
-        for part in (self.ekf, self.mixing, self.sideslip, self.gyrodometry):
+        for part in (self.ekf, self.mixing, self.sideslip, self.gyrodometry, self.gyro_bias):
             part.__post_init__()
         return self
 
@@ -71,7 +84,7 @@ class NavigationInitialState:
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
-    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 delta_v odo_v_t odo_omega fault"
+    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 delta_v odo_v_t odo_omega fault est_gyro_bias"
 ).split()
 
 
@@ -105,6 +118,8 @@ class NavigationLoop:
         self.pose = list(initial.pose)
         self.odo_pose = list(initial.pose)
         self.gyro_state = [*initial.pose, 0.0]
+        self.bias_state = gyro_bias_initial_state()
+        self.c3_residual = 0.0
         self.k = 0
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
@@ -121,12 +136,14 @@ class NavigationLoop:
         odo_next, odo, fault_enc = odometry_step(
             self.odo_state, encoders, self.wheel_radius, self.track_width, T_N
         )
+        bias = self.bias_state[2]
         x = self.x
-        inertial = ekf_update(ekf_predict(x, T_N), self.L, ekf_measurement(acc, [g]))
+        inertial = ekf_update(ekf_predict(x, T_N), self.L, ekf_measurement(acc, [g - bias]))
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         det_next, total = slip_detector_step(self.det_state, odo[0], acc, T_N)
         c2 = mixing_c2(inertial[4], mp)
-        c3 = mixing_c3(odo[1], inertial[2], mp)
+        residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
+        c3 = mixing_c3(residual, mp)
         mixed = self.velocity_mix(odo, inertial, c2, c3, x)
         row = (
             *self.pose,
@@ -142,12 +159,18 @@ class NavigationLoop:
             odo[0],
             odo[1],
             max(fault_imu, fault_enc),
+            bias,
         )
         self.x = mixed
         self.P = ekf_joseph(P_prior, self.L, self.R)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo[0], 0.0, odo[1], T_N)
         self.gyro_state = gyrodometry_step(self.gyro_state, odo[0], odo[1], g, self.params.gyrodometry, T_N)
+        fault = fault_imu > 0.5 or fault_enc > 0.5
+        self.bias_state = gyro_bias_step(
+            self.bias_state, g, odo[1], self.c1, fault, self.params.gyro_bias, T_N
+        )
+        self.c3_residual = residual
         self.last_valid = sample
         self.odo_state = odo_next
         self.det_state = det_next

@@ -23,8 +23,10 @@ from systems.ekf import (
 from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from systems.mixing import (
     MixerC1,
+    MixerC2C3,
     MixingParameters,
     accumulate_delta_v,
+    c3_residual,
     lateral_velocity_model,
     logsig,
     mix,
@@ -136,7 +138,8 @@ def test_logsig_and_mixing_parameters_at_their_thresholds():
     assert logsig(p.a1, p.b1, p.b1) == 0.5
     assert logsig(50.0, 1e6, 0.0) == 0.0 and logsig(50.0, -1e6, 0.0) == 1.0  # no overflow
     assert mixing_c2(-p.b2, p) == pytest.approx(0.5)
-    assert mixing_c3(1.0, 1.0 + p.b3, p) == pytest.approx(0.5)
+    assert mixing_c3(-p.b3, p) == pytest.approx(0.5)
+    assert mixing_c3(0.0, p) == pytest.approx(1 / (1 + math.exp(-p.a3 * p.b3)))
     assert mixing_c2(0.0, p) == pytest.approx(1 / (1 + math.exp(-p.a2 * p.b2)))
 
 
@@ -184,6 +187,48 @@ def tyre_curve_side_slip(a_n, a_peak=5.49, B=15.0, C=1.3):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if a_peak * math.sin(C * math.atan(B * mid)) < abs(a_n) else (lo, mid)
     return math.copysign(lo, a_n)
+
+
+def test_c3_residual_pt1_filters_the_encoder_quantisation():
+    """S(14) on the PT1 of ^O omega - ^I omega: a straight run whose odometric yaw rate is 0 or one
+    quantisation step (0.11 rad/s) per sample, with the gyro at the true mean 0.0226 rad/s. The paper's
+    per-sample residual (a3 = 60, b3 = 0.05) swings C3 between 0.84 and 0.08 (the gyro takes the yaw
+    rate at random); the
+    filtered one stays within one step x T_N / tau of zero and C3 ~ 1. MixerC2C3 as a LeafSystem (Simulator,
+    FixValue) equals the hand recursion r_k = r_k-1 + (1 - exp(-T_N / tau)) (e_k - r_k-1)."""
+    step = 0.113
+    odometric = [step if k % 5 == 0 else 0.0 for k in range(200)]  # mean 0.0226
+    inertial = 0.0226
+    paper = MixingParameters(c3_residual_time_constant=0.0, a3=60.0, b3=0.05)
+    c3_paper = [mixing_c3(c3_residual(0.0, w, inertial, paper, T_N), paper) for w in odometric]
+    assert min(c3_paper) < 0.1 and max(c3_paper) > 0.8
+    p = MixingParameters()
+    gain = 1.0 - math.exp(-T_N / p.c3_residual_time_constant)
+    block = MixerC2C3(p, T_N)
+    simulator = Simulator(block)
+    context = simulator.get_mutable_context()
+    residual, filtered = 0.0, []
+    for k, w in enumerate(odometric):
+        block.GetInputPort("odometry").FixValue(context, [1.0, w, 1.0, 1.0])
+        block.GetInputPort("inertial_estimate").FixValue(context, [1.0, 0.0, inertial, 0.0, 0.1])
+        residual += gain * (w - inertial - residual)
+        assert residual == pytest.approx(c3_residual(filtered[-1] if filtered else 0.0, w, inertial, p, T_N))
+        np.testing.assert_allclose(block.GetOutputPort("C3_residual").Eval(context), [residual], atol=1e-15)
+        np.testing.assert_allclose(
+            block.GetOutputPort("C2_C3").Eval(context),
+            [mixing_c2(0.1, p), mixing_c3(residual, p)],
+            atol=1e-15,
+        )
+        filtered.append(residual)
+        simulator.AdvanceTo((k + 1) * T_N)  # the update at t_k stores r_k
+    settled = np.array(filtered[50:])
+    assert np.max(np.abs(settled)) < step * T_N / p.c3_residual_time_constant * 1.2 < p.b3
+    assert min(mixing_c3(r, p) for r in settled) > 0.9
+    # A real disagreement (a 3 % scrub of a 2 rad/s spot turn) still hands the turn to the gyro.
+    r = 0.0
+    for _ in range(30):
+        r = c3_residual(r, 2.06, 2.0, p, T_N)
+    assert mixing_c3(r, p) < 0.01
 
 
 def test_tyre_model_inverts_the_magic_formula():
@@ -274,6 +319,9 @@ def test_mixing_parameter_validation():
     for bad in (1.0, 2.0, math.nan):
         with pytest.raises(ValueError, match=r"mixing.tyre_shape_factor=.* allowed \(1, 2\)"):
             MixingParameters(tyre_shape_factor=bad)
+    for bad in (-0.01, math.inf, math.nan):
+        with pytest.raises(ValueError, match=r"mixing.c3_residual_time_constant=.* allowed \[0, inf\) s"):
+            MixingParameters(c3_residual_time_constant=bad)
     assert MixingParameters(tyre_peak_acceleration=math.inf, q2_inertial=1.0).q2_inertial == 1.0
 
 
