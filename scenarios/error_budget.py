@@ -7,8 +7,11 @@ and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the f
 ``slipnav accuracy``):
 
 - ``default``: the replay as is; it equals the diagram's estimate sample for sample (checked).
-- ``paper's S(17)``: v_n relaxed towards zero below b2 and integrated above (mixing
-  tyre_peak_acceleration = inf, q2_inertial = 1) instead of relaxed towards the tyre curve's side slip.
+- ``paper's S(15), S(17)``: no tyre curve (mixing.tyre_peak_acceleration = inf, q2_inertial = 1): v_n
+  relaxed towards zero below b2 and integrated above instead of relaxed towards the tyre curve's side
+  slip, and the odometric v_t without the creep compensation.
+- ``paper's S(15)``: the odometric v_t as it is (mixing.odometry_slip_compensation = False) instead of
+  less the tyres' creep of the tyre curve.
 - ``paper's S(12)``: C1 from this batch's dv alone (mixing.dv_memory = 0) instead of also from the leaky
   sum of the recent batches' dv.
 - ``paper's heading``: the EKF gets the raw gyro (gyro_bias.enabled = False) and S(14) the single
@@ -45,7 +48,8 @@ from systems.sideslip import side_slip_angle
 
 VARIANTS = (
     "default",
-    "paper's S(17): v_n relaxed to 0",
+    "paper's S(15), S(17): no tyre curve",
+    "paper's S(15): odometric v_t with the creep",
     "paper's S(12): C1 from this batch's dv",
     "paper's heading: raw gyro, S(14) per sample",
     "C1 oracle",
@@ -149,6 +153,7 @@ def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: f
     both = replay(a, scenario, true_v_t=a["true_v_t"], side_slip=side_slip)
     nav = scenario.navigation
     paper = dc.replace(nav, mixing=dc.replace(nav.mixing, tyre_peak_acceleration=math.inf, q2_inertial=1.0))
+    creeping = dc.replace(nav, mixing=dc.replace(nav.mixing, odometry_slip_compensation=False))
     one_batch = dc.replace(nav, mixing=dc.replace(nav.mixing, dv_memory=0.0))
     raw_gyro = dc.replace(
         nav,
@@ -157,7 +162,8 @@ def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: f
     )
     return {
         "default": figures(default),
-        "paper's S(17): v_n relaxed to 0": figures(replay(a, scenario, navigation=paper)),
+        "paper's S(15), S(17): no tyre curve": figures(replay(a, scenario, navigation=paper)),
+        "paper's S(15): odometric v_t with the creep": figures(replay(a, scenario, navigation=creeping)),
         "paper's S(12): C1 from this batch's dv": figures(replay(a, scenario, navigation=one_batch)),
         "paper's heading: raw gyro, S(14) per sample": figures(replay(a, scenario, navigation=raw_gyro)),
         "C1 oracle": figures(replay(a, scenario, slipping=slipping)),

@@ -9,7 +9,12 @@ import pytest
 from scenarios.cli import main
 from scenarios.config import load_scenario
 from scenarios.error_budget import VARIANTS, error_budget_of_run, replay
-from scenarios.metrics import final_position_error, side_slip_rms_error, tangential_slip_speed
+from scenarios.metrics import (
+    final_position_error,
+    navigation_figures,
+    side_slip_rms_error,
+    tangential_slip_speed,
+)
 from scenarios.runner import run_scenario
 
 
@@ -41,8 +46,8 @@ def test_budget_of_the_corner(corner_run):
     assert list(budget) == list(VARIANTS)
     pct = 100.0 * final_position_error(a, "est") / float(a["path_length"])
     assert budget["default"] == pytest.approx((pct, math.degrees(side_slip_rms_error(a))), rel=1e-9)
-    assert budget["default"][1] < 0.4 * budget["paper's S(17): v_n relaxed to 0"][1]
-    assert budget["C2 = 0 from side-slip onset"][1] < 0.7 * budget["paper's S(17): v_n relaxed to 0"][1]
+    assert budget["default"][1] < 0.4 * budget["paper's S(15), S(17): no tyre curve"][1]
+    assert budget["C2 = 0 from side-slip onset"][1] < 0.7 * budget["paper's S(15), S(17): no tyre curve"][1]
     with pytest.raises(ValueError, match="onset_deg"):
         error_budget_of_run(a, scenario, onset_deg=0.0)
     with pytest.raises(ValueError, match="slip_speed"):
@@ -50,11 +55,11 @@ def test_budget_of_the_corner(corner_run):
 
 
 def test_c1_oracle_and_the_summed_dv_on_the_square():
-    """With the paper's S(12) the closed-loop square's distance error is slipping odometry that S(11)-(12)
-    report late or not at all: with C1 = 0 exactly while the wheels slip, seed 0 ends several times
-    closer (measured 8 mm against 80 mm). The summed dv (mixing.dv_memory) gains little on the same
-    sensor data (66 mm) but much in the closed loop, where the earlier C1 drop slows the robot before a
-    lock builds up (10 mm)."""
+    """Closed-loop square, seed 0. The C1 oracle replaces S(11)-(12) exactly (C1 = 0 while the wheels slip,
+    1 elsewhere). With the paper's S(12) every episode is detected, the gradual locks one batch late (0.9
+    T_C); with the summed dv (mixing.dv_memory) within the batch of their onset. Since the creep
+    compensation and the gyro bias estimate, either ends within 0.5 % of the path (measured 7 and 10
+    mm), and the oracle no better (9 mm): the rest of the square's error is not C1's."""
     scenario = load_scenario("square")
     summed_dv = scenario.navigation
     scenario.navigation = dc.replace(summed_dv, mixing=dc.replace(summed_dv.mixing, dv_memory=0.0))
@@ -62,11 +67,16 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
     slipping = np.abs(tangential_slip_speed(a)) > 0.03
     oracle = replay(a, scenario, slipping=slipping)
     np.testing.assert_array_equal(oracle["C1"], np.where(slipping, 0.0, 1.0))
-    paper = final_position_error(a, "est")
-    assert final_position_error({**a, **oracle}, "est") < paper / 3
-    assert final_position_error({**a, **replay(a, scenario, navigation=summed_dv)}, "est") < paper
+    length = float(a["path_length"])
+    paper = navigation_figures(a)
     scenario.navigation = summed_dv
-    assert final_position_error(run_scenario(scenario, seed=0).arrays, "est") < paper / 3
+    b = run_scenario(scenario, seed=0).arrays
+    summed = navigation_figures(b)
+    assert paper["slip_detected"] == paper["slip_episodes"] >= 5
+    assert summed["slip_detected"] == summed["slip_episodes"] >= 5
+    assert summed["max_latency_T_C"] < 0.5 <= paper["max_latency_T_C"] <= 2.0
+    for run in (a, b, {**a, **oracle}):
+        assert final_position_error(run, "est") < 0.005 * length
 
 
 def test_error_budget_command(capsys):

@@ -1,6 +1,7 @@
 """Navigation blocks of Seyr & Jakubek Fig. 3: each equation by hand, the diagram against the sequential
 reference loop, covariance health over a 10-minute run, NaN/inf handling."""
 
+import dataclasses as dc
 import math
 
 import numpy as np
@@ -29,6 +30,7 @@ from systems.mixing import (
     c3_residual,
     lateral_velocity_model,
     logsig,
+    longitudinal_slip_speed,
     mix,
     mixing_c1,
     mixing_c2,
@@ -256,7 +258,12 @@ def test_mixing_laws_S15_to_S17():
     previous = [1.2, 0.2, 0.7, 3.0, 2.0]  # x_k-1: v_t, v_n, omega, a_t, a_n
     p = MixingParameters(q2=0.9, q2_inertial=0.8, tyre_peak_acceleration=3.0)
     out = mix(odo, inertial, c1=0.25, c2=0.4, c3=0.75, previous=previous, p=p)
-    v_t, omega = 0.25 * 2.0 + 0.75 * 1.5, 0.75 * 1.0 + 0.25 * 0.8
+    # S(15) on the odometric v_t less the tyres' creep: at (a_t + drag, a_n) = (4 + 0.49 + 0.25 * 2, 5)
+    # the tyres are past their peak (|a| > 3): sigma = tan(pi / 2 / C) / B, kappa = sigma a_x / |a|.
+    a_x = 4.0 + 0.49 + 0.25 * 2.0
+    creep = math.tan(math.pi / 2 / 1.3) / 15.0 * a_x / math.hypot(a_x, 5.0) * 2.0
+    assert longitudinal_slip_speed(2.0, 4.0, 5.0, p) == pytest.approx(creep, rel=1e-12)
+    v_t, omega = 0.25 * (2.0 - creep) + 0.75 * 1.5, 0.75 * 1.0 + 0.25 * 0.8
     model = -v_t * tyre_curve_side_slip(v_t * omega, a_peak=3.0)
     model_prev = -1.2 * tyre_curve_side_slip(1.2 * 0.7, a_peak=3.0)
     q_inertial = 1.0 - 0.2 * math.sqrt(1.0 - (v_t * omega / 3.0) ** 2)  # the pull fades with the slope
@@ -271,16 +278,46 @@ def test_mixing_laws_S15_to_S17():
         ],
         rtol=1e-9,
     )
-    # a_peak = inf and q2_inertial = 1 are the paper's S(17): v_n relaxed towards zero, or integrated.
+    # a_peak = inf and q2_inertial = 1 are the paper's S(15) and S(17): v_n relaxed towards zero, or
+    # integrated; the odometric v_t as it is.
     paper = MixingParameters(q2=0.9, q2_inertial=1.0, tyre_peak_acceleration=math.inf)
     out = mix(odo, inertial, 0.25, 0.4, 0.75, previous, paper)
     assert out[1] == pytest.approx(0.4 * 0.2 * 0.9 + 0.6 * 0.3, rel=1e-14)
+    assert out[0] == pytest.approx(0.25 * 2.0 + 0.75 * 1.5, rel=1e-14)
+    unchanged = MixingParameters(
+        q2=0.9, q2_inertial=0.8, tyre_peak_acceleration=3.0, odometry_slip_compensation=False
+    )
+    assert mix(odo, inertial, 0.25, 0.4, 0.75, previous, unchanged)[0] == pytest.approx(
+        0.25 * 2.0 + 0.75 * 1.5
+    )
+
+
+def test_longitudinal_slip_speed_by_hand():
+    """The tyres' creep in the linear range, braking, below the reference speed, without drag."""
+    p = MixingParameters()  # Tinyphoon: a_peak 5.49, B 15, C 1.3, drag 0.49 + 0.25 v, floor 0.3 m/s
+
+    def sigma(a):
+        return math.tan(math.asin(abs(a) / 5.49) / 1.3) / 15.0
+
+    a_x = 1.0 + 0.49 + 0.25 * 1.0  # launching at 1 m/s^2 through 1 m/s
+    assert longitudinal_slip_speed(1.0, 1.0, 0.0, p) == pytest.approx(sigma(a_x) * 1.0, rel=1e-9)
+    assert longitudinal_slip_speed(1.0, 1.0, 0.0, p) == pytest.approx(0.0169, abs=1e-4)  # 1.7 %
+    a_x = -3.0 + 0.49 + 0.25 * 1.0  # braking: the tyres lag behind the body
+    assert longitudinal_slip_speed(1.0, -3.0, 0.0, p) == pytest.approx(-sigma(a_x), rel=1e-9)
+    a_x = 1.0 + (0.49 + 0.25 * 0.1) * math.tanh(10.0)  # 0.1 m/s: kappa referred to 0.3 m/s
+    assert longitudinal_slip_speed(0.1, 1.0, 0.0, p) == pytest.approx(sigma(a_x) * 0.3, rel=1e-9)
+    reversing = longitudinal_slip_speed(-1.0, -1.0, 0.0, p)
+    assert reversing == pytest.approx(-longitudinal_slip_speed(1.0, 1.0, 0.0, p), rel=1e-12)
+    no_drag = dc.replace(p, drag_acceleration=0.0, drag_per_speed=0.0)
+    assert longitudinal_slip_speed(1.0, 0.0, 0.0, no_drag) == 0.0
+    assert longitudinal_slip_speed(1.0, 0.0, 3.0, no_drag) == 0.0  # a pure turn: no longitudinal creep
 
 
 def test_S17_relaxes_v_n_geometrically_towards_the_tyre_model():
     """In a steady turn v_n - m shrinks by q2 per sample below b2 (C2 = 1), and by the slope-weighted
-    q_I above (C2 = 0, inertial v_n held at its previous value); at the friction limit not at all."""
-    p = MixingParameters()
+    q_I above (C2 = 0, inertial v_n held at its previous value); at the friction limit not at all. (v_t
+    as odometry gives it: without S(15)'s creep compensation.)"""
+    p = MixingParameters(odometry_slip_compensation=False)
     odo = [1.5, 1.0, 0.0, 0.0]
     model = lateral_velocity_model(1.5, 1.0, p)
     assert model == pytest.approx(-1.5 * tyre_curve_side_slip(1.5), rel=1e-9)
@@ -322,6 +359,12 @@ def test_mixing_parameter_validation():
     for bad in (-0.01, math.inf, math.nan):
         with pytest.raises(ValueError, match=r"mixing.c3_residual_time_constant=.* allowed \[0, inf\) s"):
             MixingParameters(c3_residual_time_constant=bad)
+    for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed"):
+        for bad in (-0.1, math.inf, math.nan):
+            with pytest.raises(ValueError, match=rf"mixing.{name}=.* allowed \[0, inf\)"):
+                MixingParameters(**{name: bad})
+    with pytest.raises(ValueError, match=r"mixing.odometry_slip_compensation=1 .* allowed true, false"):
+        MixingParameters(odometry_slip_compensation=1)
     assert MixingParameters(tyre_peak_acceleration=math.inf, q2_inertial=1.0).q2_inertial == 1.0
 
 
@@ -416,7 +459,9 @@ def test_covariance_stays_symmetric_positive_definite_over_ten_minutes():
     theta_R = np.cumsum((v + 0.034 * w) / 0.015 * T_N)
     theta_L = np.cumsum((v - 0.034 * w) / 0.015 * T_N)
     enc = np.floor(np.column_stack([theta_R, theta_L]) / step) * step
-    out = navigation_loop(acc, gyro, enc, NavigationParameters(), 0.015, 0.068, T_N, 0.02)
+    # Synthetic encoders roll without the tyres' creep: S(15) without its compensation.
+    rigid = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
+    out = navigation_loop(acc, gyro, enc, rigid, 0.015, 0.068, T_N, 0.02)
     P = out["P"][::500]
     np.testing.assert_array_equal(P, np.transpose(P, (0, 2, 1)))
     eigenvalues = np.linalg.eigvalsh(P)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from systems.mixing import MixingParameters, lateral_velocity_model
+from systems.mixing import MixingParameters, lateral_velocity_model, longitudinal_slip_speed
 from systems.plant import (
     DEFAULT_TIME_STEP,
     GRAVITY,
@@ -357,3 +357,37 @@ def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, 
         tyre_shape_factor=p.tyre_shape_factor,
     )
     assert lateral_velocity_model(x[3], x[5], tyres) == pytest.approx(x[4], rel=0.1)
+
+
+@pytest.mark.parametrize("shoes", [True, False])
+@pytest.mark.parametrize("acceleration", [0.0, 1.0, 2.0, 3.5])
+def test_launch_slip_follows_the_navigations_tyre_model(shoes, acceleration):
+    """Launched straight at a constant acceleration (or rolling at constant speed, pushing against the
+    felt shoes' drag only), the plant's tyres creep ahead of the body by the navigation's
+    longitudinal_slip_speed (the combined-slip magic formula with the robot's a_peak, B, C and the shoes'
+    drag mu_s (1 - f_w) g + 2 c_v v / m) to 10 % (+ 1 mm/s), at 0.6, 1.2 and 1.8 m/s, from the creep of the
+    drag alone up to 0.64 of the friction limit."""
+    p = tinyphoon()
+    if not shoes:
+        p = p.replace(wheel_load_fraction=1.0, shoe_friction=0.0, shoe_viscous_drag=0.0)
+    tyres = MixingParameters(
+        tyre_peak_acceleration=p.traction_limit_acceleration,
+        tyre_stiffness_factor=p.tyre_stiffness_factor,
+        tyre_shape_factor=p.tyre_shape_factor,
+        drag_acceleration=p.shoe_friction * (1.0 - p.wheel_load_fraction) * 9.81,
+        drag_per_speed=2.0 * p.shoe_viscous_drag / p.mass,
+        tyre_reference_speed=p.slip_speed_floor,
+    )
+    for speed in (0.6, 1.2, 1.8):
+        if acceleration:  # sampled at `speed`, two thirds into a ramp to 1.5 speed
+            table, duration = ramp(1.5 * speed, 1.5 * speed / acceleration, 3.0), speed / acceleration
+        else:  # 1 s to settle after a 0.5 s ramp
+            table, duration = ramp(speed, 0.5, 3.0), 1.5
+        states, acc = discrete_run(p, table, duration, [0.0] * 10, 5e-4)
+        x, a = states[-1], acc[-1]
+        slip = x[8] * p.wheel_radius - x[3]
+        last_T_C = (states[-1, 3] - states[-1 - int(round(T_C / p.speed_loop_period)), 3]) / T_C
+        assert last_T_C == pytest.approx(acceleration, rel=0.1, abs=0.02)  # at the set rate, or steady
+        model = longitudinal_slip_speed(x[8] * p.wheel_radius, a[0], a[1], tyres)
+        assert slip > 0.001 or not (shoes or acceleration)  # a real creep
+        assert model == pytest.approx(slip, rel=0.1, abs=1e-3), (speed, slip, model)
