@@ -85,6 +85,16 @@ class OracleNavigationLoop(NavigationLoop):
         return mixed
 
 
+def papers_heading(navigation):
+    """``navigation`` (NavigationParameters) with the paper's heading: the EKF gets the raw gyro, S(14)
+    the single sample's yaw-rate residual with the thresholds that suited it (a3 = 60, b3 = 0.05)."""
+    return dc.replace(
+        navigation,
+        gyro_bias=dc.replace(navigation.gyro_bias, enabled=False),
+        mixing=dc.replace(navigation.mixing, c3_residual_time_constant=0.0, a3=60.0, b3=0.05),
+    )
+
+
 def replay(a: dict, scenario, navigation=None, **oracles) -> dict:
     """Replay the navigation over the run artifact ``a``'s sensor samples; returns the LOOP_KEYS arrays.
 
@@ -155,11 +165,7 @@ def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: f
     paper = dc.replace(nav, mixing=dc.replace(nav.mixing, tyre_peak_acceleration=math.inf, q2_inertial=1.0))
     creeping = dc.replace(nav, mixing=dc.replace(nav.mixing, odometry_slip_compensation=False))
     one_batch = dc.replace(nav, mixing=dc.replace(nav.mixing, dv_memory=0.0))
-    raw_gyro = dc.replace(
-        nav,
-        gyro_bias=dc.replace(nav.gyro_bias, enabled=False),
-        mixing=dc.replace(nav.mixing, c3_residual_time_constant=0.0, a3=60.0, b3=0.05),
-    )
+    raw_gyro = papers_heading(nav)
     return {
         "default": figures(default),
         "paper's S(15), S(17): no tyre curve": figures(replay(a, scenario, navigation=paper)),

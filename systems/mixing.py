@@ -171,6 +171,12 @@ def tyre_utilisation(v_t: float, omega: float, p: MixingParameters) -> float:
     return min(abs(v_t * omega) / p.tyre_peak_acceleration, 1.0)
 
 
+def tyre_slip(utilisation: float, p: MixingParameters) -> float:
+    """The inverse magic formula: the slip sigma = tan(asin(u) / C) / B at which the tyre curve
+    a_peak sin(C atan(B sigma)) gives the share u (<= 1) of its peak."""
+    return math.tan(math.asin(utilisation) / p.tyre_shape_factor) / p.tyre_stiffness_factor
+
+
 def lateral_velocity_model(v_t: float, omega: float, p: MixingParameters) -> float:
     """Side-slip velocity v_n in a steady turn at lateral acceleration a_n = v_t omega (S(2) with
     dv_n/dt = 0): the inverse of the lateral magic formula |a_n| = a_peak sin(C atan(B tan|alpha|)),
@@ -181,7 +187,7 @@ def lateral_velocity_model(v_t: float, omega: float, p: MixingParameters) -> flo
     from odometry and gyro, is used rather than the EKF's a_n: it carries none of the accelerometers'
     commotion (2.0 -> 0.5 mm/s rms v_n noise on the corner's straights)."""
     ratio = tyre_utilisation(v_t, omega, p)
-    tan_alpha = math.tan(math.asin(ratio) / p.tyre_shape_factor) / p.tyre_stiffness_factor
+    tan_alpha = tyre_slip(ratio, p)
     return -abs(v_t) * math.copysign(tan_alpha, v_t * omega)
 
 
@@ -206,7 +212,7 @@ def longitudinal_slip_speed(wheel_speed: float, a_t: float, a_n: float, p: Mixin
     if magnitude == 0.0:
         return 0.0
     ratio = min(magnitude / p.tyre_peak_acceleration, 1.0)
-    sigma = math.tan(math.asin(ratio) / p.tyre_shape_factor) / p.tyre_stiffness_factor
+    sigma = tyre_slip(ratio, p)
     return sigma * a_x / magnitude * max(abs(wheel_speed), p.tyre_reference_speed)
 
 

@@ -9,7 +9,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from scenarios.config import load_scenario
-from scenarios.error_budget import replay
+from scenarios.error_budget import papers_heading, replay
 from scenarios.runner import run_scenario
 from systems.gyro_bias import (
     GyroBiasEstimator,
@@ -164,11 +164,5 @@ def test_square_heading_with_the_bias_estimate():
     assert np.max(np.abs(estimate[first_turn:] - true_bias[first_turn:])) < 0.25 * bias
     heading_error = abs(math.degrees(a["est_phi"][-1] - a["true_phi"][-1]))
     assert heading_error < 0.5
-    nav = scenario.navigation
-    paper = dc.replace(
-        nav,
-        gyro_bias=dc.replace(nav.gyro_bias, enabled=False),
-        mixing=dc.replace(nav.mixing, c3_residual_time_constant=0.0, a3=60.0, b3=0.05),
-    )
-    paper_phi = replay(a, scenario, navigation=paper)["est_phi"]
+    paper_phi = replay(a, scenario, navigation=papers_heading(scenario.navigation))["est_phi"]
     assert abs(math.degrees(paper_phi[-1] - a["true_phi"][-1])) > 3 * max(heading_error, 0.25)
