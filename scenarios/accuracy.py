@@ -50,9 +50,14 @@ def summarise(name: str, figures: list, wall: float, stream=None) -> None:
         f"{col('odometry_error_m').mean():.4f}  Gyrodometry {col('gyrodometry_error_m').mean():.4f}",
     ]
     if np.isfinite(alpha).any():
+        at_updates = col("alpha_rms_at_updates_deg")
         lines.append(
             f"  side-slip RMS error    mean {np.nanmean(alpha):.2f} deg  worst {np.nanmax(alpha):.2f} deg"
             " (goal <= 0.5 deg where |alpha| > 1 deg)"
+        )
+        lines.append(
+            f"{'':25}at the T_C updates (no hold): mean {np.nanmean(at_updates):.2f} deg  worst "
+            f"{worst(at_updates):.2f} deg"
         )
     if episodes:
         lines.append(

@@ -10,6 +10,9 @@ and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the f
 - ``paper's S(15), S(17)``: no tyre curve (mixing.tyre_peak_acceleration = inf, q2_inertial = 1): v_n
   relaxed towards zero below b2 and integrated above instead of relaxed towards the tyre curve's side
   slip, and the odometric v_t without the creep compensation.
+- ``S(17) pulled to the steady-turn slip``: the inertial branch of S(17) relaxes towards the side slip of
+  a steady turn at v_t omega (mixing.side_slip_from_accelerations = False) instead of the slip at the
+  tyre force the accelerometers measure.
 - ``paper's S(15)``: the odometric v_t as it is (mixing.odometry_slip_compensation = False) instead of
   less the tyres' creep of the tyre curve.
 - ``paper's S(12)``: C1 from this batch's dv alone (mixing.dv_memory = 0) instead of also from the leaky
@@ -49,6 +52,7 @@ from systems.sideslip import side_slip_angle
 VARIANTS = (
     "default",
     "paper's S(15), S(17): no tyre curve",
+    "S(17) pulled to the steady-turn slip",
     "paper's S(15): odometric v_t with the creep",
     "paper's S(12): C1 from this batch's dv",
     "paper's heading: raw gyro, S(14) per sample",
@@ -163,12 +167,14 @@ def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: f
     both = replay(a, scenario, true_v_t=a["true_v_t"], side_slip=side_slip)
     nav = scenario.navigation
     paper = dc.replace(nav, mixing=dc.replace(nav.mixing, tyre_peak_acceleration=math.inf, q2_inertial=1.0))
+    steady_turn = dc.replace(nav, mixing=dc.replace(nav.mixing, side_slip_from_accelerations=False))
     creeping = dc.replace(nav, mixing=dc.replace(nav.mixing, odometry_slip_compensation=False))
     one_batch = dc.replace(nav, mixing=dc.replace(nav.mixing, dv_memory=0.0))
     raw_gyro = papers_heading(nav)
     return {
         "default": figures(default),
         "paper's S(15), S(17): no tyre curve": figures(replay(a, scenario, navigation=paper)),
+        "S(17) pulled to the steady-turn slip": figures(replay(a, scenario, navigation=steady_turn)),
         "paper's S(15): odometric v_t with the creep": figures(replay(a, scenario, navigation=creeping)),
         "paper's S(12): C1 from this batch's dv": figures(replay(a, scenario, navigation=one_batch)),
         "paper's heading: raw gyro, S(14) per sample": figures(replay(a, scenario, navigation=raw_gyro)),

@@ -3,8 +3,10 @@ the mixing laws S(15)-(17), whose result is fed back into the EKF (Fig. 3).
 
 S(17) relaxes v_n towards zero while |a_n| < b2 and integrates it above. Rubber tyres side-slip from the
 first m/s^2 of lateral acceleration, increasingly so towards the friction limit, so here v_n relaxes towards
-the steady-turn side slip of the tyre curve instead (lateral_velocity_model), strongly below b2 (q2) and
-weakly above (q2_inertial). tyre_peak_acceleration = inf and q2_inertial = 1 restore the paper's S(17).
+the side slip of the tyre curve instead: strongly below b2 (q2) towards the steady-turn slip at v_t omega
+(lateral_velocity_model), weakly above (q2_inertial) towards the slip at the forces the accelerometers
+measure (side_slip_from_accelerations). tyre_peak_acceleration = inf and q2_inertial = 1 restore the
+paper's S(17).
 Likewise the tyres creep ahead of the body whenever they push (traction, the drag of the felt shoes, a
 sliding turn): S(15) takes the same tyre curve's longitudinal slip off the odometric v_t
 (longitudinal_slip_speed; odometry_slip_compensation = False restores the paper's S(15)).
@@ -46,12 +48,19 @@ class MixingParameters:
             batch of S(11)); 0: the paper's per-sample residual.
         q2: geometric relaxation of v_n towards the tyre model per T_N while |a_n| < b2, S(17): as small
             as possible but large enough for consistent velocity (0.99 -> 0.2 s time constant).
-        q2_inertial: the same for the inertial v_n, weighted 1 - C2 (|a_n| > b2), at zero lateral
-            acceleration; the pull fades with the tyre curve's slope factor sqrt(1 - (a_n/a_peak)^2) to
-            nothing at the friction limit, where any slip angle past the peak gives about the same force.
-            Close to 1, because the model holds in steady turns only, but below 1 so that the side slip of
-            a hard turn is held to the tyre curve rather than integrated with the odometric v_t's bias
-            (0.95 -> 40 ms at small a_n; open corner alpha 2.1 -> 1.3 deg, 6 seeds). 1: the paper's S(17).
+        q2_inertial: the same for the inertial v_n, weighted 1 - C2 (|a_n| > b2), at zero tyre force;
+            the pull fades with the tyre curve's slope factor sqrt(1 - (|a|/a_peak)^2) to nothing at the
+            friction limit, where any slip angle past the peak gives about the same force. Below 1 so that
+            the side slip of a hard turn is held to the tyre curve rather than integrated with the
+            accelerometers' commotion and bias (0.3 m/s^2 rms at 1.6 m/s: ~0.03 m/s, 1 deg, over a 0.5 s
+            turn); close to 1 because the tyre curve is quasi-static (0.95 -> 40 ms at small |a|). 1: the
+            paper's S(17).
+        side_slip_from_accelerations: the inertial branch's pull targets the side slip at the tyre force
+            the accelerometers measure (side_slip_from_accelerations), rather than the steady-turn slip at
+            v_t omega (lateral_velocity_model). The force follows the slip angle, not v_t omega: it lags
+            v_t omega while the slip builds up, overshoots while it decays, and drops when the tyres
+            brake or drive (the friction circle), which v_t omega cannot know (corner alpha, 10 seeds:
+            open 1.17 -> 0.52 deg, closed 0.52 -> 0.36 deg, replayed). False: the steady-turn slip.
         tyre_peak_acceleration: the tyres' largest lateral acceleration mu g f_w (m/s^2), identified with
             the two shape factors below from steady turns. Default: Tinyphoon, 0.7 * 9.81 * 0.8 = 5.49.
             inf: no side slip (the paper's S(17) relaxes v_n to zero).
@@ -81,6 +90,7 @@ class MixingParameters:
     c3_residual_time_constant: float = 0.02
     q2: float = 0.99
     q2_inertial: float = 0.95
+    side_slip_from_accelerations: bool = True
     tyre_peak_acceleration: float = 5.49
     tyre_stiffness_factor: float = 15.0
     tyre_shape_factor: float = 1.3
@@ -110,11 +120,9 @@ class MixingParameters:
         c = self.tyre_shape_factor
         if not 1.0 < c < 2.0:
             raise ValueError(f"mixing.tyre_shape_factor={c!r} is out of range: allowed (1, 2)")
-        if not isinstance(self.odometry_slip_compensation, bool):
-            raise ValueError(
-                f"mixing.odometry_slip_compensation={self.odometry_slip_compensation!r} is out of range: "
-                "allowed true, false"
-            )
+        for name in ("odometry_slip_compensation", "side_slip_from_accelerations"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"mixing.{name}={getattr(self, name)!r} is out of range: allowed true, false")
         for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
@@ -195,25 +203,56 @@ DRAG_SPEED_SCALE = 0.01
 """m/s: the drag's direction follows tanh(v_t / DRAG_SPEED_SCALE) (Coulomb friction, regularised)."""
 
 
+def tyre_force(wheel_speed: float, a_t: float, a_n: float, p: MixingParameters) -> tuple[float, float]:
+    """The tyres' force per unit mass (a_x, a_n) that accelerates the body at (a_t, a_n) against the
+    drag: a_x = a_t + (drag_acceleration + drag_per_speed |v|) tanh(v / 0.01), v the wheel speed (the
+    shoes' small lateral drag, ~drag sin(alpha), is neglected)."""
+    drag = p.drag_acceleration + p.drag_per_speed * abs(wheel_speed)
+    return a_t + drag * math.tanh(wheel_speed / DRAG_SPEED_SCALE), a_n
+
+
+def combined_slip(a_x: float, a_n: float, p: MixingParameters) -> tuple[float, float]:
+    """Combined-slip magic formula (Pacejka's similarity method): the tyres that carry the force (a_x,
+    a_n) per unit mass slip by sigma = tyre_slip(|a| / a_peak) (capped at the peak) in the force's
+    direction. Returns (sigma, |a| / a_peak) (uncapped; 0, 0 for a_peak = inf)."""
+    if math.isinf(p.tyre_peak_acceleration):
+        return 0.0, 0.0
+    utilisation = math.hypot(a_x, a_n) / p.tyre_peak_acceleration
+    return tyre_slip(min(utilisation, 1.0), p), utilisation
+
+
 def longitudinal_slip_speed(wheel_speed: float, a_t: float, a_n: float, p: MixingParameters) -> float:
     """Steady slip speed r theta_dot - v_t of the tyres that push the body at (a_t, a_n) against the drag.
 
-    Combined-slip magic formula (Pacejka's similarity method, as the tyre curve of S(17)): the tyres'
-    force per unit mass a = (a_t + (drag_acceleration + drag_per_speed |v|) tanh(v / 0.01), a_n), v the
-    wheel speed, has the combined slip sigma = tan(asin(|a| / a_peak) / C) / B (capped at the peak), of
-    which the longitudinal part is kappa = sigma a_x / |a|; the slip speed is kappa max(|v|,
-    tyre_reference_speed). Zero for a_peak = inf or without odometry_slip_compensation. The two tyres are
-    lumped (their mean slip)."""
-    if not p.odometry_slip_compensation or math.isinf(p.tyre_peak_acceleration):
+    The combined slip (combined_slip) of the tyre force (tyre_force; v the wheel speed) has the
+    longitudinal part kappa = sigma a_x / |a|; the slip speed is kappa max(|v|, tyre_reference_speed).
+    Zero for a_peak = inf or without odometry_slip_compensation. The two tyres are lumped (their mean
+    slip)."""
+    if not p.odometry_slip_compensation:
         return 0.0
-    drag = p.drag_acceleration + p.drag_per_speed * abs(wheel_speed)
-    a_x = a_t + drag * math.tanh(wheel_speed / DRAG_SPEED_SCALE)
-    magnitude = math.hypot(a_x, a_n)
-    if magnitude == 0.0:
+    a_x, a_n = tyre_force(wheel_speed, a_t, a_n, p)
+    sigma, utilisation = combined_slip(a_x, a_n, p)
+    if utilisation == 0.0:
         return 0.0
-    ratio = min(magnitude / p.tyre_peak_acceleration, 1.0)
-    sigma = tyre_slip(ratio, p)
-    return sigma * a_x / magnitude * max(abs(wheel_speed), p.tyre_reference_speed)
+    return sigma * a_x / math.hypot(a_x, a_n) * max(abs(wheel_speed), p.tyre_reference_speed)
+
+
+def side_slip_from_accelerations(v_t: float, a_t: float, a_n: float, p: MixingParameters):
+    """Side-slip velocity of the tyres that carry the force the accelerometers measure (a quasi-static
+    tyre, no relaxation length): the lateral part of the combined slip, tan(alpha) = sigma a_n / |a|
+    (combined_slip of tyre_force(v_t, a_t, a_n)), v_n = -|v_t| tan(alpha).
+
+    In the linear range and a pure turn tan(alpha) = -a_n / K_alpha, as lateral_velocity_model at
+    a_n = v_t omega; braking or driving takes friction from the turn and the same a_n needs more slip.
+
+    Returns:
+        (v_n, |a| / a_peak): the slip and the tyres' utilisation (uncapped; 0, 0 for a_peak = inf).
+    """
+    a_x, a_n = tyre_force(v_t, a_t, a_n, p)
+    sigma, utilisation = combined_slip(a_x, a_n, p)
+    if utilisation == 0.0:
+        return 0.0, 0.0
+    return -abs(v_t) * sigma * a_n / math.hypot(a_x, a_n), utilisation
 
 
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
@@ -221,10 +260,11 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
 
     v_t = C1 (^O v_t - s) + (1 - C1) ^I v_t, s = longitudinal_slip_speed(^O v_t, ^I a_t, ^I a_n) (0 in the
     paper's S(15)); omega = C3 ^O omega + (1 - C3) ^I omega;
-    v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) [m_k + q_I (^I v_n - m_k)]: v_n relaxes towards the
-    tyre model m = lateral_velocity_model(v_t, omega), fast below the a_n threshold and slowly above, with
-    q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u = tyre_utilisation (the paper's S(17) for a_peak = inf,
-    m = 0, and q2_inertial = 1).
+    v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) [f_k + q_I (^I v_n - f_k)]: below the a_n threshold v_n
+    follows the steady-turn model m = lateral_velocity_model(v_t, omega) and relaxes towards it by q2;
+    above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^I a_t, ^I a_n) (m with
+    side_slip_from_accelerations = False) by q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u the tyres'
+    utilisation capped at 1. The paper's S(17) for a_peak = inf (m = f = 0) and q2_inertial = 1.
 
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
@@ -234,12 +274,16 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     omega = c3 * odo[1] + (1.0 - c3) * inertial[2]
     model = lateral_velocity_model(v_t, omega, p)
     model_prev = lateral_velocity_model(previous[0], previous[2], p)
-    q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - tyre_utilisation(v_t, omega, p) ** 2)
+    if p.side_slip_from_accelerations:
+        target, utilisation = side_slip_from_accelerations(v_t, inertial[3], inertial[4], p)
+    else:
+        target, utilisation = model, tyre_utilisation(v_t, omega, p)
+    q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - min(utilisation, 1.0) ** 2)
     return np.array(
         [
             v_t,
             c2 * (model + p.q2 * (previous[1] - model_prev))
-            + (1.0 - c2) * (model + q_inertial * (inertial[1] - model)),
+            + (1.0 - c2) * (target + q_inertial * (inertial[1] - target)),
             omega,
             inertial[3],
             inertial[4],

@@ -13,7 +13,7 @@ from scenarios.config import load_scenario
 from scenarios.metrics import tangential_slip_speed
 from scenarios.runner import run_scenario
 from systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
-from systems.mixing import MixingParameters, logsig, mixing_c1, tyre_utilisation
+from systems.mixing import MixingParameters, logsig, mixing_c1, side_slip_from_accelerations
 from systems.slip_control import StepSizeParameters, step_size
 
 T_N = 0.002
@@ -55,16 +55,21 @@ def test_ekf_error_dynamics_with_mixing_feedback_are_stable():
     """(I - L C) G at a steady operating point: the measured block is stable; with the mixed estimate
     fed back (C1 = 1: odometric v_t; C2 = 1: v_n relaxed by q2, C2 = 0: by the slope-weighted q_I of
     S(17) with the tyre model; C3 = 1: odometric omega) every mode is. The tyre model's own dependence on
-    v_t and omega is neglected (second order: dm/dv_t ~ 2 alpha)."""
+    v_t and omega is neglected (second order: dm/dv_t ~ 2 alpha); its dependence on the measured a_t, a_n
+    moves no eigenvalue (their errors evolve on their own: A[2:, :2] = 0, block triangular)."""
     Q, R, P0 = EkfParameters().matrices()
     G = ekf_jacobian(OPERATING_POINT, T_N)
     L = steady_gain(G, Q, R, P0)
     A = (np.eye(5) - L @ MEASUREMENT_MATRIX) @ G
     measured = np.linalg.eigvals(A[2:, 2:])
+    assert np.all(A[2:, :2] == 0.0)
     assert np.all(np.abs(measured) < 1.0)
     p = MixingParameters()
     v_t, omega = OPERATING_POINT[0], OPERATING_POINT[2]
-    q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - tyre_utilisation(v_t, omega, p) ** 2)
+    # The tyres carry the turn's a_n = v_t omega and the shoes' drag: u = |a| / a_peak.
+    utilisation = side_slip_from_accelerations(v_t, 0.0, v_t * omega, p)[1]
+    assert utilisation == pytest.approx(math.hypot(0.49 + 0.25 * v_t, v_t * omega) / 5.49)
+    q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - utilisation**2)
     assert q_inertial < 1.0
     for c1, c2, c3 in [(1.0, 1.0, 1.0), (0.0, 0.0, 0.0), (0.5, 0.5, 0.5)]:
         # Error propagation of the mixed estimate: odometric parts carry no inertial error.

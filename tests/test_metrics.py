@@ -6,12 +6,18 @@ import numpy as np
 import pytest
 
 from scenarios.cli import main
-from scenarios.metrics import detection_latencies, final_position_error, side_slip_rms_error, slip_episodes
+from scenarios.metrics import (
+    detection_latencies,
+    final_position_error,
+    side_slip_rms_error,
+    side_slip_rms_error_at_updates,
+    slip_episodes,
+)
 
 
 def synthetic(n=1000, T_N=0.002):
     t = np.arange(n) * T_N
-    a = {"t": t, "T_C": np.array(0.02), "true_v_t": np.full(n, 1.0), "true_v_n": np.zeros(n)}
+    a = {"t": t, "T_N": np.array(T_N), "T_C": np.array(0.02), "true_v_t": np.full(n, 1.0), "true_v_n": np.zeros(n)}
     a["true_wheel_R"] = a["true_wheel_L"] = np.full(n, 1.0)
     a["C1"] = np.ones(n)
     return a
@@ -45,6 +51,25 @@ def test_position_and_side_slip_errors():
     b["true_alpha"] = np.radians([0.5, 2.0, -3.0, 4.0])
     b["est_alpha"] = np.radians([0.0, 1.0, -3.0, 4.0])
     assert math.degrees(side_slip_rms_error(b)) == pytest.approx(math.sqrt(1 / 3))
+
+
+def test_side_slip_error_at_the_updates_leaves_out_the_hold():
+    """est_alpha as the T_C block logs it (alpha_K of sample K n on rows K n + 1 ... K n + n) of a true
+    alpha ramping by s per sample: exact at the updates, while the per-sample figure counts the hold,
+    errors s, 2 s, ..., 10 s: RMS s sqrt(38.5). A constant 0.5 deg offset is 0.5 deg either way."""
+    a = synthetic(400)
+    slope = math.radians(0.1)
+    a["true_alpha"] = math.radians(2.0) + slope * np.arange(400)
+    rows = np.arange(400)
+    a["est_alpha"] = a["true_alpha"][np.maximum((rows - 1) // 10 * 10, 0)]
+    assert side_slip_rms_error_at_updates(a) == pytest.approx(0.0, abs=1e-15)
+    inner = slice(1, 391)  # whole holds only
+    b = {k: (v[inner] if isinstance(v, np.ndarray) and v.ndim else v) for k, v in a.items()}
+    assert side_slip_rms_error(b) == pytest.approx(slope * math.sqrt(38.5), rel=1e-12)
+    a["est_alpha"] += math.radians(0.5)
+    assert math.degrees(side_slip_rms_error_at_updates(a)) == pytest.approx(0.5, rel=1e-12)
+    a["true_alpha"][:] = math.radians(0.5)  # below the 1 deg threshold everywhere
+    assert math.isnan(side_slip_rms_error_at_updates(a))
 
 
 def test_accuracy_command_smoke(capsys):

@@ -31,6 +31,7 @@ from systems.mixing import (
     lateral_velocity_model,
     logsig,
     longitudinal_slip_speed,
+    side_slip_from_accelerations,
     mix,
     mixing_c1,
     mixing_c2,
@@ -266,16 +267,32 @@ def test_mixing_laws_S15_to_S17():
     v_t, omega = 0.25 * (2.0 - creep) + 0.75 * 1.5, 0.75 * 1.0 + 0.25 * 0.8
     model = -v_t * tyre_curve_side_slip(v_t * omega, a_peak=3.0)
     model_prev = -1.2 * tyre_curve_side_slip(1.2 * 0.7, a_peak=3.0)
+    # Above b2 the pull is towards the slip at the measured force, which is past the peak: none (q_I = 1).
+    np.testing.assert_allclose(
+        out, [v_t, 0.4 * (model + 0.9 * (0.2 - model_prev)) + 0.6 * 0.3, omega, 4.0, 5.0], rtol=1e-9
+    )
+    # The steady-turn model instead (side_slip_from_accelerations = False): v_t omega is below the peak.
+    steady = dc.replace(p, side_slip_from_accelerations=False)
     q_inertial = 1.0 - 0.2 * math.sqrt(1.0 - (v_t * omega / 3.0) ** 2)  # the pull fades with the slope
     np.testing.assert_allclose(
-        out,
-        [
-            v_t,
-            0.4 * (model + 0.9 * (0.2 - model_prev)) + 0.6 * (model + q_inertial * (0.3 - model)),
-            omega,
-            4.0,
-            5.0,
-        ],
+        mix(odo, inertial, 0.25, 0.4, 0.75, previous, steady)[1],
+        0.4 * (model + 0.9 * (0.2 - model_prev)) + 0.6 * (model + q_inertial * (0.3 - model)),
+        rtol=1e-9,
+    )
+    # Braking at 0.5 - 1.5 m/s^2 in a turn at a_n = 1.2: the combined slip of the force (a_x, a_n), a_x
+    # with the shoes' drag at v_t, by bisection on the magic formula; its lateral part sigma a_n / |a|.
+    inertial = [1.5, 0.3, 0.8, -1.5, 1.2]
+    out = mix(odo, inertial, 0.25, 0.4, 0.75, previous, p)
+    v_t = 0.25 * (2.0 - longitudinal_slip_speed(2.0, -1.5, 1.2, p)) + 0.75 * 1.5
+    model = -v_t * tyre_curve_side_slip(v_t * omega, a_peak=3.0)
+    a_x = -1.5 + 0.49 + 0.25 * v_t
+    utilisation = math.hypot(a_x, 1.2) / 3.0
+    target = -v_t * tyre_curve_side_slip(math.hypot(a_x, 1.2), a_peak=3.0) * 1.2 / math.hypot(a_x, 1.2)
+    assert side_slip_from_accelerations(v_t, -1.5, 1.2, p) == pytest.approx((target, utilisation), rel=1e-9)
+    q_inertial = 1.0 - 0.2 * math.sqrt(1.0 - utilisation**2)
+    np.testing.assert_allclose(
+        out[1],
+        0.4 * (model + 0.9 * (0.2 - model_prev)) + 0.6 * (target + q_inertial * (0.3 - target)),
         rtol=1e-9,
     )
     # a_peak = inf and q2_inertial = 1 are the paper's S(15) and S(17): v_n relaxed towards zero, or
@@ -314,9 +331,9 @@ def test_longitudinal_slip_speed_by_hand():
 
 
 def test_S17_relaxes_v_n_geometrically_towards_the_tyre_model():
-    """In a steady turn v_n - m shrinks by q2 per sample below b2 (C2 = 1), and by the slope-weighted
-    q_I above (C2 = 0, inertial v_n held at its previous value); at the friction limit not at all. (v_t
-    as odometry gives it: without S(15)'s creep compensation.)"""
+    """In a steady turn v_n - m shrinks by q2 per sample below b2 (C2 = 1); above (C2 = 0, inertial v_n
+    held at its previous value) v_n - f, f the slip at the measured force, by the slope-weighted q_I; at
+    the friction limit not at all. (v_t as odometry gives it: without S(15)'s creep compensation.)"""
     p = MixingParameters(odometry_slip_compensation=False)
     odo = [1.5, 1.0, 0.0, 0.0]
     model = lateral_velocity_model(1.5, 1.0, p)
@@ -328,14 +345,24 @@ def test_S17_relaxes_v_n_geometrically_towards_the_tyre_model():
         gaps.append(x[1] - model)
     np.testing.assert_allclose(np.array(gaps[1:10]) / np.array(gaps[0:9]), p.q2, rtol=1e-9)
     assert abs(gaps[-1]) < 1e-3 * abs(model)
-    for omega, q in [(1.0, 1.0 - 0.05 * math.sqrt(1.0 - (1.5 / 5.49) ** 2)), (4.0, 1.0)]:
-        model = lateral_velocity_model(1.5, omega, p)
+    drag = 0.49 + 0.25 * 1.5  # the shoes' at 1.5 m/s; the steady turn's tyre force is (drag, v_t omega)
+    for omega in (1.0, 4.0):
+        utilisation = math.hypot(drag, 1.5 * omega) / 5.49
+        q = 1.0 - 0.05 * math.sqrt(1.0 - utilisation**2) if utilisation < 1.0 else 1.0
+        target, u = side_slip_from_accelerations(1.5, 0.0, 1.5 * omega, p)
+        assert u == pytest.approx(utilisation, rel=1e-12)
         v_n, gaps = 0.0, []
         for _ in range(10):
-            x = [1.5, v_n, omega, 0.0, 0.0]  # inertial v_n = previous v_n (no integration)
+            x = [1.5, v_n, omega, 0.0, 1.5 * omega]  # inertial v_n = previous v_n (no integration)
             v_n = mix([1.5, omega, 0.0, 0.0], x, 1.0, 0.0, 1.0, x, p)[1]
-            gaps.append(v_n - model)
+            gaps.append(v_n - target)
         np.testing.assert_allclose(np.array(gaps[1:]) / np.array(gaps[:-1]), q, rtol=1e-9)
+    # In a steady turn without drag the slip at the measured force is the steady-turn model's.
+    no_drag = dc.replace(p, drag_acceleration=0.0, drag_per_speed=0.0)
+    for omega in (0.3, 1.0, 2.0, 3.0):
+        assert side_slip_from_accelerations(1.5, 0.0, 1.5 * omega, no_drag)[0] == pytest.approx(
+            lateral_velocity_model(1.5, omega, no_drag), rel=1e-12
+        )
 
 
 def test_mixing_parameter_validation():
@@ -365,6 +392,8 @@ def test_mixing_parameter_validation():
                 MixingParameters(**{name: bad})
     with pytest.raises(ValueError, match=r"mixing.odometry_slip_compensation=1 .* allowed true, false"):
         MixingParameters(odometry_slip_compensation=1)
+    with pytest.raises(ValueError, match=r"mixing.side_slip_from_accelerations='yes' .* allowed true, false"):
+        MixingParameters(side_slip_from_accelerations="yes")
     assert MixingParameters(tyre_peak_acceleration=math.inf, q2_inertial=1.0).q2_inertial == 1.0
 
 

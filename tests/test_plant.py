@@ -7,7 +7,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from systems.mixing import MixingParameters, lateral_velocity_model, longitudinal_slip_speed
+from systems.mixing import (
+    MixingParameters,
+    lateral_velocity_model,
+    longitudinal_slip_speed,
+    side_slip_from_accelerations,
+)
 from systems.plant import (
     DEFAULT_TIME_STEP,
     GRAVITY,
@@ -357,6 +362,38 @@ def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, 
         tyre_shape_factor=p.tyre_shape_factor,
     )
     assert lateral_velocity_model(x[3], x[5], tyres) == pytest.approx(x[4], rel=0.1)
+
+
+@pytest.mark.parametrize("speed, omega_frac, deceleration", [(1.5, 1.33, 3.0), (1.5, 1.6, 5.0), (1.2, 2.5, 4.0)])
+def test_side_slip_braking_in_a_turn_follows_the_tyre_force(speed, omega_frac, deceleration):
+    """Braking at 3-5 m/s^2 out of a steady turn at 3-3.6 m/s^2 (yaw-rate command held): the friction
+    circle takes grip from the turn and the body keeps sliding outwards. The plant's v_n follows the
+    slip of the tyres that carry the force it accelerates with (side_slip_from_accelerations at the true
+    v_t, a_t, a_n, with Tinyphoon's tyres and shoes) to 5 % (+ 1 mm/s) up to 0.96 of the friction limit,
+    while the steady-turn model at v_t omega misses it by up to half."""
+    p = tinyphoon()
+    tyres = MixingParameters(
+        tyre_peak_acceleration=p.traction_limit_acceleration,
+        tyre_stiffness_factor=p.tyre_stiffness_factor,
+        tyre_shape_factor=p.tyre_shape_factor,
+        drag_acceleration=p.shoe_friction * (1.0 - p.wheel_load_fraction) * 9.81,
+        drag_per_speed=2.0 * p.shoe_viscous_drag / p.mass,
+    )
+    t = np.arange(int(3.0 / T_C) + 1) * T_C
+    v = np.where(t > 2.0, np.maximum(speed - deceleration * (t - 2.0), 0.2), speed * np.clip(t, 0.0, 1.0))
+    omega = omega_frac * speed * np.clip(t, 0.0, 1.0)
+    table = np.column_stack([v + 0.5 * p.track_width * omega, v - 0.5 * p.track_width * omega])
+    states, acc = discrete_run(p, table, 2.3, [0.0] * 10, DEFAULT_TIME_STEP)
+    steady_miss = 0.0
+    for time in (2.05, 2.1, 2.15, 2.2):
+        k = int(round(time / p.speed_loop_period))
+        x, a = states[k], acc[k - 1]  # the acceleration of the step that ends in x
+        assert a[0] < -1.0 and x[4] < -0.005  # braking, sliding outwards
+        target, utilisation = side_slip_from_accelerations(x[3], a[0], a[1], tyres)
+        assert 0.4 < utilisation < 0.97
+        assert target == pytest.approx(x[4], rel=0.05, abs=1e-3), (time, x[4], target)
+        steady_miss = max(steady_miss, abs(lateral_velocity_model(x[3], x[5], tyres) / x[4] - 1.0))
+    assert steady_miss > 0.1
 
 
 @pytest.mark.parametrize("shoes", [True, False])
