@@ -122,7 +122,9 @@ class MixingParameters:
             raise ValueError(f"mixing.tyre_shape_factor={c!r} is out of range: allowed (1, 2)")
         for name in ("odometry_slip_compensation", "side_slip_from_accelerations"):
             if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"mixing.{name}={getattr(self, name)!r} is out of range: allowed true, false")
+                raise ValueError(
+                    f"mixing.{name}={getattr(self, name)!r} is out of range: allowed true, false"
+                )
         for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
@@ -237,10 +239,11 @@ def longitudinal_slip_speed(wheel_speed: float, a_t: float, a_n: float, p: Mixin
     return sigma * a_x / math.hypot(a_x, a_n) * max(abs(wheel_speed), p.tyre_reference_speed)
 
 
-def side_slip_from_accelerations(v_t: float, a_t: float, a_n: float, p: MixingParameters):
+def side_slip_from_accelerations(v_t: float, wheel_speed: float, a_t: float, a_n: float, p: MixingParameters):
     """Side-slip velocity of the tyres that carry the force the accelerometers measure (a quasi-static
     tyre, no relaxation length): the lateral part of the combined slip, tan(alpha) = sigma a_n / |a|
-    (combined_slip of tyre_force(v_t, a_t, a_n)), v_n = -|v_t| tan(alpha).
+    (combined_slip of tyre_force(v_t, a_t, a_n)), v_n = -v_ref tan(alpha) with the slip's reference speed
+    v_ref = max(|v_t|, |wheel_speed|, tyre_reference_speed), as the tyre curve was identified.
 
     In the linear range and a pure turn tan(alpha) = -a_n / K_alpha, as lateral_velocity_model at
     a_n = v_t omega; braking or driving takes friction from the turn and the same a_n needs more slip.
@@ -252,7 +255,8 @@ def side_slip_from_accelerations(v_t: float, a_t: float, a_n: float, p: MixingPa
     sigma, utilisation = combined_slip(a_x, a_n, p)
     if utilisation == 0.0:
         return 0.0, 0.0
-    return -abs(v_t) * sigma * a_n / math.hypot(a_x, a_n), utilisation
+    reference = max(abs(v_t), abs(wheel_speed), p.tyre_reference_speed)
+    return -reference * sigma * a_n / math.hypot(a_x, a_n), utilisation
 
 
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
@@ -262,9 +266,9 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     paper's S(15)); omega = C3 ^O omega + (1 - C3) ^I omega;
     v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) [f_k + q_I (^I v_n - f_k)]: below the a_n threshold v_n
     follows the steady-turn model m = lateral_velocity_model(v_t, omega) and relaxes towards it by q2;
-    above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^I a_t, ^I a_n) (m with
-    side_slip_from_accelerations = False) by q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u the tyres'
-    utilisation capped at 1. The paper's S(17) for a_peak = inf (m = f = 0) and q2_inertial = 1.
+    above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^O v_t, ^I a_t, ^I a_n)
+    (m with side_slip_from_accelerations = False) by q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u the
+    tyres' utilisation capped at 1. The paper's S(17) for a_peak = inf (m = f = 0) and q2_inertial = 1.
 
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
@@ -275,7 +279,7 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     model = lateral_velocity_model(v_t, omega, p)
     model_prev = lateral_velocity_model(previous[0], previous[2], p)
     if p.side_slip_from_accelerations:
-        target, utilisation = side_slip_from_accelerations(v_t, inertial[3], inertial[4], p)
+        target, utilisation = side_slip_from_accelerations(v_t, odo[0], inertial[3], inertial[4], p)
     else:
         target, utilisation = model, tyre_utilisation(v_t, omega, p)
     q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - min(utilisation, 1.0) ** 2)

@@ -67,7 +67,7 @@ def test_ekf_error_dynamics_with_mixing_feedback_are_stable():
     p = MixingParameters()
     v_t, omega = OPERATING_POINT[0], OPERATING_POINT[2]
     # The tyres carry the turn's a_n = v_t omega and the shoes' drag: u = |a| / a_peak.
-    utilisation = side_slip_from_accelerations(v_t, 0.0, v_t * omega, p)[1]
+    utilisation = side_slip_from_accelerations(v_t, v_t, 0.0, v_t * omega, p)[1]
     assert utilisation == pytest.approx(math.hypot(0.49 + 0.25 * v_t, v_t * omega) / 5.49)
     q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - utilisation**2)
     assert q_inertial < 1.0

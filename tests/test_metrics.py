@@ -17,7 +17,13 @@ from scenarios.metrics import (
 
 def synthetic(n=1000, T_N=0.002):
     t = np.arange(n) * T_N
-    a = {"t": t, "T_N": np.array(T_N), "T_C": np.array(0.02), "true_v_t": np.full(n, 1.0), "true_v_n": np.zeros(n)}
+    a = {
+        "t": t,
+        "T_N": np.array(T_N),
+        "T_C": np.array(0.02),
+        "true_v_t": np.full(n, 1.0),
+        "true_v_n": np.zeros(n),
+    }
     a["true_wheel_R"] = a["true_wheel_L"] = np.full(n, 1.0)
     a["C1"] = np.ones(n)
     return a

@@ -31,11 +31,11 @@ from systems.mixing import (
     lateral_velocity_model,
     logsig,
     longitudinal_slip_speed,
-    side_slip_from_accelerations,
     mix,
     mixing_c1,
     mixing_c2,
     mixing_c3,
+    side_slip_from_accelerations,
     tyre_utilisation,
 )
 from systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationParameters, navigation_loop
@@ -287,8 +287,16 @@ def test_mixing_laws_S15_to_S17():
     model = -v_t * tyre_curve_side_slip(v_t * omega, a_peak=3.0)
     a_x = -1.5 + 0.49 + 0.25 * v_t
     utilisation = math.hypot(a_x, 1.2) / 3.0
-    target = -v_t * tyre_curve_side_slip(math.hypot(a_x, 1.2), a_peak=3.0) * 1.2 / math.hypot(a_x, 1.2)
-    assert side_slip_from_accelerations(v_t, -1.5, 1.2, p) == pytest.approx((target, utilisation), rel=1e-9)
+    # The slip's reference speed is the wheels' 2.0 m/s (faster than the body's v_t).
+    target = -2.0 * tyre_curve_side_slip(math.hypot(a_x, 1.2), a_peak=3.0) * 1.2 / math.hypot(a_x, 1.2)
+    assert side_slip_from_accelerations(v_t, 2.0, -1.5, 1.2, p) == pytest.approx(
+        (target, utilisation), rel=1e-9
+    )
+    # Below tyre_reference_speed (0.3 m/s) the slip is referred to it.
+    slow = side_slip_from_accelerations(0.1, 0.1, -1.5, 1.2, p)[0]
+    assert slow == pytest.approx(
+        0.3 / 2.0 * side_slip_from_accelerations(0.1, 2.0, -1.5, 1.2, p)[0], rel=1e-12
+    )
     q_inertial = 1.0 - 0.2 * math.sqrt(1.0 - utilisation**2)
     np.testing.assert_allclose(
         out[1],
@@ -349,7 +357,7 @@ def test_S17_relaxes_v_n_geometrically_towards_the_tyre_model():
     for omega in (1.0, 4.0):
         utilisation = math.hypot(drag, 1.5 * omega) / 5.49
         q = 1.0 - 0.05 * math.sqrt(1.0 - utilisation**2) if utilisation < 1.0 else 1.0
-        target, u = side_slip_from_accelerations(1.5, 0.0, 1.5 * omega, p)
+        target, u = side_slip_from_accelerations(1.5, 1.5, 0.0, 1.5 * omega, p)
         assert u == pytest.approx(utilisation, rel=1e-12)
         v_n, gaps = 0.0, []
         for _ in range(10):
@@ -360,7 +368,7 @@ def test_S17_relaxes_v_n_geometrically_towards_the_tyre_model():
     # In a steady turn without drag the slip at the measured force is the steady-turn model's.
     no_drag = dc.replace(p, drag_acceleration=0.0, drag_per_speed=0.0)
     for omega in (0.3, 1.0, 2.0, 3.0):
-        assert side_slip_from_accelerations(1.5, 0.0, 1.5 * omega, no_drag)[0] == pytest.approx(
+        assert side_slip_from_accelerations(1.5, 1.5, 0.0, 1.5 * omega, no_drag)[0] == pytest.approx(
             lateral_velocity_model(1.5, omega, no_drag), rel=1e-12
         )
 

@@ -364,7 +364,9 @@ def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, 
     assert lateral_velocity_model(x[3], x[5], tyres) == pytest.approx(x[4], rel=0.1)
 
 
-@pytest.mark.parametrize("speed, omega_frac, deceleration", [(1.5, 1.33, 3.0), (1.5, 1.6, 5.0), (1.2, 2.5, 4.0)])
+@pytest.mark.parametrize(
+    "speed, omega_frac, deceleration", [(1.5, 1.33, 3.0), (1.5, 1.6, 5.0), (1.2, 2.5, 4.0)]
+)
 def test_side_slip_braking_in_a_turn_follows_the_tyre_force(speed, omega_frac, deceleration):
     """Braking at 3-5 m/s^2 out of a steady turn at 3-3.6 m/s^2 (yaw-rate command held): the friction
     circle takes grip from the turn and the body keeps sliding outwards. The plant's v_n follows the
@@ -389,7 +391,8 @@ def test_side_slip_braking_in_a_turn_follows_the_tyre_force(speed, omega_frac, d
         k = int(round(time / p.speed_loop_period))
         x, a = states[k], acc[k - 1]  # the acceleration of the step that ends in x
         assert a[0] < -1.0 and x[4] < -0.005  # braking, sliding outwards
-        target, utilisation = side_slip_from_accelerations(x[3], a[0], a[1], tyres)
+        wheel_speed = 0.5 * (x[8] + x[9]) * p.wheel_radius
+        target, utilisation = side_slip_from_accelerations(x[3], wheel_speed, a[0], a[1], tyres)
         assert 0.4 < utilisation < 0.97
         assert target == pytest.approx(x[4], rel=0.05, abs=1e-3), (time, x[4], target)
         steady_miss = max(steady_miss, abs(lateral_velocity_model(x[3], x[5], tyres) / x[4] - 1.0))
