@@ -59,8 +59,9 @@ class MixingParameters:
             the accelerometers measure (side_slip_from_accelerations), rather than the steady-turn slip at
             v_t omega (lateral_velocity_model). The force follows the slip angle, not v_t omega: it lags
             v_t omega while the slip builds up, overshoots while it decays, and drops when the tyres
-            brake or drive (the friction circle), which v_t omega cannot know (corner alpha, 10 seeds:
-            open 1.17 -> 0.52 deg, closed 0.52 -> 0.36 deg, replayed). False: the steady-turn slip.
+            brake or drive (the friction circle), which v_t omega cannot know (corner alpha RMS, 10
+            seeds: open loop 1.17 -> 0.49 deg, closed loop 0.52 -> 0.34 deg). False: the steady-turn
+            slip.
         tyre_peak_acceleration: the tyres' largest lateral acceleration mu g f_w (m/s^2), identified with
             the two shape factors below from steady turns. Default: Tinyphoon, 0.7 * 9.81 * 0.8 = 5.49.
             inf: no side slip (the paper's S(17) relaxes v_n to zero).
@@ -205,12 +206,12 @@ DRAG_SPEED_SCALE = 0.01
 """m/s: the drag's direction follows tanh(v_t / DRAG_SPEED_SCALE) (Coulomb friction, regularised)."""
 
 
-def tyre_force(wheel_speed: float, a_t: float, a_n: float, p: MixingParameters) -> tuple[float, float]:
+def tyre_force_per_mass(speed: float, a_t: float, a_n: float, p: MixingParameters) -> tuple[float, float]:
     """The tyres' force per unit mass (a_x, a_n) that accelerates the body at (a_t, a_n) against the
-    drag: a_x = a_t + (drag_acceleration + drag_per_speed |v|) tanh(v / 0.01), v the wheel speed (the
-    shoes' small lateral drag, ~drag sin(alpha), is neglected)."""
-    drag = p.drag_acceleration + p.drag_per_speed * abs(wheel_speed)
-    return a_t + drag * math.tanh(wheel_speed / DRAG_SPEED_SCALE), a_n
+    drag at ``speed`` v: a_x = a_t + (drag_acceleration + drag_per_speed |v|) tanh(v / 0.01) (the shoes'
+    small lateral drag, ~drag sin(alpha), is neglected)."""
+    drag = p.drag_acceleration + p.drag_per_speed * abs(speed)
+    return a_t + drag * math.tanh(speed / DRAG_SPEED_SCALE), a_n
 
 
 def combined_slip(a_x: float, a_n: float, p: MixingParameters) -> tuple[float, float]:
@@ -226,13 +227,13 @@ def combined_slip(a_x: float, a_n: float, p: MixingParameters) -> tuple[float, f
 def longitudinal_slip_speed(wheel_speed: float, a_t: float, a_n: float, p: MixingParameters) -> float:
     """Steady slip speed r theta_dot - v_t of the tyres that push the body at (a_t, a_n) against the drag.
 
-    The combined slip (combined_slip) of the tyre force (tyre_force; v the wheel speed) has the
+    The combined slip (combined_slip) of the tyre force (tyre_force_per_mass at the wheel speed v) has the
     longitudinal part kappa = sigma a_x / |a|; the slip speed is kappa max(|v|, tyre_reference_speed).
     Zero for a_peak = inf or without odometry_slip_compensation. The two tyres are lumped (their mean
     slip)."""
     if not p.odometry_slip_compensation:
         return 0.0
-    a_x, a_n = tyre_force(wheel_speed, a_t, a_n, p)
+    a_x, a_n = tyre_force_per_mass(wheel_speed, a_t, a_n, p)
     sigma, utilisation = combined_slip(a_x, a_n, p)
     if utilisation == 0.0:
         return 0.0
@@ -242,8 +243,9 @@ def longitudinal_slip_speed(wheel_speed: float, a_t: float, a_n: float, p: Mixin
 def side_slip_from_accelerations(v_t: float, wheel_speed: float, a_t: float, a_n: float, p: MixingParameters):
     """Side-slip velocity of the tyres that carry the force the accelerometers measure (a quasi-static
     tyre, no relaxation length): the lateral part of the combined slip, tan(alpha) = sigma a_n / |a|
-    (combined_slip of tyre_force(v_t, a_t, a_n)), v_n = -v_ref tan(alpha) with the slip's reference speed
-    v_ref = max(|v_t|, |wheel_speed|, tyre_reference_speed), as the tyre curve was identified.
+    (combined_slip of tyre_force_per_mass(v_t, a_t, a_n)), v_n = -v_ref tan(alpha) with the slip's
+    reference speed v_ref = max(|v_t|, |wheel_speed|, tyre_reference_speed), as the tyre curve was
+    identified.
 
     In the linear range and a pure turn tan(alpha) = -a_n / K_alpha, as lateral_velocity_model at
     a_n = v_t omega; braking or driving takes friction from the turn and the same a_n needs more slip.
@@ -251,7 +253,7 @@ def side_slip_from_accelerations(v_t: float, wheel_speed: float, a_t: float, a_n
     Returns:
         (v_n, |a| / a_peak): the slip and the tyres' utilisation (uncapped; 0, 0 for a_peak = inf).
     """
-    a_x, a_n = tyre_force(v_t, a_t, a_n, p)
+    a_x, a_n = tyre_force_per_mass(v_t, a_t, a_n, p)
     sigma, utilisation = combined_slip(a_x, a_n, p)
     if utilisation == 0.0:
         return 0.0, 0.0
