@@ -58,13 +58,16 @@ def test_budget_of_the_corner(corner_run):
 
 def test_c1_oracle_and_the_summed_dv_on_the_square():
     """Closed-loop square, seed 0. The C1 oracle replaces S(11)-(12) exactly (C1 = 0 while the wheels slip,
-    1 elsewhere). With the paper's S(12) every episode is detected, the gradual locks one batch late (0.9
-    T_C); with the summed dv (mixing.dv_memory) within the batch of their onset. Since the creep
-    compensation and the gyro bias estimate, either ends within 0.5 % of the path (measured 7 and 10
-    mm), and the oracle no better (9 mm): the rest of the square's error is not C1's."""
+    1 elsewhere). With the summed dv (mixing.dv_memory) every episode is detected within the batch of its
+    onset; the paper's S(12), replayed on the same sensor samples, detects the gradual locks one batch late
+    (0.9 T_C), and in its own closed-loop run (slip control acting on its C1) misses two of eight
+    (measured). Since the creep compensation and the gyro bias estimate, all end within 0.5 % of the path
+    (measured 15 mm with the paper's S(12), 11 mm with the summed dv), and the oracle better than the
+    summed dv by 2 mm (9 mm): the rest of the square's error is not C1's."""
     scenario = load_scenario("square")
     summed_dv = scenario.navigation
-    scenario.navigation = dc.replace(summed_dv, mixing=dc.replace(summed_dv.mixing, dv_memory=0.0))
+    papers = dc.replace(summed_dv, mixing=dc.replace(summed_dv.mixing, dv_memory=0.0))
+    scenario.navigation = papers
     a = run_scenario(scenario, seed=0).arrays
     slipping = np.abs(tangential_slip_speed(a)) > 0.03
     oracle = replay(a, scenario, slipping=slipping)
@@ -74,9 +77,13 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
     scenario.navigation = summed_dv
     b = run_scenario(scenario, seed=0).arrays
     summed = navigation_figures(b)
-    assert paper["slip_detected"] == paper["slip_episodes"] >= 5
     assert summed["slip_detected"] == summed["slip_episodes"] >= 5
-    assert summed["max_latency_T_C"] < 0.5 <= paper["max_latency_T_C"] <= 2.0
+    assert summed["max_latency_T_C"] < 0.5
+    assert paper["slip_detected"] < paper["slip_episodes"] or paper["max_latency_T_C"] >= 0.5
+    assert paper["max_latency_T_C"] <= 2.0
+    replayed = navigation_figures({**b, **replay(b, scenario, navigation=papers)})
+    assert replayed["slip_detected"] == summed["slip_episodes"]
+    assert 0.5 <= replayed["max_latency_T_C"] <= 2.0
     for run in (a, b, {**a, **oracle}):
         assert final_position_error(run, "est") < 0.005 * length
 
