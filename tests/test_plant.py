@@ -266,6 +266,19 @@ def continuous_reference(p, table, duration, x0):
     return np.array(out), np.array(acc)
 
 
+def navigation_tyres(p: RobotParameters) -> MixingParameters:
+    """The navigation's tyre curve and drag of robot ``p``: a_peak = mu g f_w, B, C, the shoes' Coulomb
+    mu_s (1 - f_w) g and viscous 2 c_v / m per unit mass, the slip's reference-speed floor."""
+    return MixingParameters(
+        tyre_peak_acceleration=p.traction_limit_acceleration,
+        tyre_stiffness_factor=p.tyre_stiffness_factor,
+        tyre_shape_factor=p.tyre_shape_factor,
+        drag_acceleration=p.shoe_friction * (1.0 - p.wheel_load_fraction) * GRAVITY,
+        drag_per_speed=2.0 * p.shoe_viscous_drag / p.mass,
+        tyre_reference_speed=p.slip_speed_floor,
+    )
+
+
 def discrete_run(p, table, duration, x0, h):
     per = int(round(p.speed_loop_period / h))
     x, loop, out, acc = list(x0), [0.0] * 4, [np.array(x0, float)], []
@@ -356,11 +369,7 @@ def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, 
     assert a_n == pytest.approx(speed**2 * omega_frac, rel=0.05)  # steady: a_n = v_t omega
     assert x[4] < -0.005  # a real side slip, to the outside of the turn
     assert a_n == pytest.approx(x[3] * x[5], rel=1e-3)
-    tyres = MixingParameters(
-        tyre_peak_acceleration=p.traction_limit_acceleration,
-        tyre_stiffness_factor=p.tyre_stiffness_factor,
-        tyre_shape_factor=p.tyre_shape_factor,
-    )
+    tyres = navigation_tyres(p)
     assert lateral_velocity_model(x[3], x[5], tyres) == pytest.approx(x[4], rel=0.1)
 
 
@@ -374,13 +383,7 @@ def test_side_slip_braking_in_a_turn_follows_the_tyre_force(speed, omega_frac, d
     v_t, a_t, a_n, with Tinyphoon's tyres and shoes) to 5 % (+ 1 mm/s) up to 0.96 of the friction limit,
     while the steady-turn model at v_t omega misses it by up to half."""
     p = tinyphoon()
-    tyres = MixingParameters(
-        tyre_peak_acceleration=p.traction_limit_acceleration,
-        tyre_stiffness_factor=p.tyre_stiffness_factor,
-        tyre_shape_factor=p.tyre_shape_factor,
-        drag_acceleration=p.shoe_friction * (1.0 - p.wheel_load_fraction) * 9.81,
-        drag_per_speed=2.0 * p.shoe_viscous_drag / p.mass,
-    )
+    tyres = navigation_tyres(p)
     t = np.arange(int(3.0 / T_C) + 1) * T_C
     v = np.where(t > 2.0, np.maximum(speed - deceleration * (t - 2.0), 0.2), speed * np.clip(t, 0.0, 1.0))
     omega = omega_frac * speed * np.clip(t, 0.0, 1.0)
@@ -410,14 +413,7 @@ def test_launch_slip_follows_the_navigations_tyre_model(shoes, acceleration):
     p = tinyphoon()
     if not shoes:
         p = p.replace(wheel_load_fraction=1.0, shoe_friction=0.0, shoe_viscous_drag=0.0)
-    tyres = MixingParameters(
-        tyre_peak_acceleration=p.traction_limit_acceleration,
-        tyre_stiffness_factor=p.tyre_stiffness_factor,
-        tyre_shape_factor=p.tyre_shape_factor,
-        drag_acceleration=p.shoe_friction * (1.0 - p.wheel_load_fraction) * 9.81,
-        drag_per_speed=2.0 * p.shoe_viscous_drag / p.mass,
-        tyre_reference_speed=p.slip_speed_floor,
-    )
+    tyres = navigation_tyres(p)
     for speed in (0.6, 1.2, 1.8):
         if acceleration:  # sampled at `speed`, two thirds into a ramp to 1.5 speed
             table, duration = ramp(1.5 * speed, 1.5 * speed / acceleration, 3.0), speed / acceleration
