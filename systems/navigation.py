@@ -117,7 +117,7 @@ class NavigationLoop:
         self.c1, self.dv_held, self.dv_sum, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0, 0.0
         self.pose = list(initial.pose)
         self.odo_pose = list(initial.pose)
-        self.gyro_state = [*initial.pose, 0.0]
+        self.gyro_state = [*initial.pose, 0.0, 0.0]
         self.bias_state = gyro_bias_initial_state()
         self.c3_residual = 0.0
         self.k = 0

@@ -431,17 +431,54 @@ def test_pose_step_S21():
 
 
 def test_gyrodometry_algorithm_1_branches():
-    p = GyrodometryParameters(c1=0.05, c2=0.1, drift_rate=0.9)
+    p = GyrodometryParameters(c1=0.05, c2=0.1, drift_rate=0.9, rate_time_constant=0.0)  # Algorithm 1
     # Odometry reports a rotation: the gyro (less drift) is used.
-    s = gyrodometry_step([0, 0, 0, 1e-5], 1.0, 1.0, 1.2, p, T_N)
-    assert s[2] == pytest.approx(1.2 * T_N - 1e-5) and s[3] == 1e-5
+    s = gyrodometry_step([0, 0, 0, 1e-5, 0.0], 1.0, 1.0, 1.2, p, T_N)
+    assert s[2] == pytest.approx(1.2 * T_N - 1e-5) and s[3] == 1e-5 and s[4] == 1.0
     # No rotation but the gyro disagrees strongly (slip): gyro.
-    s = gyrodometry_step([0, 0, 0, 0.0], 1.0, 0.0, 0.5, p, T_N)
+    s = gyrodometry_step([0, 0, 0, 0.0, 0.0], 1.0, 0.0, 0.5, p, T_N)
     assert s[2] == pytest.approx(0.5 * T_N)
     # Straight and quiet: odometry heading, drift learned.
-    s = gyrodometry_step([0, 0, 0, 0.0], 1.0, 0.01, 0.03, p, T_N)
+    s = gyrodometry_step([0, 0, 0, 0.0, 0.0], 1.0, 0.01, 0.03, p, T_N)
     assert s[2] == pytest.approx(0.01 * T_N) and s[3] == pytest.approx(0.1 * 0.02 * T_N)
     assert s[0] == pytest.approx(T_N)
+    # With the PT1 the c1 test reads w_k = w_k-1 + (1 - exp(-T_N / tau)) (omega_O - w_k-1).
+    filtered = dc.replace(p, rate_time_constant=0.05)
+    gain = 1.0 - math.exp(-T_N / 0.05)
+    # (a one-count burst of the odometric rate, 1 rad/s, with the gyro at 0.05 rad/s < c2)
+    s = gyrodometry_step([0, 0, 0, 0.0, 0.04], 1.0, 1.0, 0.05, filtered, T_N)
+    assert s[4] == pytest.approx(0.04 + gain * 0.96) and s[2] == pytest.approx(0.05 * T_N)  # 0.078 > c1
+    s = gyrodometry_step([0, 0, 0, 0.0, 0.0], 1.0, 1.0, 0.05, filtered, T_N)
+    assert s[4] == pytest.approx(gain) and s[2] == pytest.approx(T_N)  # 0.039 < c1: odometry
+    assert s[3] == pytest.approx(0.1 * (0.05 - 1.0) * T_N)
+    with pytest.raises(ValueError, match=r"gyrodometry.rate_time_constant=-1.0 .* allowed \[0, inf\) s"):
+        GyrodometryParameters(rate_time_constant=-1.0)
+
+
+def test_gyrodometry_through_encoder_quantisation():
+    """A gentle curve, 0.02 rad/s (below c1), for 20 s. At 2 ms the odometric yaw rate of single samples is
+    0 or one count between the wheels (0.11 rad/s, Tinyphoon), above c1. Algorithm 1 on the sample's rate
+    learns the gyro's rotation as drift on the zero samples and hands the count samples to the gyro less
+    that drift: the curve is lost from the heading. On the rate's PT1 every sample is the odometry's,
+    whose quantisation telescopes: the heading ends within one count of the truth and the drift e is the
+    gyro's bias (0.003 rad/s); Algorithm 1's e is the bias plus the curve (measured: 0.4 rad of curve ->
+    0.01 rad of heading)."""
+    count = 0.113 * T_N  # rad per count difference
+    rotation, bias, n = 0.02, 0.003, 10000
+    finals = {}
+    for tau in (0.0, 0.05):
+        p = GyrodometryParameters(rate_time_constant=tau)
+        state = [0.0] * 5
+        for k in range(n):
+            counts = math.floor((k + 1) * rotation * T_N / count) - math.floor(k * rotation * T_N / count)
+            state = gyrodometry_step(state, 1.0, counts * count / T_N, rotation + bias, p, T_N)
+        finals[tau] = state
+    truth = rotation * n * T_N  # 0.4 rad
+    assert abs(finals[0.0][2] - truth) > 0.5 * truth  # the per-sample test loses most of the curve
+    assert abs(finals[0.05][2] - truth) < count
+    assert abs(finals[0.05][4] - rotation) < 0.113 * T_N / 0.05 < 0.05
+    assert finals[0.05][3] / T_N == pytest.approx(bias, rel=0.05)
+    assert finals[0.0][3] / T_N == pytest.approx(rotation + bias, rel=0.05)  # the curve taken for drift
 
 
 def test_sensor_check_holds_and_flags():
