@@ -15,6 +15,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from systems.rates import pt1_step
+
 
 @dc.dataclass
 class GyroBiasParameters:
@@ -73,7 +75,7 @@ def gyro_bias_step(state, gyro: float, odometric_omega: float, c1: float, fault:
         new_bias = total / (weight + p.prior_time)
     else:
         new_bias = bias
-    gate += (1.0 - math.exp(-T_N / p.gate_time_constant)) * (gyro - bias - gate)
+    gate = pt1_step(gate, gyro - bias, p.gate_time_constant, T_N)
     return [total, weight, new_bias, gate]
 
 

@@ -14,6 +14,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from systems.rates import pt1_step
+
 
 @dc.dataclass
 class GyrodometryParameters:
@@ -64,10 +66,7 @@ def gyrodometry_step(
     c, s = math.cos(theta), math.sin(theta)
     x += odometric_v_t * c * T_N
     y += odometric_v_t * s * T_N
-    if p.rate_time_constant == 0.0:
-        rate = odometric_omega
-    else:
-        rate += (1.0 - math.exp(-T_N / p.rate_time_constant)) * (odometric_omega - rate)
+    rate = pt1_step(rate, odometric_omega, p.rate_time_constant, T_N)
     d_odo = odometric_omega * T_N
     d_gyro = gyro_omega * T_N
     if abs(rate) > p.c1 or abs(d_gyro - e) > p.c2 * T_N:

@@ -18,6 +18,8 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from systems.rates import pt1_step
+
 
 @dc.dataclass
 class MixingParameters:
@@ -166,10 +168,7 @@ def c3_residual(
     previous: float, odometric_omega: float, inertial_omega: float, p: MixingParameters, T_N: float
 ):
     """^O omega - ^I omega, PT1-filtered with c3_residual_time_constant (0: this sample's, as in S(14))."""
-    residual = odometric_omega - inertial_omega
-    if p.c3_residual_time_constant == 0.0:
-        return residual
-    return previous + (1.0 - math.exp(-T_N / p.c3_residual_time_constant)) * (residual - previous)
+    return pt1_step(previous, odometric_omega - inertial_omega, p.c3_residual_time_constant, T_N)
 
 
 def mixing_c3(residual: float, p: MixingParameters) -> float:

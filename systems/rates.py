@@ -33,3 +33,11 @@ class SampleRates:
     def batch_length(self) -> int:
         """T_C / T_N, the number of navigation samples per control sample (S(11)'s batch)."""
         return int(round(self.T_C / self.T_N))
+
+
+def pt1_step(previous: float, value: float, time_constant: float, T_N: float) -> float:
+    """One sample of a first-order lag (PT1), exact for an input held over T_N:
+    y_k = y_k-1 + (1 - exp(-T_N / tau)) (u_k - y_k-1); tau = 0 passes u_k through."""
+    if time_constant == 0.0:
+        return value
+    return previous + (1.0 - math.exp(-T_N / time_constant)) * (value - previous)
