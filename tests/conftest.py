@@ -7,7 +7,8 @@ matplotlib.use("Agg")
 from diagrams.open_loop import build_open_loop_diagram  # noqa: E402
 from diagrams.robot import make_simulator  # noqa: E402
 from scenarios.runner import collect_arrays  # noqa: E402
-from systems.plant import DEFAULT_TIME_STEP  # noqa: E402
+from systems.mixing import MixingParameters  # noqa: E402
+from systems.plant import DEFAULT_TIME_STEP, GRAVITY, RobotParameters  # noqa: E402
 from systems.rates import SampleRates  # noqa: E402
 from systems.sensors import SensorParameters  # noqa: E402
 
@@ -44,3 +45,21 @@ def run_open_loop(
 @pytest.fixture
 def open_loop():
     return run_open_loop
+
+
+def navigation_tyres(p: RobotParameters) -> MixingParameters:
+    """The navigation's tyre curve and drag of robot ``p``: a_peak = mu g f_w, B, C, the shoes' Coulomb
+    mu_s (1 - f_w) g and viscous 2 c_v / m per unit mass, the slip's reference-speed floor."""
+    return MixingParameters(
+        tyre_peak_acceleration=p.traction_limit_acceleration,
+        tyre_stiffness_factor=p.tyre_stiffness_factor,
+        tyre_shape_factor=p.tyre_shape_factor,
+        drag_acceleration=p.shoe_friction * (1.0 - p.wheel_load_fraction) * GRAVITY,
+        drag_per_speed=2.0 * p.shoe_viscous_drag / p.mass,
+        tyre_reference_speed=p.slip_speed_floor,
+    )
+
+
+@pytest.fixture(name="navigation_tyres")
+def navigation_tyres_fixture():
+    return navigation_tyres

@@ -15,20 +15,19 @@ trajectory:
 """
 
 
-def test_builtins_load():
+def test_builtins_load(navigation_tyres):
     assert set(builtin_scenarios()) >= {"corner", "square", "circle", "long_path"}
     for name in builtin_scenarios():
         scenario = load_scenario(name)
         assert scenario.name == name
         # The navigation's tyre curve (S(15)'s creep, S(17)'s side slip) is its robot's, as identified.
-        robot, mixing = scenario.robot_parameters(), scenario.navigation.mixing
-        assert mixing.tyre_peak_acceleration == pytest.approx(robot.traction_limit_acceleration, rel=0.01)
-        assert mixing.tyre_stiffness_factor == robot.tyre_stiffness_factor, name
-        assert mixing.tyre_shape_factor == robot.tyre_shape_factor, name
+        mixing, robots = scenario.navigation.mixing, navigation_tyres(scenario.robot_parameters())
+        assert mixing.tyre_peak_acceleration == pytest.approx(robots.tyre_peak_acceleration, rel=0.01)
+        assert mixing.tyre_stiffness_factor == robots.tyre_stiffness_factor, name
+        assert mixing.tyre_shape_factor == robots.tyre_shape_factor, name
         # The drag the tyres push against (S(15)'s creep compensation) is its felt shoes'.
-        shoes = robot.shoe_friction * (1.0 - robot.wheel_load_fraction) * 9.81
-        assert mixing.drag_acceleration == pytest.approx(shoes, abs=0.005), name
-        assert mixing.drag_per_speed == pytest.approx(2.0 * robot.shoe_viscous_drag / robot.mass), name
+        assert mixing.drag_acceleration == pytest.approx(robots.drag_acceleration, abs=0.005), name
+        assert mixing.drag_per_speed == pytest.approx(robots.drag_per_speed), name
 
 
 def test_no_tyre_side_slip_is_the_papers_S17():

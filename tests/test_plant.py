@@ -8,7 +8,6 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from systems.mixing import (
-    MixingParameters,
     lateral_velocity_model,
     longitudinal_slip_speed,
     side_slip_from_accelerations,
@@ -266,19 +265,6 @@ def continuous_reference(p, table, duration, x0):
     return np.array(out), np.array(acc)
 
 
-def navigation_tyres(p: RobotParameters) -> MixingParameters:
-    """The navigation's tyre curve and drag of robot ``p``: a_peak = mu g f_w, B, C, the shoes' Coulomb
-    mu_s (1 - f_w) g and viscous 2 c_v / m per unit mass, the slip's reference-speed floor."""
-    return MixingParameters(
-        tyre_peak_acceleration=p.traction_limit_acceleration,
-        tyre_stiffness_factor=p.tyre_stiffness_factor,
-        tyre_shape_factor=p.tyre_shape_factor,
-        drag_acceleration=p.shoe_friction * (1.0 - p.wheel_load_fraction) * GRAVITY,
-        drag_per_speed=2.0 * p.shoe_viscous_drag / p.mass,
-        tyre_reference_speed=p.slip_speed_floor,
-    )
-
-
 def discrete_run(p, table, duration, x0, h):
     per = int(round(p.speed_loop_period / h))
     x, loop, out, acc = list(x0), [0.0] * 4, [np.array(x0, float)], []
@@ -358,7 +344,7 @@ def test_discrete_plant_rejects_inconsistent_steps(time_step, update_period, mes
         (kurt3d, 1.0, 1.5),
     ],
 )
-def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, omega_frac):
+def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, omega_frac, navigation_tyres):
     """In a steady turn the plant's v_n is the navigation's tyre model (the inverse magic formula at
     a_n = v_t omega with the robot's a_peak = mu g f_w, B, C) to 10 %, from the linear range up to 0.9 of
     the friction limit (Tinyphoon; Kurt3D's wide track only while |omega| track/2 << v_t)."""
@@ -376,7 +362,9 @@ def test_steady_turn_side_slip_follows_the_navigations_tyre_model(robot, speed, 
 @pytest.mark.parametrize(
     "speed, omega_frac, deceleration", [(1.5, 1.33, 3.0), (1.5, 1.6, 5.0), (1.2, 2.5, 4.0)]
 )
-def test_side_slip_braking_in_a_turn_follows_the_tyre_force(speed, omega_frac, deceleration):
+def test_side_slip_braking_in_a_turn_follows_the_tyre_force(
+    speed, omega_frac, deceleration, navigation_tyres
+):
     """Braking at 3-5 m/s^2 out of a steady turn at 3-3.6 m/s^2 (yaw-rate command held): the friction
     circle takes grip from the turn and the body keeps sliding outwards. The plant's v_n follows the
     slip of the tyres that carry the force it accelerates with (side_slip_from_accelerations at the true
@@ -404,7 +392,7 @@ def test_side_slip_braking_in_a_turn_follows_the_tyre_force(speed, omega_frac, d
 
 @pytest.mark.parametrize("shoes", [True, False])
 @pytest.mark.parametrize("acceleration", [0.0, 1.0, 2.0, 3.5])
-def test_launch_slip_follows_the_navigations_tyre_model(shoes, acceleration):
+def test_launch_slip_follows_the_navigations_tyre_model(shoes, acceleration, navigation_tyres):
     """Launched straight at a constant acceleration (or rolling at constant speed, pushing against the
     felt shoes' drag only), the plant's tyres creep ahead of the body by the navigation's
     longitudinal_slip_speed (the combined-slip magic formula with the robot's a_peak, B, C and the shoes'
