@@ -5,16 +5,15 @@ import dataclasses as dc
 
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer
-
-from diagrams.navigation import add_navigation
-from diagrams.open_loop import LoggedDiagram, add_loggers, robot_ports
-from diagrams.robot import add_robot_with_sensors
-from systems.navigation import NavigationParameters
-from systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
-from systems.plant import DEFAULT_TIME_STEP, RobotParameters
-from systems.rates import SampleRates
-from systems.sensors import SensorParameters
-from systems.slip_control import StepSizeController, StepSizeParameters, TrajectoryInterpolator
+from slipnav.diagrams.navigation import add_navigation
+from slipnav.diagrams.open_loop import LoggedDiagram, add_loggers, robot_ports
+from slipnav.diagrams.robot import add_robot_with_sensors
+from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
+from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.slip_control import StepSizeController, StepSizeParameters, TrajectoryInterpolator
 
 
 @dc.dataclass

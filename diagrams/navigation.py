@@ -9,18 +9,17 @@ import math
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
-
-from systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
-from systems.gyro_bias import GyroBiasEstimator
-from systems.gyrodometry import Gyrodometry
-from systems.mixing import MixerC1, MixerC2C3, VelocityMixer
-from systems.navigation import NavigationInitialState, NavigationParameters
-from systems.odometry import Odometry
-from systems.pose import PoseIntegrator
-from systems.rates import SampleRates
-from systems.sensor_check import InertialSampleCheck
-from systems.sideslip import SideSlipEstimator
-from systems.slip_detector import TangentialSlipDetector
+from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
+from slipnav.systems.gyro_bias import GyroBiasEstimator
+from slipnav.systems.gyrodometry import Gyrodometry
+from slipnav.systems.mixing import MixerC1, MixerC2C3, VelocityMixer
+from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
+from slipnav.systems.odometry import Odometry
+from slipnav.systems.pose import PoseIntegrator
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_check import InertialSampleCheck
+from slipnav.systems.sideslip import SideSlipEstimator
+from slipnav.systems.slip_detector import TangentialSlipDetector
 
 NAVIGATION_OUTPUTS = (
     "pose",

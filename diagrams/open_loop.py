@@ -7,14 +7,13 @@ import dataclasses as dc
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer
-
-from diagrams.navigation import add_navigation
-from diagrams.robot import RobotHandles, add_robot_with_sensors
-from systems.feedforward import TrajectoryFeedforward
-from systems.navigation import NavigationParameters
-from systems.plant import DEFAULT_TIME_STEP, RobotParameters
-from systems.rates import SampleRates
-from systems.sensors import SensorParameters
+from slipnav.diagrams.navigation import add_navigation
+from slipnav.diagrams.robot import RobotHandles, add_robot_with_sensors
+from slipnav.systems.feedforward import TrajectoryFeedforward
+from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensors import SensorParameters
 
 
 @dc.dataclass

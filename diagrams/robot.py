@@ -9,9 +9,8 @@ from pydrake.common import RandomDistribution, RandomGenerator
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import RandomSource
-
-from systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
-from systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
+from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
+from slipnav.systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
 
 
 @dc.dataclass

@@ -5,10 +5,10 @@ import shutil
 import subprocess
 from pathlib import Path as FilePath
 
-from diagrams.closed_loop import ControlSettings, build_closed_loop_diagram, build_control_diagram
-from diagrams.navigation import build_navigation_diagram
-from scenarios.config import ScenarioError, load_scenario
-from scenarios.runner import follower_path, reference_for
+from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram, build_control_diagram
+from slipnav.diagrams.navigation import build_navigation_diagram
+from slipnav.scenarios.config import ScenarioError, load_scenario
+from slipnav.scenarios.runner import follower_path, reference_for
 
 DIAGRAM_NAMES = ("navigation", "control", "closed_loop")
 FORMATS = (".dot", ".svg", ".png")

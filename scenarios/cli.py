@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from scenarios.config import ScenarioError, builtin_scenarios, load_scenario
+from slipnav.scenarios.config import ScenarioError, builtin_scenarios, load_scenario
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -66,28 +66,28 @@ def main(argv=None) -> int:
                 print(name)
             return 0
         if args.command == "diagram":
-            from scenarios.block_diagrams import export_diagram
+            from slipnav.scenarios.block_diagrams import export_diagram
 
             print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
             return 0
         if args.command == "bench":
-            from scenarios.bench import bench
+            from slipnav.studies.bench import bench
 
             bench(args.scenario, args.repeat)
             return 0
         if args.command == "error-budget":
-            from scenarios.error_budget import error_budget
+            from slipnav.studies.error_budget import error_budget
 
             error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None)
             return 0
         if args.command == "accuracy":
-            from scenarios.accuracy import accuracy
+            from slipnav.studies.accuracy import accuracy
 
             if args.seeds < 1:
                 raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
             accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None)
             return 0
-        from scenarios.runner import run_scenario, write_artifacts
+        from slipnav.scenarios.runner import run_scenario, write_artifacts
 
         scenario = load_scenario(args.scenario)
         result = run_scenario(

@@ -11,14 +11,13 @@ import typing
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_load_data, yaml_load_typed
-
-from scenarios.trajectories import PathConfig, TrajectoryConfig
-from systems.navigation import NavigationParameters
-from systems.path_follower import PathFollowerParameters
-from systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
-from systems.rates import SampleRates
-from systems.sensors import SensorParameters, default_sensor_parameters
-from systems.slip_control import StepSizeParameters
+from slipnav.scenarios.trajectories import PathConfig, TrajectoryConfig
+from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.path_follower import PathFollowerParameters
+from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
+from slipnav.systems.slip_control import StepSizeParameters
 
 BUILTIN_DIR = FilePath(__file__).resolve().parent / "builtin"
 MODES = ("trajectory", "max_speed")

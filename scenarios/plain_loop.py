@@ -16,14 +16,24 @@ from pydrake.common import RandomDistribution, RandomGenerator
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, RandomSource
-
-from diagrams.closed_loop import ControlSettings
-from systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
-from systems.path_follower import bounded_speed, check_path_curvature, follower_step, saturate_wheel_speeds
-from systems.plant import RobotParameters, motor_current, plant_advance, plant_derivatives, substeps_per
-from systems.rates import SampleRates
-from systems.sensors import NOISE_CHANNELS, SensorParameters, initial_biases, sensor_update
-from systems.slip_control import interpolate, step_size
+from slipnav.diagrams.closed_loop import ControlSettings
+from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
+from slipnav.systems.path_follower import (
+    bounded_speed,
+    check_path_curvature,
+    follower_step,
+    saturate_wheel_speeds,
+)
+from slipnav.systems.plant import (
+    RobotParameters,
+    motor_current,
+    plant_advance,
+    plant_derivatives,
+    substeps_per,
+)
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensors import NOISE_CHANNELS, SensorParameters, initial_biases, sensor_update
+from slipnav.systems.slip_control import interpolate, step_size
 
 PLAIN_LOOP_KEYS = (
     "true_x true_y true_phi true_v_t true_v_n true_omega true_theta_R true_theta_L true_w_R true_w_L "
@@ -172,7 +182,7 @@ def run_scenario_plain_loop(
     scenario, seed: int, num_steps: int, slip_control=None, speed_law=None, noise=None, timings=None
 ) -> dict:
     """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (same overrides)."""
-    from scenarios.runner import closed_loop_settings
+    from slipnav.scenarios.runner import closed_loop_settings
 
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
     speed_law = scenario.speed_law if speed_law is None else speed_law

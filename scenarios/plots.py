@@ -9,8 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-
-from scenarios.metrics import moving_alpha  # noqa: E402
+from slipnav.scenarios.metrics import moving_alpha  # noqa: E402
 
 
 def _has(a, key) -> bool:

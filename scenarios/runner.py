@@ -17,13 +17,12 @@ import time
 from pathlib import Path as FilePath
 
 import numpy as np
-
-from diagrams.closed_loop import ControlSettings, build_closed_loop_diagram
-from diagrams.open_loop import build_open_loop_diagram
-from diagrams.robot import make_simulator
-from scenarios.config import Scenario, ScenarioError
-from scenarios.metrics import moving_alpha
-from scenarios.trajectories import (
+from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram
+from slipnav.diagrams.open_loop import build_open_loop_diagram
+from slipnav.diagrams.robot import make_simulator
+from slipnav.scenarios.config import Scenario, ScenarioError
+from slipnav.scenarios.metrics import moving_alpha
+from slipnav.scenarios.trajectories import (
     Path,
     Trajectory,
     TrajectoryError,
@@ -32,7 +31,7 @@ from scenarios.trajectories import (
     trajectory_along_path,
     trajectory_path,
 )
-from systems.plant import RobotParameters, tyre_slip
+from slipnav.systems.plant import RobotParameters, tyre_slip
 
 TRUTH_KEYS = (
     "true_x true_y true_phi true_v_t true_v_n true_omega true_alpha true_wheel_R true_wheel_L".split()
@@ -366,7 +365,7 @@ def collect_navigation(a: dict, data) -> None:
 
 def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[FilePath]:
     """Write the npz, the summary JSON and (optionally) the figures; returns the written paths."""
-    from scenarios.plots import write_figures
+    from slipnav.scenarios.plots import write_figures
 
     out = FilePath(out_dir)
     out.mkdir(parents=True, exist_ok=True)

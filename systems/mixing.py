@@ -17,8 +17,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-
-from systems.rates import pt1_step
+from slipnav.systems.rates import pt1_step
 
 
 @dc.dataclass

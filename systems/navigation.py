@@ -22,8 +22,7 @@ Logged values are those the blocks read at t_k: states before step 5, outputs of
 import dataclasses as dc
 
 import numpy as np
-
-from systems.ekf import (
+from slipnav.systems.ekf import (
     EkfParameters,
     ekf_gain,
     ekf_joseph,
@@ -32,9 +31,9 @@ from systems.ekf import (
     ekf_prior_covariance,
     ekf_update,
 )
-from systems.gyro_bias import GyroBiasParameters, gyro_bias_initial_state, gyro_bias_step
-from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
-from systems.mixing import (
+from slipnav.systems.gyro_bias import GyroBiasParameters, gyro_bias_initial_state, gyro_bias_step
+from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
+from slipnav.systems.mixing import (
     MixingParameters,
     accumulate_delta_v,
     c3_residual,
@@ -43,11 +42,11 @@ from systems.mixing import (
     mixing_c2,
     mixing_c3,
 )
-from systems.odometry import odometry_step
-from systems.pose import pose_step
-from systems.sensor_check import check_sample
-from systems.sideslip import SideSlipParameters, side_slip_angle
-from systems.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.odometry import odometry_step
+from slipnav.systems.pose import pose_step
+from slipnav.systems.sensor_check import check_sample
+from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
+from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 
 
 @dc.dataclass
@@ -124,7 +123,7 @@ class NavigationLoop:
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
         """S(15)-(17) at sample ``self.k`` with the C1 in force; ``previous`` is the EKF state x_k-1
-        (scenarios/error_budget.py overrides this to feed oracle inputs)."""
+        (studies/error_budget.py overrides this to feed oracle inputs)."""
         return mix(odo, inertial, self.c1, c2, c3, previous, self.params.mixing)
 
     def step(self, accelerometers, gyro: float, encoders) -> tuple:

@@ -17,8 +17,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-
-from systems.mixing import logsig
+from slipnav.systems.mixing import logsig
 
 
 @dc.dataclass

@@ -4,13 +4,13 @@ import pytest
 
 matplotlib.use("Agg")
 
-from diagrams.open_loop import build_open_loop_diagram  # noqa: E402
-from diagrams.robot import make_simulator  # noqa: E402
-from scenarios.runner import collect_arrays  # noqa: E402
-from systems.mixing import MixingParameters  # noqa: E402
-from systems.plant import DEFAULT_TIME_STEP, GRAVITY, RobotParameters  # noqa: E402
-from systems.rates import SampleRates  # noqa: E402
-from systems.sensors import SensorParameters  # noqa: E402
+from slipnav.diagrams.open_loop import build_open_loop_diagram  # noqa: E402
+from slipnav.diagrams.robot import make_simulator  # noqa: E402
+from slipnav.scenarios.runner import collect_arrays  # noqa: E402
+from slipnav.systems.mixing import MixingParameters  # noqa: E402
+from slipnav.systems.plant import DEFAULT_TIME_STEP, GRAVITY, RobotParameters  # noqa: E402
+from slipnav.systems.rates import SampleRates  # noqa: E402
+from slipnav.systems.sensors import SensorParameters  # noqa: E402
 
 
 def run_open_loop(

@@ -8,13 +8,12 @@ import math
 import numpy as np
 import pytest
 from pydrake.systems.primitives import IsDetectable, IsObservable, LinearSystem
-
-from scenarios.config import load_scenario
-from scenarios.metrics import tangential_slip_speed
-from scenarios.runner import run_scenario
-from systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
-from systems.mixing import MixingParameters, logsig, mixing_c1, side_slip_from_accelerations
-from systems.slip_control import StepSizeParameters, step_size
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.metrics import tangential_slip_speed
+from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
+from slipnav.systems.mixing import MixingParameters, logsig, mixing_c1, side_slip_from_accelerations
+from slipnav.systems.slip_control import StepSizeParameters, step_size
 
 T_N = 0.002
 OPERATING_POINT = np.array([1.5, 0.1, 3.0, 0.0, 0.0])  # v_t, v_n, omega, a_t, a_n: a steady turn
@@ -176,8 +175,7 @@ def test_large_q_delta_produces_the_limit_cycle_the_paper_warns_of():
 def linearised_loop(params, kappa, u, T_C=0.02):
     from pydrake.systems.framework import InputPortSelection, OutputPortSelection
     from pydrake.systems.primitives import Linearize
-
-    from systems.frenet_loop import FrenetFollowingErrors
+    from slipnav.systems.frenet_loop import FrenetFollowingErrors
 
     system = FrenetFollowingErrors(params, kappa, u, T_C)
     context = system.CreateDefaultContext()  # zero error: an equilibrium for every kappa
@@ -187,7 +185,7 @@ def linearised_loop(params, kappa, u, T_C=0.02):
 @pytest.mark.parametrize("kappa", [0.0, 1.0 / 3.0, -0.5])
 @pytest.mark.parametrize("u", [0.5, 2.05, 4.1])
 def test_path_following_linearisation_is_stable_for_default_gains(kappa, u):
-    from systems.path_follower import PathFollowerParameters
+    from slipnav.systems.path_follower import PathFollowerParameters
 
     _, lin = linearised_loop(PathFollowerParameters(), kappa, u)
     assert lin.time_period() == 0.02
@@ -196,7 +194,7 @@ def test_path_following_linearisation_is_stable_for_default_gains(kappa, u):
 
 def test_unstable_gain_set_is_reported_unstable():
     """k2 T_C > 2: the sampled heading loop overshoots within one sample (|1 - k2 T_C| > 1)."""
-    from systems.path_follower import PathFollowerParameters
+    from slipnav.systems.path_follower import PathFollowerParameters
 
     gains = object.__new__(PathFollowerParameters)  # bypass the range checks on purpose
     gains.__dict__.update(dc.asdict(PathFollowerParameters()), k2=150.0)
@@ -208,8 +206,7 @@ def test_unstable_gain_set_is_reported_unstable():
 
 def test_linearised_and_nonlinear_responses_agree_for_small_perturbations():
     from pydrake.systems.analysis import Simulator
-
-    from systems.path_follower import PathFollowerParameters
+    from slipnav.systems.path_follower import PathFollowerParameters
 
     system, lin = linearised_loop(PathFollowerParameters(), 1.0 / 3.0, 2.0)
     for scale in (1e-3, 1e-2):

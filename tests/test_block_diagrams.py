@@ -3,10 +3,9 @@
 import shutil
 
 import pytest
-
-from scenarios.block_diagrams import export_diagram
-from scenarios.cli import main
-from scenarios.config import ScenarioError
+from slipnav.scenarios.block_diagrams import export_diagram
+from slipnav.scenarios.cli import main
+from slipnav.scenarios.config import ScenarioError
 
 PAPER_NAMES = {
     "navigation": [

@@ -3,8 +3,7 @@
 import math
 
 import pytest
-
-from scenarios.config import ScenarioError, builtin_scenarios, load_scenario, scenario_from_yaml
+from slipnav.scenarios.config import ScenarioError, builtin_scenarios, load_scenario, scenario_from_yaml
 
 GOOD = """
 robot: tinyphoon
@@ -116,7 +115,7 @@ def test_readme_example_scenario_loads_and_builds():
     import re
     from pathlib import Path
 
-    from scenarios.runner import follower_path, reference_for
+    from slipnav.scenarios.runner import follower_path, reference_for
 
     readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
     example = re.search(r"```yaml\n(.*?)```", readme, re.S).group(1)

@@ -8,11 +8,10 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from scipy.integrate import solve_ivp
-
-from scenarios.config import load_scenario
-from scenarios.runner import run_scenario
-from scenarios.trajectories import Arc, PathConfig, Straight, build_path
-from systems.path_follower import (
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.runner import run_scenario
+from slipnav.scenarios.trajectories import Arc, PathConfig, Straight, build_path
+from slipnav.systems.path_follower import (
     LyapunovPathFollower,
     PathFollowerParameters,
     approach_angle,
@@ -24,7 +23,7 @@ from systems.path_follower import (
     saturate_wheel_speeds,
     wheel_commands,
 )
-from systems.slip_control import (
+from slipnav.systems.slip_control import (
     StepSizeParameters,
     interpolate,
     max_step_size,

@@ -1,21 +1,20 @@
-"""The navigation error budget (scenarios/error_budget.py): the replay is the diagram, the oracles act."""
+"""The navigation error budget (studies/error_budget.py): the replay is the diagram, the oracles act."""
 
 import dataclasses as dc
 import math
 
 import numpy as np
 import pytest
-
-from scenarios.cli import main
-from scenarios.config import load_scenario
-from scenarios.error_budget import VARIANTS, error_budget_of_run, replay
-from scenarios.metrics import (
+from slipnav.scenarios.cli import main
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.metrics import (
     final_position_error,
     navigation_figures,
     side_slip_rms_error,
     tangential_slip_speed,
 )
-from scenarios.runner import run_scenario
+from slipnav.scenarios.runner import run_scenario
+from slipnav.studies.error_budget import VARIANTS, error_budget_of_run, replay
 
 
 @pytest.fixture(scope="module")

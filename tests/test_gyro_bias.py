@@ -7,17 +7,16 @@ import math
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
-
-from scenarios.config import load_scenario
-from scenarios.error_budget import papers_heading, replay
-from scenarios.runner import run_scenario
-from systems.gyro_bias import (
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.runner import run_scenario
+from slipnav.studies.error_budget import papers_heading, replay
+from slipnav.systems.gyro_bias import (
     GyroBiasEstimator,
     GyroBiasParameters,
     gyro_bias_initial_state,
     gyro_bias_step,
 )
-from systems.odometry import odometry_step
+from slipnav.systems.odometry import odometry_step
 
 T_N = 0.002
 

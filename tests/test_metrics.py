@@ -4,9 +4,8 @@ import math
 
 import numpy as np
 import pytest
-
-from scenarios.cli import main
-from scenarios.metrics import (
+from slipnav.scenarios.cli import main
+from slipnav.scenarios.metrics import (
     detection_latencies,
     final_position_error,
     side_slip_rms_error,

@@ -7,11 +7,10 @@ import math
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
-
-from diagrams.navigation import build_navigation_replay
-from scenarios.config import load_scenario
-from scenarios.runner import run_scenario
-from systems.ekf import (
+from slipnav.diagrams.navigation import build_navigation_replay
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.ekf import (
     MEASUREMENT_MATRIX,
     EkfParameters,
     ekf_gain,
@@ -21,8 +20,8 @@ from systems.ekf import (
     ekf_predict,
     ekf_update,
 )
-from systems.gyrodometry import GyrodometryParameters, gyrodometry_step
-from systems.mixing import (
+from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
+from slipnav.systems.mixing import (
     MixerC1,
     MixerC2C3,
     MixingParameters,
@@ -38,13 +37,18 @@ from systems.mixing import (
     side_slip_from_accelerations,
     tyre_utilisation,
 )
-from systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationParameters, navigation_loop
-from systems.odometry import odometry, odometry_step
-from systems.pose import pose_step
-from systems.rates import SampleRates
-from systems.sensor_check import check_sample
-from systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
-from systems.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.navigation import (
+    LOOP_KEYS,
+    NavigationInitialState,
+    NavigationParameters,
+    navigation_loop,
+)
+from slipnav.systems.odometry import odometry, odometry_step
+from slipnav.systems.pose import pose_step
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_check import check_sample
+from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
+from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 
 T_N = 0.002
 

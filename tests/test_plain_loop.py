@@ -2,10 +2,14 @@
 
 import numpy as np
 import pytest
-
-from scenarios.config import load_scenario
-from scenarios.plain_loop import PLAIN_LOOP_KEYS, diagram_noise, run_plain_loop, run_scenario_plain_loop
-from scenarios.runner import closed_loop_settings, run_scenario
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.plain_loop import (
+    PLAIN_LOOP_KEYS,
+    diagram_noise,
+    run_plain_loop,
+    run_scenario_plain_loop,
+)
+from slipnav.scenarios.runner import closed_loop_settings, run_scenario
 
 
 @pytest.mark.parametrize(

@@ -6,13 +6,12 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-
-from systems.mixing import (
+from slipnav.systems.mixing import (
     lateral_velocity_model,
     longitudinal_slip_speed,
     side_slip_from_accelerations,
 )
-from systems.plant import (
+from slipnav.systems.plant import (
     DEFAULT_TIME_STEP,
     GRAVITY,
     DifferentialDrivePlant,
@@ -28,7 +27,7 @@ from systems.plant import (
     tinyphoon,
     tyre_force,
 )
-from systems.rates import SampleRates
+from slipnav.systems.rates import SampleRates
 
 T_C = 0.02
 

@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 import pytest
-
-from scenarios.config import load_scenario
-from scenarios.runner import run_scenario
-from systems.plant import tinyphoon
-from systems.sensors import (
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.plant import tinyphoon
+from slipnav.systems.sensors import (
     NOISE_CHANNELS,
     SensorParameters,
     accelerometer_truth,

@@ -4,10 +4,9 @@ import math
 
 import numpy as np
 import pytest
-
-from scenarios.config import load_scenario
-from scenarios.runner import reference_for
-from scenarios.trajectories import (
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.runner import reference_for
+from slipnav.scenarios.trajectories import (
     Arc,
     CosineTurn,
     PathConfig,

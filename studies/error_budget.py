@@ -41,13 +41,17 @@ import sys
 import time
 
 import numpy as np
-
-from scenarios.accuracy import progress
-from scenarios.config import ScenarioError, load_scenario
-from scenarios.metrics import final_position_error, moving_alpha, side_slip_rms_error, tangential_slip_speed
-from scenarios.runner import run_scenario
-from systems.navigation import NavigationInitialState, NavigationLoop, run_navigation_loop
-from systems.sideslip import side_slip_angle
+from slipnav.scenarios.config import ScenarioError, load_scenario
+from slipnav.scenarios.metrics import (
+    final_position_error,
+    moving_alpha,
+    side_slip_rms_error,
+    tangential_slip_speed,
+)
+from slipnav.scenarios.runner import run_scenario
+from slipnav.studies.accuracy import progress
+from slipnav.systems.navigation import NavigationInitialState, NavigationLoop, run_navigation_loop
+from slipnav.systems.sideslip import side_slip_angle
 
 VARIANTS = (
     "default",

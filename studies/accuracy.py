@@ -10,10 +10,9 @@ import sys
 import time
 
 import numpy as np
-
-from scenarios.config import load_scenario
-from scenarios.metrics import DETECTION_C1_LEVEL, navigation_figures
-from scenarios.runner import run_scenario
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, navigation_figures
+from slipnav.scenarios.runner import run_scenario
 
 
 def progress(done: int, total: int, label: str, stream=None) -> None:

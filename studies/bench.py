@@ -15,10 +15,9 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
-
-from scenarios.config import ScenarioError, load_scenario
-from scenarios.plain_loop import diagram_noise, run_scenario_plain_loop
-from scenarios.runner import run_scenario
+from slipnav.scenarios.config import ScenarioError, load_scenario
+from slipnav.scenarios.plain_loop import diagram_noise, run_scenario_plain_loop
+from slipnav.scenarios.runner import run_scenario
 
 
 class _PassThrough(LeafSystem):

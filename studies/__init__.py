@@ -1,0 +1,1 @@
+"""Studies that run many scenarios: accuracy over seeds, error budget, speed benchmark, robustness."""
