@@ -125,13 +125,17 @@ def build_closed_loop_diagram(
     initial_speed: float = 0.0,
     log: bool = True,
     plant_time_step: float = DEFAULT_TIME_STEP,
+    plant: RobotParameters | None = None,
 ) -> LoggedDiagram:
     """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
     (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). ``plant_time_step``: see
-    DifferentialDrivePlant (0: continuous)."""
+    DifferentialDrivePlant (0: continuous).
+
+    Truth and belief: ``robot`` is the nominal model that navigation and control read; ``plant`` the
+    simulated robot as it really is (default ``robot``), and ``sensor_params`` the real sensors."""
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
-        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
+        builder, plant or robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
     )
     nav, nav_ports = add_navigation(
         builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose

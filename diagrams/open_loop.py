@@ -84,12 +84,14 @@ def build_open_loop_diagram(
     initial_speed: float = 0.0,
     navigation: NavigationParameters | None = None,
     plant_time_step: float = DEFAULT_TIME_STEP,
+    plant: RobotParameters | None = None,
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
-    the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out)."""
+    the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out).
+    ``robot`` is the nominal model the navigation reads, ``plant`` the real robot (default ``robot``)."""
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
-        builder, robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
+        builder, plant or robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
     )
     nav_ports = {}
     if navigation is not None:

@@ -44,8 +44,8 @@ def add_robot_with_sensors(
     noise = builder.AddSystem(RandomSource(RandomDistribution.kGaussian, NOISE_CHANNELS, T_N))
     noise.set_name("Sensor noise")
     bias0 = initial_biases(sensor_params, np.random.default_rng(seed))
-    w0 = initial_speed / robot.wheel_radius
-    sensors = builder.AddSystem(ProprioceptiveSensors(sensor_params, T_N, bias0, (w0, w0)))
+    rates0 = (initial_speed / robot.radius_R, initial_speed / robot.radius_L)
+    sensors = builder.AddSystem(ProprioceptiveSensors(sensor_params, T_N, bias0, rates0))
     sensors.set_name("Sensors")
     builder.Connect(plant.GetOutputPort("state"), sensors.GetInputPort("plant_state"))
     builder.Connect(plant.GetOutputPort("body_acceleration"), sensors.GetInputPort("body_acceleration"))

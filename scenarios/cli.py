@@ -2,7 +2,7 @@
 
     slipnav list
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
-                         [--speed-law bounded|constant] [--open-loop]
+                         [--speed-law bounded|constant] [--open-loop] [--tolerances]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
@@ -37,6 +37,11 @@ def _parser() -> argparse.ArgumentParser:
         help="max_speed mode: I(24) (bounded) or u = V_m/2 (constant)",
     )
     run.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    run.add_argument(
+        "--tolerances",
+        action="store_true",
+        help="draw the simulated robot from the tolerance preset (scenarios/tolerances.py) by the seed",
+    )
     dia = sub.add_parser("diagram", help="write a block diagram (graphviz)")
     dia.add_argument("name", help="navigation, control or closed_loop")
     dia.add_argument("--out", default=None, help="FILE.dot (default NAME.dot), FILE.svg or FILE.png")
@@ -97,6 +102,7 @@ def main(argv=None) -> int:
             slip_control=False if args.no_slip_control else None,
             speed_law=args.speed_law,
             open_loop=args.open_loop or None,
+            tolerances=args.tolerances,
         )
         for path in write_artifacts(result, args.out, figures=not args.no_figures):
             print(path)

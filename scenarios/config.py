@@ -11,6 +11,12 @@ import typing
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_load_data, yaml_load_typed
+from slipnav.scenarios.tolerances import (
+    TOLERANCE_PRESET,
+    PlantTruth,
+    apply_deviations,
+    draw_deviations,
+)
 from slipnav.scenarios.trajectories import PathConfig, TrajectoryConfig
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
@@ -36,9 +42,12 @@ class Scenario:
     Args:
         name: label; defaults to the file's stem.
         description: one line for ``slipnav list``.
-        robot: reference robot, ``tinyphoon`` or ``kurt3d``.
-        robot_overrides: RobotParameters fields to change, e.g. ``{tyre_friction: 0.5}``.
-        sensor_overrides: SensorParameters fields to change.
+        robot: reference robot, ``tinyphoon`` or ``kurt3d``: the nominal model (data sheet, tape measure)
+            that navigation and control believe, and the plant unless ``plant`` says otherwise.
+        robot_overrides: RobotParameters fields to change in the nominal model, e.g. ``{mass: 0.45}``.
+        sensor_overrides: SensorParameters fields to change in the nominal model.
+        plant: how the simulated robot really differs from the nominal model (PlantTruth: plant-only
+            overrides, fixed deviations, tolerances drawn from the seed; scenarios/tolerances.py).
         plant_time_step: semi-implicit integration step of the discrete plant (s), dividing T_N and the
             robot's speed-loop period; 0 integrates the continuous plant with error-controlled RK3
             (accurate, ~20x slower). Default 0.5 ms (accuracy: systems.plant.DEFAULT_TIME_STEP).
@@ -66,6 +75,7 @@ class Scenario:
     robot: str = "tinyphoon"
     robot_overrides: dict[str, float] = dc.field(default_factory=dict)
     sensor_overrides: dict[str, float] = dc.field(default_factory=dict)
+    plant: PlantTruth = dc.field(default_factory=PlantTruth)
     plant_time_step: float = DEFAULT_TIME_STEP
     T_N: float = 0.002
     T_C: float = 0.02
@@ -98,11 +108,39 @@ class Scenario:
         base = default_sensor_parameters(self.robot)
         return _wrap(lambda: _override(base, self.sensor_overrides, "sensor_overrides"))
 
+    def plant_parameters(self, seed: int | None = None, tolerances: bool = False):
+        """The simulated robot as it really is: (RobotParameters, SensorParameters, drawn deviations).
+
+        The nominal model with ``plant.robot_overrides`` / ``plant.sensor_overrides``, then the fixed
+        ``plant.deviations`` plus draws within ``plant.tolerances`` (or, with ``tolerances``, within
+        TOLERANCE_PRESET where the scenario sets no bound) from ``seed`` (default the scenario's).
+        """
+        truth = self.plant
+        if tolerances:
+            bounds = {
+                f.name: getattr(truth.tolerances, f.name) or getattr(TOLERANCE_PRESET, f.name)
+                for f in dc.fields(TOLERANCE_PRESET)
+            }
+            truth = dc.replace(truth, tolerances=dc.replace(truth.tolerances, **bounds))
+        _wrap(truth.validate)
+        robot = _prefixed(
+            lambda: _override(self.robot_parameters(), truth.robot_overrides, "plant.robot_overrides"),
+            "plant.robot_overrides",
+        )
+        sensors = _prefixed(
+            lambda: _override(self.sensor_parameters(), truth.sensor_overrides, "plant.sensor_overrides"),
+            "plant.sensor_overrides",
+        )
+        deviations = draw_deviations(truth, self.seed if seed is None else seed)
+        plant, true_sensors = _prefixed(lambda: apply_deviations(robot, sensors, deviations), "plant")
+        return plant, true_sensors, deviations
+
     def validate(self) -> "Scenario":
         """Check every value that the schema cannot; returns self."""
         self.rates()
         self.robot_parameters()
         self.sensor_parameters()
+        self.plant_parameters()
         _wrap(self.navigation.validate)
         _wrap(self.follower.__post_init__)
         _wrap(self.slip_control.__post_init__)
@@ -147,6 +185,19 @@ def _wrap(make):
         raise
     except (ValueError, TypeError) as e:
         raise ScenarioError(str(e)) from None
+
+
+def _prefixed(make, where: str):
+    """make(), a ValueError naming its key as ``where.key``."""
+    try:
+        return make()
+    except ScenarioError:
+        raise
+    except (ValueError, TypeError) as e:
+        message = str(e)
+        if not message.startswith(where.split(".")[0] + "."):
+            message = f"{where}.{message}"
+        raise ScenarioError(message) from None
 
 
 def _override(base, overrides: dict[str, float], where: str):

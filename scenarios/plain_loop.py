@@ -56,6 +56,7 @@ def run_plain_loop(
     plant_time_step: float = 5e-4,
     noise=None,
     timings: dict | None = None,
+    plant: RobotParameters | None = None,
 ) -> dict:
     """Simulate ``num_steps`` samples t_0 ... t_{num_steps-1} of the closed loop.
 
@@ -67,6 +68,8 @@ def run_plain_loop(
             diagram's RandomSource output); None draws them from numpy.random.default_rng(seed).
         timings: if given, receives the wall time (s) spent in ``plant``, ``sensors``, ``navigation``
             and ``control``.
+        plant: the simulated robot as it really is (default ``robot``); navigation and control read
+            ``robot``, the nominal model.
 
     Returns:
         dict of (num_steps,) arrays keyed by PLAIN_LOOP_KEYS.
@@ -74,6 +77,7 @@ def run_plain_loop(
     if not plant_time_step > 0.0:
         raise ValueError(f"plant_time_step={plant_time_step!r} is out of range: allowed (0, 0.01] s")
     T_N, T_C, p = rates.T_N, rates.T_C, robot
+    world = plant or robot
     n = int(round(T_C / T_N))
     plant_steps = substeps_per(T_N, plant_time_step, "T_N")
     if noise is None:
@@ -83,16 +87,17 @@ def run_plain_loop(
         raise ValueError(f"noise must have shape ({num_steps}, {NOISE_CHANNELS}), got {noise.shape}")
 
     # Plant (DifferentialDrivePlant, discrete).
-    w0 = initial_speed / p.wheel_radius
-    x = [*initial_pose, initial_speed, 0.0, 0.0, 0.0, 0.0, w0, w0]
+    w0 = [initial_speed / world.radius_R, initial_speed / world.radius_L]
+    x = [*initial_pose, initial_speed, 0.0, 0.0, 0.0, 0.0, *w0]
     loop = [0.0] * 4
-    acc = list(plant_derivatives(x, (motor_current(0.0, w0, p), motor_current(0.0, w0, p)), p)[1])
+    currents = (motor_current(0.0, w0[0], world), motor_current(0.0, w0[1], world))
+    acc = list(plant_derivatives(x, currents, world)[1])
     # Sensors (ProprioceptiveSensors): outputs hold the previous sample.
     bias0 = initial_biases(sensor_params, np.random.default_rng(seed))
     internal = np.concatenate([bias0, np.zeros(4)])
     step = sensor_params.encoder_step
     meas_acc, meas_gyro = bias0[0:4].copy(), float(bias0[4])
-    meas_enc = np.floor(-np.array([w0, w0]) * T_N / step) * step
+    meas_enc = np.floor(-np.array(w0) * T_N / step) * step
     nav = NavigationLoop(
         navigation,
         p.wheel_radius,
@@ -153,7 +158,7 @@ def run_plain_loop(
         meas_gyro = float(gyro[0])
         t3 = clock()
         spent["sensors"] += t3 - t2
-        x, loop, acc = plant_advance(x, loop, command, k * plant_steps, plant_steps, plant_time_step, p)
+        x, loop, acc = plant_advance(x, loop, command, k * plant_steps, plant_steps, plant_time_step, world)
         spent["plant"] += clock() - t3
     if timings is not None:
         timings.update(spent)
@@ -185,11 +190,12 @@ def run_scenario_plain_loop(
     from slipnav.scenarios.runner import closed_loop_settings
 
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
+    plant, sensor_params, _ = scenario.plant_parameters(seed)
     speed_law = scenario.speed_law if speed_law is None else speed_law
     control, initial_speed, _ = closed_loop_settings(scenario, slip_control, speed_law)
     return run_plain_loop(
         scenario.robot_parameters(),
-        scenario.sensor_parameters(),
+        sensor_params,
         scenario.rates(),
         scenario.navigation,
         control,
@@ -200,4 +206,5 @@ def run_scenario_plain_loop(
         scenario.plant_time_step,
         noise=noise,
         timings=timings,
+        plant=plant,
     )

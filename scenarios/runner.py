@@ -22,6 +22,7 @@ from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios.config import Scenario, ScenarioError
 from slipnav.scenarios.metrics import moving_alpha
+from slipnav.scenarios.tolerances import plant_record
 from slipnav.scenarios.trajectories import (
     Path,
     Trajectory,
@@ -54,6 +55,8 @@ SERIES_KEYS = (
     + SLIP_KEYS
 )
 SCALAR_KEYS = ("path_length", "T_N", "T_C", "V_m", "track_width")
+"""Nominal values (what navigation and control believe); the real robot's are the ``plant_*`` scalars
+(scenarios.tolerances.plant_record)."""
 
 
 @dc.dataclass
@@ -132,11 +135,15 @@ def run_scenario(
     slip_control: bool | None = None,
     speed_law: str | None = None,
     open_loop: bool | None = None,
+    tolerances: bool = False,
 ):
     """Simulate ``scenario`` and collect the run artifact.
 
     The keyword arguments override the scenario (the command line's --seed, --duration,
-    --no-slip-control, --speed-law, --open-loop). A closed-loop run ends when the trajectory (progress
+    --no-slip-control, --speed-law, --open-loop, --tolerances). Navigation and control read the nominal
+    robot (``scenario.robot_parameters()``); the plant and sensors are the real robot
+    (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*`` scalars, the
+    summary's ``plant``). A closed-loop run ends when the trajectory (progress
     Pi reaches its end) or the path (virtual target at its end) is complete plus ``settle_time``, or at
     the duration limit (default: three times the nominal time).
     """
@@ -150,7 +157,7 @@ def run_scenario(
     open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
     rates = scenario.rates()
     robot = scenario.robot_parameters()
-    sensor_params = scenario.sensor_parameters()
+    plant, sensor_params, deviations = scenario.plant_parameters(seed, tolerances)
     reference, initial_speed = reference_for(scenario)
     pose0 = tuple(scenario.initial_pose)
 
@@ -167,6 +174,7 @@ def run_scenario(
             initial_speed=initial_speed,
             navigation=scenario.navigation,
             plant_time_step=scenario.plant_time_step,
+            plant=plant,
         )
         nominal = reference.duration
         path = None
@@ -184,6 +192,7 @@ def run_scenario(
                 initial_pose=pose0,
                 initial_speed=initial_speed,
                 plant_time_step=scenario.plant_time_step,
+                plant=plant,
             )
         except ValueError as e:
             raise ScenarioError(str(e)) from None
@@ -208,7 +217,8 @@ def run_scenario(
                     limit = min(limit, completion + scenario.settle_time)
     wall = time.perf_counter() - wall_start
 
-    arrays = collect_arrays(built.loggers, context, robot)
+    arrays = collect_arrays(built.loggers, context, plant)
+    record = plant_record(plant, sensor_params)
     n = len(arrays["t"])
     for key in SERIES_KEYS:
         arrays.setdefault(key, np.full(n, np.nan))
@@ -218,6 +228,7 @@ def run_scenario(
         T_C=np.array(rates.T_C),
         V_m=np.array(robot.wheel_speed_limit),
         track_width=np.array(robot.track_width),
+        **{f"plant_{key}": np.array(value) for key, value in record.items()},
     )
     summary = {
         "scenario": scenario.name,
@@ -228,6 +239,9 @@ def run_scenario(
         "slip_control": bool(slip_control) if scenario.mode == "trajectory" and not open_loop else None,
         "speed_law": speed_law if scenario.mode == "max_speed" and not open_loop else None,
         "sensor_faults": int(np.nansum(arrays["fault"])),
+        "tolerances": bool(tolerances),
+        "plant": record,
+        "plant_deviations": {key: float(value) for key, value in deviations.items()},
         "path_length_m": float(arrays["path_length"]),
         "duration_s": float(arrays["t"][-1]),
         "completion_time_s": completion,
@@ -312,7 +326,7 @@ def collect_arrays(loggers, context, robot: RobotParameters) -> dict:
     for i, key in enumerate(["true_x", "true_y", "true_phi", "true_v_t", "true_v_n", "true_omega"]):
         a[key] = x[i].copy()
     a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
-    a["true_wheel_R"], a["true_wheel_L"] = robot.wheel_radius * x[8], robot.wheel_radius * x[9]
+    a["true_wheel_R"], a["true_wheel_L"] = robot.radius_R * x[8], robot.radius_L * x[9]
     a["true_theta_R"], a["true_theta_L"] = x[6].copy(), x[7].copy()
     slip = np.array([tyre_slip(column, robot) for column in x.T]).reshape(-1, 4)
     a["true_slip_R"], a["true_slip_L"] = slip[:, 0].copy(), slip[:, 1].copy()

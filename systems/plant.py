@@ -65,7 +65,8 @@ class RobotParameters:
         mass: total mass (kg).
         yaw_inertia: moment of inertia about the vertical axis through the centre of gravity (kg m^2).
         track_width: full distance between the wheel contact points (Seyr's b, Indiveri's 2b) (m).
-        wheel_radius: rolling radius (m).
+        wheel_radius: nominal wheel radius (m): the motor controller's speed loop converts the commanded
+            circumferential speeds to wheel rates with it (its firmware knows only the data sheet).
         wheel_inertia: wheel + gearbox + rotor inertia reflected to the wheel shaft (kg m^2).
         wheel_load_fraction: share of the weight carried by the two wheels; the rest rests on the shoes.
         tyre_friction: peak tyre/ground friction coefficient mu.
@@ -85,6 +86,10 @@ class RobotParameters:
         speed_loop_kp: proportional gain on the wheel angular-speed error (V s/rad).
         speed_loop_ki: integral gain (V/rad).
         wheel_speed_limit: V_m, the largest circumferential wheel speed the controller may command (m/s).
+        rolling_radius_R, rolling_radius_L: the wheels' true rolling radii (m), where the tyres touch the
+            ground; None: wheel_radius. A real robot's differ from the nominal by tyre wear, load and
+            manufacture (Borenstein & Feng's UMBmark: unequal wheel diameters, the dominant systematic
+            odometry error).
     """
 
     name: str
@@ -111,6 +116,8 @@ class RobotParameters:
     speed_loop_kp: float
     speed_loop_ki: float
     wheel_speed_limit: float
+    rolling_radius_R: float | None = None
+    rolling_radius_L: float | None = None
 
     def __post_init__(self):
         _require("mass", self.mass, 0.0)
@@ -136,11 +143,24 @@ class RobotParameters:
         _require("speed_loop_kp", self.speed_loop_kp, 0.0, low_open=False)
         _require("speed_loop_ki", self.speed_loop_ki, 0.0, low_open=False)
         _require("wheel_speed_limit", self.wheel_speed_limit, 0.0)
+        for name in ("rolling_radius_R", "rolling_radius_L"):
+            if getattr(self, name) is not None:
+                _require(name, getattr(self, name), 0.0)
         if self.wheel_speed_limit > self.no_load_speed:
             raise ValueError(
                 f"wheel_speed_limit={self.wheel_speed_limit} exceeds the motors' no-load "
                 f"circumferential speed {self.no_load_speed:.3f} m/s: allowed (0, {self.no_load_speed:.3f}]"
             )
+
+    @property
+    def radius_R(self) -> float:
+        """Rolling radius of the right wheel (m)."""
+        return self.wheel_radius if self.rolling_radius_R is None else self.rolling_radius_R
+
+    @property
+    def radius_L(self) -> float:
+        """Rolling radius of the left wheel (m)."""
+        return self.wheel_radius if self.rolling_radius_L is None else self.rolling_radius_L
 
     @property
     def no_load_speed(self) -> float:
@@ -323,11 +343,10 @@ def contact_forces(state, p: RobotParameters):
     """
     _, _, _, v_t, v_n, omega, _, _, w_R, w_L = state
     half = 0.5 * p.track_width
-    r = p.wheel_radius
     n_wheel = p.wheel_normal_load
     # Wheels at (0, -half) right and (0, +half) left.
-    fx_R, fy_R, kx_R = tyre_force_and_stiffness(v_t + omega * half, v_n, r * w_R, n_wheel, p)
-    fx_L, fy_L, kx_L = tyre_force_and_stiffness(v_t - omega * half, v_n, r * w_L, n_wheel, p)
+    fx_R, fy_R, kx_R = tyre_force_and_stiffness(v_t + omega * half, v_n, p.radius_R * w_R, n_wheel, p)
+    fx_L, fy_L, kx_L = tyre_force_and_stiffness(v_t - omega * half, v_n, p.radius_L * w_L, n_wheel, p)
     f_x = fx_R + fx_L
     f_y = fy_R + fy_L
     moment = half * (fx_R - fx_L)
@@ -353,12 +372,11 @@ def plant_derivatives(state, currents, p: RobotParameters):
         (xdot as a list in PlantState order, (a_t, a_n, omega_dot) absolute body accelerations)
     """
     x, y, phi, v_t, v_n, omega, _, _, w_R, w_L = state
-    r = p.wheel_radius
     (a_t, a_n, omega_dot), (fx_R, _), (fx_L, _) = contact_forces(state, p)
     i_R, i_L = currents
     k = p.motor_constant
-    w_R_dot = (k * i_R - r * fx_R - p.bearing_drag * w_R) / p.wheel_inertia
-    w_L_dot = (k * i_L - r * fx_L - p.bearing_drag * w_L) / p.wheel_inertia
+    w_R_dot = (k * i_R - p.radius_R * fx_R - p.bearing_drag * w_R) / p.wheel_inertia
+    w_L_dot = (k * i_L - p.radius_L * fx_L - p.bearing_drag * w_L) / p.wheel_inertia
     c, s = math.cos(phi), math.sin(phi)
     xdot = [
         v_t * c - v_n * s,
@@ -387,11 +405,11 @@ def plant_substep(state, voltages, h: float, p: RobotParameters):
     Returns (state+, (a_t, a_n, omega_dot) at state).
     """
     x, y, phi, v_t, v_n, omega, th_R, th_L, w_R, w_L = state
-    r = p.wheel_radius
     (a_t, a_n, omega_dot), (fx_R, kx_R), (fx_L, kx_L) = contact_forces(state, p)
     k, J, R_m, b = p.motor_constant, p.wheel_inertia, p.motor_resistance, p.bearing_drag
     w_new = []
-    for w, fx, kx, volts in ((w_R, fx_R, kx_R, voltages[0]), (w_L, fx_L, kx_L, voltages[1])):
+    wheels = ((w_R, fx_R, kx_R, voltages[0], p.radius_R), (w_L, fx_L, kx_L, voltages[1], p.radius_L))
+    for w, fx, kx, volts, r in wheels:
         current = (volts - k * w) / R_m
         limited = abs(current) > p.motor_current_limit
         current = min(max(current, -p.motor_current_limit), p.motor_current_limit)
@@ -486,8 +504,8 @@ def plant_advance(state, loop_state, command, step_index: int, num_steps: int, t
 def tyre_slip(state, p: RobotParameters):
     """[kappa_R, kappa_L, alpha_R, alpha_L]: slip ratios and slip angles (rad) of the two tyres."""
     half = 0.5 * p.track_width
-    _, _, k_R, ta_R = tyre_force(state[3] + state[5] * half, state[4], p.wheel_radius * state[8], 1.0, p)
-    _, _, k_L, ta_L = tyre_force(state[3] - state[5] * half, state[4], p.wheel_radius * state[9], 1.0, p)
+    _, _, k_R, ta_R = tyre_force(state[3] + state[5] * half, state[4], p.radius_R * state[8], 1.0, p)
+    _, _, k_L, ta_L = tyre_force(state[3] - state[5] * half, state[4], p.radius_L * state[9], 1.0, p)
     return [k_R, k_L, math.atan(ta_R), math.atan(ta_L)]
 
 
@@ -514,7 +532,7 @@ class DifferentialDrivePlant(LeafSystem):
     - state: PlantState [x, y, phi, v_t, v_n, omega, theta_R, theta_L, w_R, w_L].
     - body_acceleration: true absolute body-frame accelerations [a_t, a_n, omega_dot] (m/s^2, rad/s^2).
     - wheel_angles: [theta_R, theta_L] (rad), for the encoders.
-    - wheel_speeds: circumferential speeds [r*w_R, r*w_L] (m/s).
+    - wheel_speeds: circumferential speeds [r_R*w_R, r_L*w_L] with the true rolling radii (m/s).
     - tyre_slip: [kappa_R, kappa_L, alpha_R, alpha_L]: slip ratios and slip angles (rad).
 
     Two time models, as Drake's MultibodyPlant offers:
@@ -553,7 +571,7 @@ class DifferentialDrivePlant(LeafSystem):
         x0 = np.zeros(10)
         x0[0:3] = initial_pose
         x0[3] = initial_speed
-        x0[8] = x0[9] = initial_speed / params.wheel_radius
+        x0[8], x0[9] = initial_speed / params.radius_R, initial_speed / params.radius_L
         self._command_port = self.DeclareVectorInputPort("wheel_speed_command", 2)
         if time_step > 0.0:
             self._declare_discrete(x0, time_step, update_period)
@@ -656,7 +674,8 @@ class DifferentialDrivePlant(LeafSystem):
         output.SetFromVector(self._plant_state(context)[6:8])
 
     def _calc_wheel_speeds(self, context, output: BasicVector):
-        output.SetFromVector(self._params.wheel_radius * self._plant_state(context)[8:10])
+        x = self._plant_state(context)
+        output.SetFromVector([self._params.radius_R * x[8], self._params.radius_L * x[9]])
 
     def _calc_tyre_slip(self, context, output: BasicVector):
         output.SetFromVector(tyre_slip(self._plant_state(context), self._params))

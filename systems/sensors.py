@@ -10,6 +10,10 @@ Default figures (tinyphoon) from data sheets of parts of the paper's era:
   0.1 * sqrt(1.6 * 40) = 0.8 deg/s = 0.014 rad/s rms; residual bias 0.2 deg/s.
 - Encoders: Faulhaber IE2-512 (512 lines, quadrature x4) on the motor of a 3:1 gearhead = 6144 counts per
   wheel revolution. Encoders are bias-free; their only error is quantisation (§IV-B).
+- Scale factors and alignment: each sensor's reading is (1 + scale error) times the truth, each two-axis
+  accelerometer's axes are turned by a misalignment angle about the vertical; both zero by default (a
+  perfect sensor, as the data sheet's typical figure) and drawn from tolerances for a real robot
+  (scenarios/tolerances.py).
 - "Commotion" (§IV-A): vibration of the accelerometer readings, a first-order Gauss-Markov process with a
   5 ms correlation time whose standard deviation grows with speed (assumption, 0.3 m/s^2 per m/s).
 """
@@ -44,6 +48,10 @@ class SensorParameters:
         gyro_drift_density: bias random walk (rad/s per sqrt(s)).
         gyro_range: full scale (rad/s).
         encoder_counts_per_revolution: counts per wheel revolution.
+        gyro_scale_error: relative error of the gyro's sensitivity (reading = (1 + e) omega + bias).
+        accel1_scale_error, accel2_scale_error: relative sensitivity error of each two-axis accelerometer.
+        accel1_misalignment, accel2_misalignment: angle (rad, about the vertical, counter-clockwise) by
+            which each accelerometer's (t, n) axes are turned against the body's.
     """
 
     accelerometer_position: tuple[float, float] = (0.02, 0.015)
@@ -58,6 +66,11 @@ class SensorParameters:
     gyro_drift_density: float = 0.0005
     gyro_range: float = math.radians(300.0)
     encoder_counts_per_revolution: int = 6144
+    gyro_scale_error: float = 0.0
+    accel1_scale_error: float = 0.0
+    accel2_scale_error: float = 0.0
+    accel1_misalignment: float = 0.0
+    accel2_misalignment: float = 0.0
 
     def __post_init__(self):
         nonneg = (
@@ -79,6 +92,14 @@ class SensorParameters:
                 f"encoder_counts_per_revolution={self.encoder_counts_per_revolution!r} is out of "
                 "range: allowed integers in [1, 10000000]"
             )
+        for name in ("gyro_scale_error", "accel1_scale_error", "accel2_scale_error"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and -1.0 < value < 1.0):
+                raise ValueError(f"{name}={value!r} is out of range: allowed (-1, 1) (a sensitivity > 0)")
+        for name in ("accel1_misalignment", "accel2_misalignment"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and abs(value) < 0.5 * math.pi):
+                raise ValueError(f"{name}={value!r} is out of range: allowed (-pi/2, pi/2) rad")
         if len(self.accelerometer_position) != 2:
             raise ValueError("accelerometer_position must be a pair (x, y) in metres")
 
@@ -119,6 +140,22 @@ def accelerometer_truth(body_acceleration, omega: float, position) -> list:
     return [a_t + dt, a_n + dn, a_t - dt, a_n - dn]
 
 
+def sensor_frame(truth, params: SensorParameters) -> list:
+    """The two accelerometers' true readings [t1, n1, t2, n2] as their own axes see them: turned by the
+    misalignment gamma (t' = t cos g + n sin g, n' = -t sin g + n cos g) and scaled by 1 + scale error."""
+    out = []
+    for i, (gamma, scale) in enumerate(
+        (
+            (params.accel1_misalignment, params.accel1_scale_error),
+            (params.accel2_misalignment, params.accel2_scale_error),
+        )
+    ):
+        t, n = truth[2 * i], truth[2 * i + 1]
+        c, s = math.cos(gamma), math.sin(gamma)
+        out += [(1.0 + scale) * (c * t + s * n), (1.0 + scale) * (c * n - s * t)]
+    return out
+
+
 def sensor_update(internal, plant_state, body_acceleration, noise, params: SensorParameters, T_N: float):
     """One sample of all sensors.
 
@@ -138,6 +175,10 @@ def sensor_update(internal, plant_state, body_acceleration, noise, params: Senso
     phi = math.exp(-T_N / params.accel_vibration_time_constant)
     vib_gain = math.sqrt(1.0 - phi * phi) * params.accel_vibration_per_speed * abs(v_t)
     truth = accelerometer_truth(body_acceleration, omega, params.accelerometer_position)
+    if params.accel1_misalignment or params.accel2_misalignment or params.accel1_scale_error or (
+        params.accel2_scale_error
+    ):
+        truth = sensor_frame(truth, params)
     limit = params.accel_range
     bias, vibration, accel = [], [], []
     for i in range(4):
@@ -149,7 +190,11 @@ def sensor_update(internal, plant_state, body_acceleration, noise, params: Senso
         accel.append(min(max(a, -limit), limit))
     gyro_bias = internal[4] + params.gyro_drift_density * math.sqrt(T_N) * noise[13]
     gyro = min(
-        max(omega + gyro_bias + params.gyro_noise_std * noise[12], -params.gyro_range), params.gyro_range
+        max(
+            (1.0 + params.gyro_scale_error) * omega + gyro_bias + params.gyro_noise_std * noise[12],
+            -params.gyro_range,
+        ),
+        params.gyro_range,
     )
     step = params.encoder_step
     encoders = [math.floor(plant_state[6] / step) * step, math.floor(plant_state[7] / step) * step]
