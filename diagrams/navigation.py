@@ -10,7 +10,6 @@ import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
-from slipnav.systems.gyro_bias import GyroBiasEstimator
 from slipnav.systems.gyrodometry import Gyrodometry
 from slipnav.systems.mixing import MixerC1, MixerC2C3, VelocityMixer
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
@@ -20,6 +19,7 @@ from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_check import InertialSampleCheck
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector
+from slipnav.systems.yaw_calibration import YawRateCalibration
 
 NAVIGATION_OUTPUTS = (
     "pose",
@@ -36,6 +36,7 @@ NAVIGATION_OUTPUTS = (
     "encoder_fault",
     "covariance",
     "gyro_bias",
+    "yaw_calibration",
 )
 
 
@@ -70,6 +71,7 @@ def build_navigation_diagram(
         - encoder_fault
         - covariance
         - gyro_bias
+        - yaw_calibration
     """
     params.validate()
     initial = initial or NavigationInitialState()
@@ -90,7 +92,9 @@ def build_navigation_diagram(
     detector = add(TangentialSlipDetector(T_N, T_C, initial.speed), "Tangential slip detector")
     c1 = add(MixerC1(params.mixing, T_C), "Mixer C1")
     c23 = add(MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
-    bias = add(GyroBiasEstimator(params.gyro_bias, T_N), "Gyro bias")
+    calibration = add(
+        YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
+    )
     mixer = add(VelocityMixer(params.mixing), "Velocity mixer")
     sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
     pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
@@ -101,18 +105,19 @@ def build_navigation_diagram(
     b.ExportInput(check.GetInputPort("gyro"), "gyro")
     b.ExportInput(odometry.GetInputPort("encoders"), "encoders")
 
-    acc, gyro, odo = (
+    acc, gyro, raw_odo = (
         check.GetOutputPort("accelerometers"),
         check.GetOutputPort("gyro"),
         odometry.GetOutputPort("odometry"),
     )
+    odo = calibration.GetOutputPort("odometry")  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
-    b.Connect(gyro, bias.GetInputPort("gyro"))
-    b.Connect(odo, bias.GetInputPort("odometry"))
-    b.Connect(c1.GetOutputPort("C1"), bias.GetInputPort("C1"))
-    b.Connect(check.GetOutputPort("fault"), bias.GetInputPort("inertial_fault"))
-    b.Connect(odometry.GetOutputPort("fault"), bias.GetInputPort("encoder_fault"))
-    b.Connect(bias.GetOutputPort("gyro"), ekf.GetInputPort("gyro"))
+    b.Connect(gyro, calibration.GetInputPort("gyro"))
+    b.Connect(raw_odo, calibration.GetInputPort("odometry"))
+    b.Connect(c1.GetOutputPort("C1"), calibration.GetInputPort("C1"))
+    b.Connect(check.GetOutputPort("fault"), calibration.GetInputPort("inertial_fault"))
+    b.Connect(odometry.GetOutputPort("fault"), calibration.GetInputPort("encoder_fault"))
+    b.Connect(calibration.GetOutputPort("gyro"), ekf.GetInputPort("gyro"))
     b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
     b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
     b.Connect(odo, detector.GetInputPort("odometry"))
@@ -129,7 +134,7 @@ def build_navigation_diagram(
     b.Connect(mixer.GetOutputPort("body_velocity"), sideslip.GetInputPort("body_velocity"))
     b.Connect(mixer.GetOutputPort("body_velocity"), pose.GetInputPort("body_velocity"))
     b.Connect(odometry.GetOutputPort("body_velocity"), odo_pose.GetInputPort("body_velocity"))
-    b.Connect(odo, gyrodometry.GetInputPort("odometry"))
+    b.Connect(raw_odo, gyrodometry.GetInputPort("odometry"))
     b.Connect(gyro, gyrodometry.GetInputPort("gyro"))
 
     b.ExportOutput(pose.GetOutputPort("pose"), "pose")
@@ -139,13 +144,14 @@ def build_navigation_diagram(
     b.ExportOutput(c1.GetOutputPort("C1"), "C1")
     b.ExportOutput(c23.GetOutputPort("C2_C3"), "C2_C3")
     b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")
-    b.ExportOutput(odo, "odometry")
+    b.ExportOutput(raw_odo, "odometry")
     b.ExportOutput(odo_pose.GetOutputPort("pose"), "odometry_pose")
     b.ExportOutput(gyrodometry.GetOutputPort("pose"), "gyrodometry_pose")
     b.ExportOutput(check.GetOutputPort("fault"), "inertial_fault")
     b.ExportOutput(odometry.GetOutputPort("fault"), "encoder_fault")
     b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")
-    b.ExportOutput(bias.GetOutputPort("bias"), "gyro_bias")
+    b.ExportOutput(calibration.GetOutputPort("bias"), "gyro_bias")
+    b.ExportOutput(calibration.GetOutputPort("parameters"), "yaw_calibration")
     diagram = b.Build()
     diagram.set_name("navigation")
     return diagram

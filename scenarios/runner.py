@@ -375,6 +375,8 @@ def collect_navigation(a: dict, data) -> None:
     a["odo_v_t"], a["odo_omega"] = odo[0].copy(), odo[1].copy()
     a["fault"] = np.maximum(data("nav_inertial_fault")[0], data("nav_encoder_fault")[0])
     a["est_gyro_bias"] = data("nav_gyro_bias")[0].copy()
+    calibration = data("nav_yaw_calibration")
+    a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1].copy(), calibration[3].copy()
 
 
 def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[FilePath]:

@@ -17,7 +17,7 @@ and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the f
   less the tyres' creep of the tyre curve.
 - ``paper's S(12)``: C1 from this batch's dv alone (mixing.dv_memory = 0) instead of also from the leaky
   sum of the recent batches' dv.
-- ``paper's heading``: the EKF gets the raw gyro (gyro_bias.enabled = False) and S(14) the single
+- ``paper's heading``: the EKF gets the raw gyro (yaw_calibration.enabled = False) and S(14) the single
   sample's yaw-rate residual (mixing.c3_residual_time_constant = 0, a3 = 60, b3 = 0.05, the thresholds
   that suited it) instead of the bias-corrected gyro and the residual's PT1.
 - ``C1 oracle``: C1 = 0 exactly while the wheels slip (|mean wheel speed - v_t| > ``slip_speed``),
@@ -98,7 +98,7 @@ def papers_heading(navigation):
     the single sample's yaw-rate residual with the thresholds that suited it (a3 = 60, b3 = 0.05)."""
     return dc.replace(
         navigation,
-        gyro_bias=dc.replace(navigation.gyro_bias, enabled=False),
+        yaw_calibration=dc.replace(navigation.yaw_calibration, enabled=False),
         mixing=dc.replace(navigation.mixing, c3_residual_time_constant=0.0, a3=60.0, b3=0.05),
     )
 

@@ -6,13 +6,15 @@ diagram's multi-rate wiring (sample-for-sample agreement) and the baseline of th
 
 Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K n):
 1. check the inertial sample (hold non-finite channels), odometry S(10) from the encoder difference;
-   the gyro minus the bias b learned up to sample k-1 (systems/gyro_bias.py);
+   the gyro and the odometric yaw rate calibrated with the bias and radius difference learned up to
+   the last batch (systems/yaw_calibration.py);
 2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
 3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry (C3 of the residual's
    PT1 up to sample k);
 4. mixing S(15)-(17) with the C1 in force -> mixed estimate (the navigation output of sample k);
 5. updates: EKF state <- mixed estimate, P <- S(9); pose S(21); odometry-only and Gyrodometry poses (the
-   raw gyro); the gyro bias from the raw gyro, the odometry and the C1 in force; the C3 residual;
+   raw gyro and the raw odometry); the calibration from the raw gyro, the raw odometry and the C1 in
+   force (its Kalman update at each batch's end); the C3 residual;
    at control instants also C1 S(12) from this batch's dv and the batches' leaky sum, L S(7) from
    P_{k|k-1}, S(18)-(20) from the mixed estimate, and the detector's reset. C1, L and alpha computed
    at t_K act from sample k+1 on.
@@ -31,7 +33,6 @@ from slipnav.systems.ekf import (
     ekf_prior_covariance,
     ekf_update,
 )
-from slipnav.systems.gyro_bias import GyroBiasParameters, gyro_bias_initial_state, gyro_bias_step
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
     MixingParameters,
@@ -47,6 +48,13 @@ from slipnav.systems.pose import pose_step
 from slipnav.systems.sensor_check import check_sample
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.yaw_calibration import (
+    YawCalibrationParameters,
+    calibrated_gyro,
+    calibrated_odometry,
+    yaw_calibration_initial_state,
+    yaw_calibration_step,
+)
 
 
 @dc.dataclass
@@ -57,11 +65,11 @@ class NavigationParameters:
     mixing: MixingParameters = dc.field(default_factory=MixingParameters)
     sideslip: SideSlipParameters = dc.field(default_factory=SideSlipParameters)
     gyrodometry: GyrodometryParameters = dc.field(default_factory=GyrodometryParameters)
-    gyro_bias: GyroBiasParameters = dc.field(default_factory=GyroBiasParameters)
+    yaw_calibration: YawCalibrationParameters = dc.field(default_factory=YawCalibrationParameters)
 
     def validate(self) -> "NavigationParameters":
         """Re-run every part's range checks (YAML loading sets fields after construction)."""
-        for part in (self.ekf, self.mixing, self.sideslip, self.gyrodometry, self.gyro_bias):
+        for part in (self.ekf, self.mixing, self.sideslip, self.gyrodometry, self.yaw_calibration):
             part.__post_init__()
         return self
 
@@ -117,7 +125,7 @@ class NavigationLoop:
         self.pose = list(initial.pose)
         self.odo_pose = list(initial.pose)
         self.gyro_state = [*initial.pose, 0.0, 0.0]
-        self.bias_state = gyro_bias_initial_state()
+        self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual = 0.0
         self.k = 0
 
@@ -132,12 +140,15 @@ class NavigationLoop:
         mp, T_N = self.params.mixing, self.T_N
         sample, fault_imu = check_sample([*accelerometers, gyro], self.last_valid)
         acc, g = sample[0:4], sample[4]
-        odo_next, odo, fault_enc = odometry_step(
+        odo_next, odo_raw, fault_enc = odometry_step(
             self.odo_state, encoders, self.wheel_radius, self.track_width, T_N
         )
-        bias = self.bias_state[2]
+        cal, theta = self.params.yaw_calibration, self.calibration[0:2]
+        odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
+        bias = theta[0]
         x = self.x
-        inertial = ekf_update(ekf_predict(x, T_N), self.L, ekf_measurement(acc, [g - bias]))
+        measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
+        inertial = ekf_update(ekf_predict(x, T_N), self.L, measurement)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         det_next, total = slip_detector_step(self.det_state, odo[0], acc, T_N)
         c2 = mixing_c2(inertial[4], mp)
@@ -155,19 +166,21 @@ class NavigationLoop:
             c2,
             c3,
             self.dv_held,
-            odo[0],
-            odo[1],
+            odo_raw[0],
+            odo_raw[1],
             max(fault_imu, fault_enc),
             bias,
         )
         self.x = mixed
         self.P = ekf_joseph(P_prior, self.L, self.R)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
-        self.odo_pose = pose_step(self.odo_pose, odo[0], 0.0, odo[1], T_N)
-        self.gyro_state = gyrodometry_step(self.gyro_state, odo[0], odo[1], g, self.params.gyrodometry, T_N)
+        self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)
+        self.gyro_state = gyrodometry_step(
+            self.gyro_state, odo_raw[0], odo_raw[1], g, self.params.gyrodometry, T_N
+        )
         fault = fault_imu > 0.5 or fault_enc > 0.5
-        self.bias_state = gyro_bias_step(
-            self.bias_state, g, odo[1], self.c1, fault, self.params.gyro_bias, T_N
+        self.calibration = yaw_calibration_step(
+            self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n
         )
         self.c3_residual = residual
         self.last_valid = sample

@@ -175,8 +175,11 @@ def sensor_update(internal, plant_state, body_acceleration, noise, params: Senso
     phi = math.exp(-T_N / params.accel_vibration_time_constant)
     vib_gain = math.sqrt(1.0 - phi * phi) * params.accel_vibration_per_speed * abs(v_t)
     truth = accelerometer_truth(body_acceleration, omega, params.accelerometer_position)
-    if params.accel1_misalignment or params.accel2_misalignment or params.accel1_scale_error or (
-        params.accel2_scale_error
+    if (
+        params.accel1_misalignment
+        or params.accel2_misalignment
+        or params.accel1_scale_error
+        or (params.accel2_scale_error)
     ):
         truth = sensor_frame(truth, params)
     limit = params.accel_range

@@ -60,9 +60,9 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
     1 elsewhere). With the summed dv (mixing.dv_memory) every episode is detected within the batch of its
     onset; the paper's S(12), replayed on the same sensor samples, detects the gradual locks one batch late
     (0.9 T_C), and in its own closed-loop run (slip control acting on its C1) misses two of eight
-    (measured). Since the creep compensation and the gyro bias estimate, all end within 0.5 % of the path
-    (measured 15 mm with the paper's S(12), 11 mm with the summed dv), and the oracle better than the
-    summed dv by 2 mm (9 mm): the rest of the square's error is not C1's."""
+    (measured). The summed dv's run and the oracle's replay of the paper's run end within 0.5 % of the
+    path; the paper's S(12) in its own closed loop does not (measured 78 mm, 1.5 %, since the online
+    gyro/odometry calibration changed the loop's path: its missed gradual locks cost distance)."""
     scenario = load_scenario("square")
     summed_dv = scenario.navigation
     papers = dc.replace(summed_dv, mixing=dc.replace(summed_dv.mixing, dv_memory=0.0))
@@ -83,8 +83,9 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
     replayed = navigation_figures({**b, **replay(b, scenario, navigation=papers)})
     assert replayed["slip_detected"] == summed["slip_episodes"]
     assert 0.5 <= replayed["max_latency_T_C"] <= 2.0
-    for run in (a, b, {**a, **oracle}):
+    for run in (b, {**a, **oracle}):
         assert final_position_error(run, "est") < 0.005 * length
+    assert final_position_error(a, "est") > final_position_error({**a, **oracle}, "est")
 
 
 def test_error_budget_command(capsys):
