@@ -4,8 +4,8 @@ diagram builders. Each raises ValueError naming the parameter and the allowed ra
 The range checks of each parameter set live with it (RobotParameters.__post_init__, ...); these are the
 checks across parameters and against what the models can represent:
 
-- tyre friction mu >= 0.05: below it the tyres transmit less than 0.4 m/s^2, less than the felt shoes'
-  drag of the reference robots, and the robot cannot follow any reference.
+- tyre friction mu >= 0.05, and the tyres' traction mu f_w g at least 0.5 m/s^2 beyond the felt shoes'
+  Coulomb drag mu_s (1 - f_w) g (Tinyphoon: mu >= 0.126); below it the robot barely moves.
 - the speed loop is a PI: kp > 0 and ki > 0 (with either 0 the wheels do not track their command).
 - track_width >= 2 wheel_radius: narrower, the two wheels would overlap.
 - drive: the motors' current-limited force must accelerate the robot by at least 0.5 m/s^2 beyond the
@@ -96,6 +96,14 @@ def check_robot_physics(robot, where: str = "") -> None:
         )
     drive = 2.0 * robot.motor_constant * robot.motor_current_limit / robot.wheel_radius / robot.mass
     drag = robot.shoe_friction * (1.0 - robot.wheel_load_fraction) * GRAVITY
+    traction = robot.tyre_friction * robot.wheel_load_fraction * GRAVITY
+    if traction < drag + MIN_DRIVE_MARGIN:
+        lowest = (drag + MIN_DRIVE_MARGIN) / (robot.wheel_load_fraction * GRAVITY)
+        raise ValueError(
+            f"{where}tyre_friction={robot.tyre_friction!r} is out of range: the tyres transmit "
+            f"{traction:.3g} m/s^2, less than the shoes' drag {drag:.3g} + {MIN_DRIVE_MARGIN} m/s^2; "
+            f"allowed [{max(lowest, MIN_TYRE_FRICTION):.3g}, 2] with this wheel load and shoe friction"
+        )
     if drive < drag + MIN_DRIVE_MARGIN:
         largest = 2.0 * robot.motor_constant * robot.motor_current_limit / robot.wheel_radius
         largest /= drag + MIN_DRIVE_MARGIN

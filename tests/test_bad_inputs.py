@@ -61,6 +61,7 @@ YAML_CASES = [
     (STRAIGHT + "robot_overrides: {mass: 1e6}\n", "mass=1000000.0"),  # YAML 1.1 float accepted, then checked
     (STRAIGHT + "robot_overrides: {tyre_friction: 0.01}\n", "tyre_friction=0.01"),
     (STRAIGHT + "robot_overrides: {tyre_friction: 5}\n", "tyre_friction=5"),
+    (STRAIGHT + "robot_overrides: {tyre_friction: 0.1}\n", "tyre_friction=0.1"),  # traction < shoes' drag
     (STRAIGHT + "robot_overrides: {speed_loop_kp: 0}\n", "speed_loop_kp=0"),
     (STRAIGHT + "robot_overrides: {speed_loop_ki: 0}\n", "speed_loop_ki=0"),
     (STRAIGHT + "robot_overrides: {track_width: 1e-6}\n", "track_width=1e-06"),
