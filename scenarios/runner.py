@@ -1,7 +1,8 @@
-"""Build, simulate and record a scenario: the run artifact of ../shared/DESIGN.md.
+"""Build, simulate and record a scenario: the run artifact of docs/artifacts.md.
 
 ``run_scenario`` returns the artifact arrays and summary; ``write_artifacts`` writes
-``DIR/<scenario>.npz``, ``DIR/<scenario>.summary.json`` and the figures.
+``DIR/<stem>.npz``, the figures and ``DIR/<stem>.summary.json`` (stem: ``artifact_stem``, e.g.
+``corner-seed0``), atomically.
 
 Every array is logged on the T_N grid by Drake loggers, which publish at t_k before the discrete updates
 of t_k: a row holds the true continuous state at t_k and the discrete signals (sensor samples ``meas_*``,
