@@ -6,8 +6,9 @@ import dataclasses as dc
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Demultiplexer
 from slipnav.diagrams.navigation import add_navigation
-from slipnav.diagrams.open_loop import LoggedDiagram, add_loggers, robot_ports
+from slipnav.diagrams.open_loop import LoggedDiagram, add_loggers, check_robot_inputs, robot_ports
 from slipnav.diagrams.robot import add_robot_with_sensors
+from slipnav.systems.checks import check_follower_gains, require_instance
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
@@ -129,10 +130,25 @@ def build_closed_loop_diagram(
 ) -> LoggedDiagram:
     """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
     (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). ``plant_time_step``: see
-    DifferentialDrivePlant (0: continuous).
+    DifferentialDrivePlant (0: continuous). Raises ValueError naming the parameter for an input that
+    cannot be simulated.
 
     Truth and belief: ``robot`` is the nominal model that navigation and control read; ``plant`` the
     simulated robot as it really is (default ``robot``), and ``sensor_params`` the real sensors."""
+    check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
+    require_instance("navigation", navigation, NavigationParameters)
+    navigation.validate()
+    require_instance("control", control, ControlSettings)
+    for name, kind in (("follower", PathFollowerParameters), ("step_size", StepSizeParameters)):
+        require_instance(f"control.{name}", getattr(control, name), kind)
+        getattr(control, name).__post_init__()
+    check_follower_gains(control.follower, rates.T_C, "control.follower.")
+    if not hasattr(control.path, "max_abs_curvature"):
+        raise ValueError(f"control.path must be a scenarios.trajectories.Path, got {control.path!r}")
+    if control.mode == "trajectory" and not hasattr(control.trajectory, "num_samples"):
+        raise ValueError(
+            f"control.trajectory must be a Trajectory in trajectory mode, got {control.trajectory!r}"
+        )
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
         builder, plant or robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step

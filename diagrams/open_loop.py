@@ -9,6 +9,14 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, Multiplexer
 from slipnav.diagrams.navigation import add_navigation
 from slipnav.diagrams.robot import RobotHandles, add_robot_with_sensors
+from slipnav.systems.checks import (
+    check_robot_physics,
+    require_finite,
+    require_instance,
+    require_pose,
+    require_seed,
+    require_table,
+)
 from slipnav.systems.feedforward import TrajectoryFeedforward
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
@@ -73,6 +81,18 @@ def robot_ports(robot: RobotHandles) -> dict:
     }
 
 
+def check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step):
+    """The builders' common inputs (Python API): ValueError naming the parameter."""
+    require_instance("robot", robot, RobotParameters)
+    check_robot_physics(robot, "robot.")
+    require_instance("sensor_params", sensor_params, SensorParameters)
+    require_instance("rates", rates, SampleRates)
+    require_seed(seed)
+    require_pose("initial_pose", initial_pose)
+    require_finite("initial_speed", initial_speed, 0.0, robot.wheel_speed_limit)
+    require_finite("plant_time_step", plant_time_step, 0.0, 0.01)
+
+
 def build_open_loop_diagram(
     robot: RobotParameters,
     sensor_params: SensorParameters,
@@ -88,7 +108,19 @@ def build_open_loop_diagram(
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
     the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out).
-    ``robot`` is the nominal model the navigation reads, ``plant`` the real robot (default ``robot``)."""
+    ``robot`` is the nominal model the navigation reads, ``plant`` the real robot (default ``robot``).
+    Raises ValueError naming the parameter for an input that cannot be simulated."""
+    check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
+    if navigation is not None:
+        require_instance("navigation", navigation, NavigationParameters)
+        navigation.validate()
+    wheel_speeds = require_table("wheel_speeds", wheel_speeds, 2, robot.no_load_speed)
+    reference_poses = require_table("reference_poses", reference_poses, 3)
+    if len(reference_poses) != len(wheel_speeds):
+        raise ValueError(
+            f"reference_poses has {len(reference_poses)} rows: allowed one per wheel_speeds row "
+            f"({len(wheel_speeds)})"
+        )
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
         builder, plant or robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step

@@ -9,6 +9,7 @@ from pydrake.common import RandomDistribution, RandomGenerator
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import RandomSource
+from slipnav.systems.checks import require_seed
 from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
 from slipnav.systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
 
@@ -64,6 +65,7 @@ def make_simulator(diagram, seed: int, max_step: float) -> Simulator:
     The same seed gives a bit-identical run: the RandomSource state is set with
     ``SetRandomContext(context, RandomGenerator(seed))`` and nothing else draws random numbers.
     """
+    require_seed(seed)
     simulator = Simulator(diagram)
     integrator = ResetIntegratorFromFlags(simulator, "runge_kutta3", max_step)
     integrator.set_target_accuracy(PLANT_INTEGRATION_ACCURACY)

@@ -1,4 +1,4 @@
-"""The ``slipnav`` command line (see README.md and ../shared/DESIGN.md).
+"""The ``slipnav`` command line (see README.md, docs/design.md, docs/artifacts.md, docs/scenario-schema.md).
 
     slipnav list
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
@@ -8,7 +8,9 @@
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
 
-User mistakes print one line to stderr and exit with status 2, without a traceback.
+User mistakes print one line to stderr (``slipnav: error: ...`` naming the key and the allowed range) and
+exit with status 2, without a traceback, before any simulation starts. Ctrl-C prints ``slipnav:
+interrupted`` and exits with status 130, leaving no half-written artifact.
 """
 
 from __future__ import annotations
@@ -16,12 +18,23 @@ from __future__ import annotations
 import argparse
 import sys
 
-from slipnav.scenarios.config import ScenarioError, builtin_scenarios, load_scenario
+from slipnav.scenarios.config import ScenarioError, builtin_scenarios, check_duration, load_scenario
+
+EPILOG = (
+    "Documentation in the repository: README.md (start here), docs/design.md, docs/artifacts.md (npz and "
+    "summary keys, file names), docs/scenario-schema.md (every YAML key)."
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        """One line on stderr and exit status 2 (argparse's usage block left out)."""
+        self.exit(2, f"slipnav: error: {message} (see slipnav {self.prog.split()[-1]} --help)\n")
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="slipnav", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="slipnav", description=__doc__.splitlines()[0], epilog=EPILOG)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("list", help="list the built-in scenarios")
     run = sub.add_parser("run", help="simulate a scenario and write its artifact and figures")
     run.add_argument("scenario", help="built-in scenario name or path to a scenario YAML file")
@@ -64,58 +77,90 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
     try:
-        if args.command == "list":
-            for name in builtin_scenarios():
-                print(name)
-            return 0
-        if args.command == "diagram":
-            from slipnav.scenarios.block_diagrams import export_diagram
-
-            print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
-            return 0
-        if args.command == "bench":
-            from slipnav.studies.bench import bench
-
-            bench(args.scenario, args.repeat)
-            return 0
-        if args.command == "error-budget":
-            from slipnav.studies.error_budget import error_budget
-
-            error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None)
-            return 0
-        if args.command == "accuracy":
-            from slipnav.studies.accuracy import accuracy
-
-            if args.seeds < 1:
-                raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-            accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None)
-            return 0
-        from slipnav.scenarios.runner import run_scenario, write_artifacts
-
-        scenario = load_scenario(args.scenario)
-        result = run_scenario(
-            scenario,
-            seed=args.seed,
-            duration=args.duration,
-            slip_control=False if args.no_slip_control else None,
-            speed_law=args.speed_law,
-            open_loop=args.open_loop or None,
-            tolerances=args.tolerances,
-        )
-        for path in write_artifacts(result, args.out, figures=not args.no_figures):
-            print(path)
-        s = result.summary
-        print(
-            f"{s['scenario']}: {s['duration_s']:.2f} s simulated in {s['wall_time_s']:.2f} s "
-            f"(real-time factor {s['realtime_factor']:.1f}); peak |alpha| "
-            f"{s['peak_abs_true_alpha_deg']:.1f} deg, peak |slip ratio| {s['peak_abs_slip_ratio']:.2f}"
-        )
-        return 0
+        args = _parser().parse_args(argv)
+        return _command(args)
     except ScenarioError as e:
         print(f"slipnav: error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("slipnav: interrupted", file=sys.stderr)
+        return 130
+
+
+def _command(args) -> int:
+    if args.command == "list":
+        for name in builtin_scenarios():
+            print(name)
+        return 0
+    if args.command == "diagram":
+        from slipnav.scenarios.block_diagrams import export_diagram
+
+        print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
+        return 0
+    if args.command == "bench":
+        from slipnav.studies.bench import bench
+
+        bench(args.scenario, args.repeat)
+        return 0
+    if args.command == "error-budget":
+        from slipnav.studies.error_budget import error_budget
+
+        if args.seeds < 1:
+            raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
+        error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None)
+        return 0
+    if args.command == "accuracy":
+        from slipnav.studies.accuracy import accuracy
+
+        if args.seeds < 1:
+            raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
+        if args.duration is not None:
+            for name in args.scenarios:
+                check_duration(load_scenario(name), args.duration)
+        accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None)
+        return 0
+    from slipnav.scenarios.runner import (
+        check_output_directory,
+        check_run_options,
+        run_scenario,
+        write_artifacts,
+    )
+
+    scenario = load_scenario(args.scenario)
+    options = dict(
+        seed=args.seed,
+        duration=args.duration,
+        slip_control=False if args.no_slip_control else None,
+        speed_law=args.speed_law,
+        open_loop=args.open_loop or None,
+    )
+    check_run_options(scenario, **options)
+    options["tolerances"] = args.tolerances  # every mistake before the simulation starts
+    check_output_directory(args.out)
+    result = run_scenario(scenario, **options)
+    try:
+        written = write_artifacts(result, args.out, figures=not args.no_figures)
+    except OSError as e:
+        print(f"slipnav: error: cannot write the artifacts into --out={args.out!r}: {e}", file=sys.stderr)
+        return 1
+    for path in written:
+        print(path)
+    s = result.summary
+    print(
+        f"{s['scenario']}: {s['duration_s']:.2f} s simulated in {s['wall_time_s']:.2f} s "
+        f"(real-time factor {s['realtime_factor']:.1f}); peak |alpha| "
+        f"{s['peak_abs_true_alpha_deg']:.1f} deg, peak |slip ratio| {s['peak_abs_slip_ratio']:.2f}"
+    )
+    if not s["completed"]:
+        print(
+            f"slipnav: warning: {s['scenario']} did not complete: the robot never came within "
+            f"{s['completion_tolerance_m']:.3f} m of the end of its path; it stopped "
+            f"{s['end_distance_m']:.3f} m from the end, "
+            f"{s['path_length_m'] - s['end_progress_m']:.3f} m short along the path (completed: false)",
+            file=sys.stderr,
+        )
+    return 0
 
 
 if __name__ == "__main__":

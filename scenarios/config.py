@@ -6,18 +6,26 @@ Unknown keys, wrong types, unknown segment tags and malformed YAML raise Scenari
 
 import dataclasses as dc
 import math
+import re
 import types
 import typing
 from pathlib import Path as FilePath
 
-from pydrake.common.yaml import yaml_load_data, yaml_load_typed
+import yaml
+from pydrake.common.yaml import yaml_load_typed
 from slipnav.scenarios.tolerances import (
     TOLERANCE_PRESET,
     PlantTruth,
     apply_deviations,
     draw_deviations,
 )
-from slipnav.scenarios.trajectories import PathConfig, TrajectoryConfig
+from slipnav.scenarios.trajectories import (
+    PathConfig,
+    TrajectoryConfig,
+    check_path_size,
+    check_trajectory_size,
+)
+from slipnav.systems.checks import check_follower_gains, check_robot_physics
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
@@ -137,10 +145,10 @@ class Scenario:
 
     def validate(self) -> "Scenario":
         """Check every value that the schema cannot; returns self."""
+        check_field_types(self, "")
         self.rates()
         self.robot_parameters()
         self.sensor_parameters()
-        self.plant_parameters()
         _wrap(self.navigation.validate)
         _wrap(self.follower.__post_init__)
         _wrap(self.slip_control.__post_init__)
@@ -175,6 +183,8 @@ class Scenario:
             period = self.robot_parameters().speed_loop_period
             _wrap(lambda: substeps_per(self.T_N, self.plant_time_step, "T_N"))
             _wrap(lambda: substeps_per(period, self.plant_time_step, "speed_loop_period"))
+        check_plausible(self)
+        self.plant_parameters()  # after the seed check: the draw needs a valid seed
         return self
 
 
@@ -208,7 +218,13 @@ def _override(base, overrides: dict[str, float], where: str):
     changes = {}
     for key, value in overrides.items():
         current = getattr(base, key)
-        changes[key] = int(value) if isinstance(current, int) else value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ScenarioError(f"{where}.{key}={value!r} is out of range: allowed finite numbers")
+        if isinstance(current, int):
+            if value != int(value):
+                raise ScenarioError(f"{where}.{key}={value!r} is out of range: allowed integers")
+            value = int(value)
+        changes[key] = value
     return dc.replace(base, **changes)
 
 
@@ -276,14 +292,64 @@ def _check(schema, data, where: str):
         raise ScenarioError(f"{where}: expected {_type_name(schema)}, got {data!r}")
 
 
+# ---------------------------------------------------------------------------------------------------
+# YAML parsing: duplicate keys rejected, YAML 1.1 exponent floats (1e-8, 1.0e6) read as numbers.
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader with Drake's type tags (``!Straight {...}`` -> mapping with ``_tag``), an error on
+    duplicate keys, and floats written without a dot or an exponent sign (``1e-8``, ``1.0e6``), which
+    YAML 1.1 (PyYAML) would read as strings."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            if key in seen:
+                raise ScenarioError(
+                    f"duplicate key {key!r} (lines {seen[key] + 1} and {key_node.start_mark.line + 1}): "
+                    "allowed once per mapping"
+                )
+            seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
+
+
+def _tagged(loader, tag, node):
+    result = loader.construct_mapping(node)
+    result["_tag"] = tag
+    return result
+
+
+_StrictLoader.add_multi_constructor("", _tagged)
+_StrictLoader.yaml_implicit_resolvers = {
+    first: list(resolvers) for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_StrictLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _load_yaml(text: str):
+    try:
+        return yaml.load(text, Loader=_StrictLoader)
+    except ScenarioError:
+        raise
+    except yaml.YAMLError as e:
+        raise ScenarioError(f"malformed YAML: {' '.join(str(e).split())}") from None
+
+
 def scenario_from_yaml(text: str, name: str = "") -> Scenario:
     """Parse and validate a scenario from YAML text."""
-    try:
-        raw = yaml_load_data(text)
-    except Exception as e:  # yaml.YAMLError and friends
-        raise ScenarioError(f"malformed YAML: {str(e).splitlines()[0]}") from None
+    raw = _load_yaml(text)
     if raw is None:
-        raw = {}
+        raise ScenarioError(
+            "the scenario is empty (no keys, or comments only): give at least 'trajectory: {segments: "
+            "[...]}' or 'mode: max_speed' with 'path: {segments: [...]}' (docs/scenario-schema.md)"
+        )
+    if not isinstance(raw, dict):
+        raise ScenarioError(f"scenario: expected a mapping of keys (docs/scenario-schema.md), got {raw!r}")
     _check(Scenario, raw, "")
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text)
@@ -301,14 +367,129 @@ def builtin_scenarios() -> list[str]:
 
 def load_scenario(name_or_path: str) -> Scenario:
     """A built-in scenario by name, or a scenario YAML file by path."""
+    if not isinstance(name_or_path, (str, FilePath)):
+        raise ScenarioError(f"scenario={name_or_path!r}: allowed a built-in name or a .yaml path")
     path = FilePath(name_or_path)
     if path.suffix in (".yaml", ".yml") or path.exists():
         if not path.is_file():
-            raise ScenarioError(f"scenario file {name_or_path!r} does not exist")
-        return scenario_from_yaml(path.read_text(), name=path.stem)
+            raise ScenarioError(f"scenario file {str(name_or_path)!r} does not exist")
+        try:
+            data = path.read_bytes()
+        except OSError as e:
+            raise ScenarioError(f"scenario file {str(name_or_path)!r} cannot be read: {e.strerror}") from None
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise ScenarioError(
+                f"scenario file {str(name_or_path)!r} is not UTF-8 text (byte 0x{data[e.start]:02x} at "
+                f"offset {e.start}): allowed UTF-8 YAML"
+            ) from None
+        return scenario_from_yaml(text, name=path.stem)
     if name_or_path not in builtin_scenarios():
         raise ScenarioError(
             f"scenario {name_or_path!r} is neither a built-in ({', '.join(builtin_scenarios())}) "
             "nor a .yaml file"
         )
     return scenario_from_yaml((BUILTIN_DIR / f"{name_or_path}.yaml").read_text(), name=name_or_path)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Checks across keys: physically impossible or unusable settings (end of Scenario.validate).
+
+MAX_DURATION = 3600.0
+"""Longest simulated time (s), for the YAML ``duration`` and ``--duration`` alike."""
+MIN_CONTROL_PERIODS = 5
+"""Shortest simulated time, in control periods T_C."""
+INFINITY_ALLOWED = {"navigation.mixing.tyre_peak_acceleration", "navigation.gyro_bias.averaging_time"}
+"""Float keys where .inf means something (no tyre curve; a never-forgetting average)."""
+
+
+def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:
+    """A simulated time in [5 T_C, 3600] s."""
+    low = MIN_CONTROL_PERIODS * scenario.T_C
+    ok = isinstance(duration, (int, float)) and not isinstance(duration, bool)
+    if not ok or not (math.isfinite(duration) and low <= duration <= MAX_DURATION):
+        raise ScenarioError(
+            f"{where}={duration!r} is out of range: allowed [{low:g}, {MAX_DURATION:g}] s "
+            f"(at least {MIN_CONTROL_PERIODS} control periods T_C)"
+        )
+    return float(duration)
+
+
+def _non_finite(value, where: str):
+    """The first key path below ``value`` holding NaN or inf (outside INFINITY_ALLOWED), else None."""
+    if dc.is_dataclass(value):
+        for field in dc.fields(value):
+            found = _non_finite(getattr(value, field.name), f"{where}.{field.name}" if where else field.name)
+            if found:
+                return found
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            found = _non_finite(item, f"{where}.{key}")
+            if found:
+                return found
+    elif isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            found = _non_finite(item, f"{where}[{i}]")
+            if found:
+                return found
+    elif isinstance(value, float) and not math.isfinite(value):
+        if not (math.isinf(value) and where in INFINITY_ALLOWED):
+            return f"{where}={value!r}"
+    return None
+
+
+def check_field_types(value, where: str) -> None:
+    """Every field of a dataclass tree has its declared kind (a Python-built Scenario may hold None or
+    a wrong object where the YAML schema would not allow it)."""
+    hints = typing.get_type_hints(type(value))
+    for field in dc.fields(value):
+        item, path = getattr(value, field.name), f"{where}{field.name}"
+        declared = hints[field.name]
+        union = typing.get_origin(declared) in (typing.Union, types.UnionType)
+        options = typing.get_args(declared) if union else (declared,)
+        kinds = tuple(typing.get_origin(o) or o for o in options)
+        if float in kinds:
+            kinds += (int,)
+        if not all(isinstance(k, type) for k in kinds):
+            continue
+        if not isinstance(item, kinds) or (isinstance(item, bool) and bool not in kinds):
+            names = " or ".join("None" if k is type(None) else k.__name__ for k in kinds)
+            raise ScenarioError(f"{path}={item!r}: expected {names}")
+        if dc.is_dataclass(item):
+            check_field_types(item, path + ".")
+
+
+def check_plausible(scenario: Scenario) -> None:
+    """Reject settings that are physically impossible or that the models cannot represent (README:
+    Scenario files; systems/checks.py for the robot and follower limits)."""
+    found = _non_finite(scenario, "")
+    if found:
+        raise ScenarioError(f"{found} is not a finite number: allowed finite values")
+    name = scenario.name
+    if "/" in name or "\\" in name or ".." in name or "\0" in name:
+        raise ScenarioError(
+            f"name={name!r} is not allowed: artifact file names take no path separators or '..'"
+        )
+    robot = scenario.robot_parameters()
+    _wrap(lambda: check_robot_physics(robot, "robot_overrides."))
+    _wrap(lambda: check_follower_gains(scenario.follower, scenario.T_C))
+    if scenario.duration is not None:
+        check_duration(scenario, scenario.duration, "duration")
+    V_m = robot.wheel_speed_limit
+    allowed = f"allowed [0, V_m = {V_m:g}] m/s (robot wheel_speed_limit)"
+    if scenario.path_speed is not None and scenario.path_speed > V_m:
+        raise ScenarioError(f"path_speed={scenario.path_speed!r} is out of range: {allowed}")
+    if scenario.trajectory is not None:
+        speed = scenario.trajectory.initial_speed
+        if speed > V_m:
+            raise ScenarioError(f"trajectory.initial_speed={speed!r} is out of range: {allowed}")
+        for i, seg in enumerate(scenario.trajectory.segments):
+            for key in ("v_end", "v_peak"):
+                value = getattr(seg, key, None)
+                if value is not None and value > V_m:
+                    where = f"trajectory.segments[{i}].{key}"
+                    raise ScenarioError(f"{where}={value!r} is out of range: {allowed}")
+        _wrap(lambda: check_trajectory_size(scenario.trajectory))
+    if scenario.path is not None:
+        _wrap(lambda: check_path_size(scenario.path))

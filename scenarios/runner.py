@@ -1,7 +1,8 @@
-"""Build, simulate and record a scenario: the run artifact of ../shared/DESIGN.md.
+"""Build, simulate and record a scenario: the run artifact of docs/artifacts.md.
 
 ``run_scenario`` returns the artifact arrays and summary; ``write_artifacts`` writes
-``DIR/<scenario>.npz``, ``DIR/<scenario>.summary.json`` and the figures.
+``DIR/<stem>.npz``, the figures and ``DIR/<stem>.summary.json`` (stem: ``artifact_stem``, e.g.
+``corner-seed0``), atomically.
 
 Every array is logged on the T_N grid by Drake loggers, which publish at t_k before the discrete updates
 of t_k: a row holds the true continuous state at t_k and the discrete signals (sensor samples ``meas_*``,
@@ -13,6 +14,9 @@ from __future__ import annotations
 import dataclasses as dc
 import json
 import math
+import os
+import shutil
+import tempfile
 import time
 from pathlib import Path as FilePath
 
@@ -20,7 +24,8 @@ import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram
 from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
-from slipnav.scenarios.config import Scenario, ScenarioError
+from slipnav.scenarios.config import MAX_DURATION, Scenario, ScenarioError, check_duration
+from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.metrics import moving_alpha
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.scenarios.trajectories import (
@@ -32,6 +37,7 @@ from slipnav.scenarios.trajectories import (
     trajectory_along_path,
     trajectory_path,
 )
+from slipnav.systems.checks import require_seed
 from slipnav.systems.plant import RobotParameters, tyre_slip
 
 TRUTH_KEYS = (
@@ -118,14 +124,62 @@ def closed_loop_settings(scenario: Scenario, slip_control: bool, speed_law: str)
 
 
 def end_time(scenario: Scenario, nominal: float, duration: float | None) -> float:
-    """--duration, else the scenario's duration, else the nominal end plus the settle time."""
+    """--duration, else the scenario's duration, else the nominal end plus the settle time (at most
+    MAX_DURATION)."""
     if duration is not None:
-        if not (math.isfinite(duration) and duration > 0.0):
-            raise ScenarioError(f"--duration={duration!r} is out of range: allowed (0, inf) s")
-        return duration
+        return check_duration(scenario, duration)
     if scenario.duration is not None:
         return scenario.duration
-    return nominal + scenario.settle_time
+    return min(nominal + scenario.settle_time, MAX_DURATION)
+
+
+def check_run_options(
+    scenario: Scenario,
+    seed: int | None = None,
+    duration: float | None = None,
+    slip_control: bool | None = None,
+    speed_law: str | None = None,
+    open_loop: bool | None = None,
+) -> None:
+    """The overrides of run_scenario (the command line's flags), checked against the scenario before
+    anything is built; raises ScenarioError naming the flag (and the parameter)."""
+    if not isinstance(scenario, Scenario):
+        raise ScenarioError(f"scenario must be a Scenario (load_scenario(...)), got {scenario!r}")
+    scenario.validate()  # a Scenario built or changed in Python
+    if seed is not None:
+        _wrap_value(lambda: require_seed(seed, "--seed"))
+    if duration is not None:
+        check_duration(scenario, duration)
+    for name, value in (("slip_control", slip_control), ("open_loop", open_loop)):
+        if value is not None and not isinstance(value, bool):
+            raise ScenarioError(f"{name}={value!r} is out of range: allowed True, False or None")
+    open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
+    how = "this run is open loop (--open-loop or controller: feedforward)"
+    if speed_law is not None:
+        if speed_law not in ("bounded", "constant"):
+            raise ScenarioError(f"--speed-law={speed_law!r} is unknown: allowed bounded, constant")
+        if scenario.mode != "max_speed":
+            raise ScenarioError(
+                f"--speed-law (speed_law) applies to max_speed scenarios only: {scenario.name!r} is mode "
+                f"{scenario.mode}"
+            )
+        if open_loop:
+            raise ScenarioError(f"--speed-law (speed_law) applies to the closed loop only: {how}")
+    if slip_control is not None:
+        if scenario.mode != "trajectory":
+            raise ScenarioError(
+                f"--no-slip-control (slip_control) applies to trajectory scenarios only: {scenario.name!r} "
+                f"is mode {scenario.mode} (its speed comes from the speed law)"
+            )
+        if open_loop:
+            raise ScenarioError(f"--no-slip-control (slip_control) applies to the closed loop only: {how}")
+
+
+def _wrap_value(check):
+    try:
+        return check()
+    except ValueError as e:
+        raise ScenarioError(str(e)) from None
 
 
 def run_scenario(
@@ -140,19 +194,17 @@ def run_scenario(
     """Simulate ``scenario`` and collect the run artifact.
 
     The keyword arguments override the scenario (the command line's --seed, --duration,
-    --no-slip-control, --speed-law, --open-loop, --tolerances). Navigation and control read the nominal
-    robot (``scenario.robot_parameters()``); the plant and sensors are the real robot
-    (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*`` scalars, the
-    summary's ``plant``). A closed-loop run ends when the trajectory (progress
-    Pi reaches its end) or the path (virtual target at its end) is complete plus ``settle_time``, or at
-    the duration limit (default: three times the nominal time).
+    --no-slip-control, --speed-law, --open-loop, --tolerances; None keeps the scenario's). Navigation
+    and control read the nominal robot (``scenario.robot_parameters()``); the plant and sensors are the
+    real robot (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*``
+    scalars, the summary's ``plant``). A closed-loop run ends when the controller has finished its
+    trajectory (progress Pi at its end) or path (virtual target at its end) plus ``settle_time``, or at
+    the duration limit (default: three times the nominal time). Completion is then judged on the true
+    pose (judge_completion): ``summary["completed"]``.
     """
+    check_run_options(scenario, seed, duration, slip_control, speed_law, open_loop)
     seed = scenario.seed if seed is None else int(seed)
-    if not (0 <= seed < 2**31):
-        raise ScenarioError(f"seed={seed!r} is out of range: allowed 0 .. 2**31-1")
     speed_law = scenario.speed_law if speed_law is None else speed_law
-    if speed_law not in ("bounded", "constant"):
-        raise ScenarioError(f"--speed-law={speed_law!r} is unknown: allowed bounded, constant")
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
     open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
     rates = scenario.rates()
@@ -163,18 +215,20 @@ def run_scenario(
 
     if open_loop:
         v_R, v_L = reference.wheel_speeds(robot.track_width)
-        built = build_open_loop_diagram(
-            robot,
-            sensor_params,
-            rates,
-            np.column_stack([v_R, v_L]),
-            np.column_stack([reference.x, reference.y, reference.phi]),
-            seed,
-            initial_pose=pose0,
-            initial_speed=initial_speed,
-            navigation=scenario.navigation,
-            plant_time_step=scenario.plant_time_step,
-            plant=plant,
+        built = _wrap_value(
+            lambda: build_open_loop_diagram(
+                robot,
+                sensor_params,
+                rates,
+                np.column_stack([v_R, v_L]),
+                np.column_stack([reference.x, reference.y, reference.phi]),
+                seed,
+                initial_pose=pose0,
+                initial_speed=initial_speed,
+                navigation=scenario.navigation,
+                plant_time_step=scenario.plant_time_step,
+                plant=plant,
+            )
         )
         nominal = reference.duration
         path = None
@@ -201,20 +255,20 @@ def run_scenario(
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     context = simulator.get_context()
     wall_start = time.perf_counter()
-    completion = None
-    if open_loop:
-        simulator.AdvanceTo(limit)
-        completion = reference.duration if reference.duration <= limit else None
-    else:
-        done = _completion_check(built, context, scenario.mode, reference, path)
+    controller_done = None  # when the controller finished its reference (not where the robot is)
+    done = None if open_loop else _completion_check(built, context, scenario.mode, reference, path)
+    with deferred_interrupt() as pending:
         t = 0.0
         while t < limit - 1e-12:
             t = min(t + 0.1, limit)
             simulator.AdvanceTo(t)
-            if completion is None:
-                completion = done()
-                if completion is not None and duration is None and scenario.duration is None:
-                    limit = min(limit, completion + scenario.settle_time)
+            pending.raise_if_interrupted()
+            if done is not None and controller_done is None:
+                controller_done = done()
+                if controller_done is not None and duration is None and scenario.duration is None:
+                    limit = min(limit, controller_done + scenario.settle_time)
+    if open_loop and reference.duration <= limit:
+        controller_done = reference.duration
     wall = time.perf_counter() - wall_start
 
     arrays = collect_arrays(built.loggers, context, plant)
@@ -230,6 +284,11 @@ def run_scenario(
         track_width=np.array(robot.track_width),
         **{f"plant_{key}": np.array(value) for key, value in record.items()},
     )
+    # Completion on the true pose against the path followed (closed loop) or the reference (open loop).
+    track_x, track_y = (reference.x, reference.y) if path is None else (path.x, path.y)
+    judged = judge_completion(
+        arrays["t"], arrays["true_x"], arrays["true_y"], track_x, track_y, completion_tolerance(robot)
+    )
     summary = {
         "scenario": scenario.name,
         "seed": seed,
@@ -244,7 +303,12 @@ def run_scenario(
         "plant_deviations": {key: float(value) for key, value in deviations.items()},
         "path_length_m": float(arrays["path_length"]),
         "duration_s": float(arrays["t"][-1]),
-        "completion_time_s": completion,
+        "completed": judged["completed"],
+        "completion_time_s": judged["completion_time_s"],
+        "completion_tolerance_m": judged["completion_tolerance_m"],
+        "end_distance_m": judged["end_distance_m"],
+        "end_progress_m": judged["end_progress_m"],
+        "controller_completion_time_s": controller_done,
         "final_position_error_m": final_position_errors(arrays),
         "reference_final_distance_m": float(
             math.hypot(arrays["true_x"][-1] - reference.x[-1], arrays["true_y"][-1] - reference.y[-1])
@@ -260,11 +324,12 @@ def run_scenario(
         if np.isfinite(arrays["step_size"]).any()
         else None,
         "wall_time_s": wall,
+        # Simulated time over the wall time of the simulation alone (slipnav bench reports the same).
         "realtime_factor": float(arrays["t"][-1] / wall) if wall > 0 else None,
     }
-    if path is not None:  # until completion: the robot's braking after the end is not tracking
-        until = arrays["t"] <= (completion if completion is not None else np.inf)
-        err = path_distance(arrays["true_x"][until], arrays["true_y"][until], path)
+    if path is not None:  # distance to the path's segments until the controller finished (then braking)
+        until = arrays["t"] <= (controller_done if controller_done is not None else np.inf)
+        err = judged["distance"][until]
         summary["path_error_rms_m"] = float(np.sqrt(np.mean(err**2)))
         summary["path_error_max_m"] = float(np.max(err))
     return RunResult(scenario=scenario, seed=seed, arrays=arrays, summary=summary, reference=reference)
@@ -286,15 +351,75 @@ def _completion_check(built, context, mode, reference, path):
     return done
 
 
-def path_distance(x, y, path: Path, chunk: int = 512) -> np.ndarray:
-    """Distance of each point (x, y) from the path polyline's nearest vertex (1 mm grid)."""
-    px, py = path.x[:, None], path.y[:, None]
-    out = np.empty(len(x))
-    for i in range(0, len(x), chunk):
-        dx = px - x[None, i : i + chunk]
-        dy = py - y[None, i : i + chunk]
-        out[i : i + chunk] = np.sqrt(np.min(dx * dx + dy * dy, axis=0))
-    return out
+def path_projection(x, y, path_x, path_y, block: int = 256, margin: float = 0.2):
+    """Distance of each point (x, y) from the polyline (path_x, path_y), measured to its segments (the
+    foot of the perpendicular, or a segment's end), and the arc length of that foot: (distance, s).
+
+    The search is local: the points are taken as a track in time order, in blocks of ``block``; a block
+    searches only the segments from ``margin`` m behind the previous block's foot to ``margin`` m plus
+    twice the distance the block's points travel ahead of it. Memory stays O(block x window), and a path
+    that passes its start again (a circle) is not matched to its end too early.
+    """
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    px, py = np.asarray(path_x, float), np.asarray(path_y, float)
+    if len(px) < 2:
+        raise ValueError("path_projection needs a polyline of at least 2 points")
+    seg_len = np.hypot(np.diff(px), np.diff(py))
+    s_vertex = np.concatenate([[0.0], np.cumsum(seg_len)])
+    distance, progress = np.empty(len(x)), np.empty(len(x))
+    s_prev = 0.0
+    for i in range(0, len(x), block):
+        bx, by = x[i : i + block], y[i : i + block]
+        travelled = float(np.sum(np.hypot(np.diff(bx), np.diff(by)))) if len(bx) > 1 else 0.0
+        lo = max(int(np.searchsorted(s_vertex, s_prev - margin, side="right")) - 1, 0)
+        hi = min(int(np.searchsorted(s_vertex, s_prev + margin + 2.0 * travelled, side="left")) + 1, len(px))
+        hi = max(hi, lo + 2)
+        ax, ay = px[lo : hi - 1], py[lo : hi - 1]  # segment starts
+        dx, dy, length = np.diff(px[lo:hi]), np.diff(py[lo:hi]), seg_len[lo : hi - 1]
+        # Foot of the perpendicular as a fraction of each segment, clipped to the segment.
+        rx, ry = bx[:, None] - ax[None, :], by[:, None] - ay[None, :]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = np.where(length > 0.0, (rx * dx + ry * dy) / (length * length), 0.0)
+        u = np.clip(u, 0.0, 1.0)
+        d2 = (rx - u * dx) ** 2 + (ry - u * dy) ** 2
+        j = np.argmin(d2, axis=1)
+        rows = np.arange(len(bx))
+        distance[i : i + block] = np.sqrt(d2[rows, j])
+        progress[i : i + block] = s_vertex[lo + j] + u[rows, j] * length[j]
+        s_prev = float(progress[i + len(bx) - 1])
+    return distance, progress
+
+
+def path_distance(x, y, path: Path) -> np.ndarray:
+    """Distance of each point (x, y) of a track from the path polyline's segments (see path_projection)."""
+    return path_projection(x, y, path.x, path.y)[0]
+
+
+def completion_tolerance(robot: RobotParameters) -> float:
+    """How close to the end of its path the robot must really be to count as arrived (m):
+    max(0.05 m, 2 track widths) (Tinyphoon 0.136 m, Kurt3D 0.8 m)."""
+    return max(0.05, 2.0 * robot.track_width)
+
+
+def judge_completion(t, x, y, path_x, path_y, tolerance: float) -> dict:
+    """Completion judged on the true track: the robot reached the end of the path (polyline path_x,
+    path_y) when its true position came within ``tolerance`` of the path's end point with its
+    along-path progress within ``tolerance`` of the path's length; ``completion_time_s`` is the first
+    such sample (None if never). ``end_distance_m`` is where it finally stopped (an overshoot shows there)."""
+    distance, progress = path_projection(x, y, path_x, path_y)
+    length = float(np.sum(np.hypot(np.diff(path_x), np.diff(path_y))))
+    to_end = np.hypot(np.asarray(x) - path_x[-1], np.asarray(y) - path_y[-1])
+    arrived = np.flatnonzero((to_end <= tolerance) & (progress >= length - tolerance))
+    completed = len(arrived) > 0
+    completion = float(t[arrived[0]]) if completed else None
+    return {
+        "completed": completed,
+        "completion_time_s": completion,
+        "completion_tolerance_m": float(tolerance),
+        "end_distance_m": float(to_end[-1]),
+        "end_progress_m": float(progress[-1]),
+        "distance": distance,
+    }
 
 
 def final_position_errors(arrays) -> dict:
@@ -379,18 +504,65 @@ def collect_navigation(a: dict, data) -> None:
     a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1].copy(), calibration[3].copy()
 
 
+def artifact_stem(result: RunResult) -> str:
+    """File stem of a run's artifacts: ``<scenario>-seed<N>`` plus the switches that changed what ran,
+    ``-open-loop``, ``-no-slip-control``, ``-speed-law-constant``, ``-tolerances`` (README: Run artifacts)."""
+    s = result.summary
+    stem = f"{s['scenario'] or 'scenario'}-seed{s['seed']}"
+    if s["controller"] != "closed loop":
+        stem += "-open-loop"
+    if s["slip_control"] is False:
+        stem += "-no-slip-control"
+    if s["speed_law"] == "constant":
+        stem += "-speed-law-constant"
+    if s.get("tolerances"):
+        stem += "-tolerances"
+    return stem
+
+
+def check_output_directory(out_dir) -> FilePath:
+    """Create ``out_dir`` if needed and prove it writable (before a simulation, so that a bad --out
+    fails at once); raises ScenarioError naming --out."""
+    out = FilePath(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ScenarioError(f"--out={str(out_dir)!r} is a file: allowed a directory (created if missing)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe, name = tempfile.mkstemp(dir=out, prefix=".slipnav-probe-")
+        os.close(probe)
+        os.unlink(name)
+    except OSError as e:
+        reason = e.strerror or str(e)
+        raise ScenarioError(f"--out={str(out_dir)!r} is not a writable directory: {reason}") from None
+    return out
+
+
 def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[FilePath]:
-    """Write the npz, the summary JSON and (optionally) the figures; returns the written paths."""
+    """Write ``<stem>.npz``, the figures and ``<stem>.summary.json`` (stem: artifact_stem) into
+    ``out_dir``; returns the written paths.
+
+    Atomic: everything is first written into a temporary folder inside ``out_dir``, then renamed into
+    place (``os.replace``) with Ctrl-C deferred, the summary last. An interruption or error while
+    writing leaves no new file and the previous run's files untouched.
+    """
     from slipnav.scenarios.plots import write_figures
 
-    out = FilePath(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    name = result.scenario.name
-    npz = out / f"{name}.npz"
-    np.savez(npz, **{k: np.asarray(v, dtype=float) for k, v in result.arrays.items()})
-    summary = out / f"{name}.summary.json"
-    summary.write_text(json.dumps(result.summary, indent=2) + "\n")
-    written = [npz, summary]
-    if figures:
-        written += write_figures(result.arrays, result.reference, out, name)
+    out = check_output_directory(out_dir)
+    stem = artifact_stem(result)
+    staging = FilePath(tempfile.mkdtemp(dir=out, prefix=f".{stem}.partial-"))
+    try:
+        np.savez(staging / f"{stem}.npz", **{k: np.asarray(v, dtype=float) for k, v in result.arrays.items()})
+        staged = [staging / f"{stem}.npz"]
+        if figures:
+            staged += write_figures(result.arrays, result.reference, staging, stem)
+        summary = staging / f"{stem}.summary.json"
+        summary.write_text(json.dumps(result.summary, indent=2) + "\n")
+        staged.append(summary)  # renamed last: a summary means the run's files are complete
+        with deferred_interrupt():
+            written = []
+            for path in staged:
+                os.replace(path, out / path.name)
+                written.append(out / path.name)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     return written

@@ -164,6 +164,62 @@ def _integrate(t, v, omega, pose0):
 
 
 # ---------------------------------------------------------------------------------------------------
+# Size limits: checked from the segments alone, before any array is allocated.
+
+MAX_TRAJECTORY_SAMPLES = 5_000_000
+"""Samples of the trajectory generator's 0.1 ms grid (500 s of trajectory, ~200 MB while building)."""
+MAX_PATH_SAMPLES = 2_000_000
+"""Samples of a path's 1 mm grid (2 km of path)."""
+
+
+def trajectory_extent(config: TrajectoryConfig) -> tuple[float, float]:
+    """(duration s, length m) of a trajectory, computed from its segments without sampling them."""
+    duration, length, v0 = 0.0, 0.0, float(config.initial_speed)
+    for i, seg in enumerate(config.segments):
+        where = f"trajectory.segments[{i}] ({type(seg).__name__})"
+        if isinstance(seg, (SpotTurn, Pause)):
+            duration += _positive(where, "duration", seg.duration)
+            v0 = 0.0
+            continue
+        seg_length, _ = _geometry(seg, where)
+        T, _, _, v0 = _speed_law(seg, v0, seg_length, where)
+        duration += T
+        length += seg_length
+    repeat = max(int(config.repeat), 1)
+    return duration * repeat, length * repeat
+
+
+def check_trajectory_size(config: TrajectoryConfig) -> None:
+    """Reject a trajectory whose 0.1 ms generator grid would exceed MAX_TRAJECTORY_SAMPLES or whose path
+    would exceed MAX_PATH_SAMPLES."""
+    duration, length = trajectory_extent(config)
+    if length / _PATH_STEP > MAX_PATH_SAMPLES:  # the closed loop follows its path on the 1 mm grid
+        raise TrajectoryError(
+            f"trajectory: the segments are {length:.4g} m long ({length / _PATH_STEP:.3g} samples of the "
+            f"{_PATH_STEP * 1e3:g} mm path grid): allowed up to {MAX_PATH_SAMPLES * _PATH_STEP:g} m"
+        )
+    if duration / _FINE_STEP > MAX_TRAJECTORY_SAMPLES:
+        raise TrajectoryError(
+            f"trajectory: the segments take {duration:.4g} s ({duration / _FINE_STEP:.3g} samples of the "
+            f"{_FINE_STEP * 1e3:g} ms generator grid): allowed up to "
+            f"{MAX_TRAJECTORY_SAMPLES * _FINE_STEP:g} s"
+        )
+
+
+def check_path_size(config: PathConfig) -> None:
+    """Reject a path whose 1 mm grid would exceed MAX_PATH_SAMPLES."""
+    length = 0.0
+    for i, seg in enumerate(config.segments):
+        if isinstance(seg, (Straight, Arc, CosineTurn)):
+            length += _geometry(seg, f"path.segments[{i}] ({type(seg).__name__})")[0]
+    if length / _PATH_STEP > MAX_PATH_SAMPLES:
+        raise TrajectoryError(
+            f"path: the segments are {length:.4g} m long ({length / _PATH_STEP:.3g} samples of the "
+            f"{_PATH_STEP * 1e3:g} mm grid): allowed up to {MAX_PATH_SAMPLES * _PATH_STEP:g} m"
+        )
+
+
+# ---------------------------------------------------------------------------------------------------
 # Trajectories
 
 

@@ -1,4 +1,4 @@
-"""The slipnav command line and the run artifact contract (../shared/DESIGN.md)."""
+"""The slipnav command line and the run artifact contract (docs/artifacts.md)."""
 
 import json
 
@@ -28,7 +28,7 @@ def test_list(capsys):
 @pytest.mark.parametrize("name", ["corner", "square", "circle", "long_path"])
 def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, capsys):
     assert main(["run", name, "--out", str(tmp_path), "--seed", "3", "--duration", "0.2"]) == 0
-    data = np.load(tmp_path / f"{name}.npz")
+    data = np.load(tmp_path / f"{name}-seed3.npz")
     n = len(data["t"])
     assert n == 101  # 0.2 s on the 2 ms grid, both ends included
     np.testing.assert_allclose(np.diff(data["t"]), 0.002, atol=1e-12)
@@ -56,25 +56,25 @@ def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, c
     ):
         assert np.all(np.isfinite(data[key])), key
     assert data["V1"][0] == np.inf and np.all(np.isfinite(data["V1"][1:]))  # +inf before 1st update
-    summary = json.loads((tmp_path / f"{name}.summary.json").read_text())
+    summary = json.loads((tmp_path / f"{name}-seed3.summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["seed"] == 3 and summary["scenario"] == name
     assert all(v is not None for v in summary["final_position_error_m"].values())
     for fig in ("path", "speeds", "slip", "navigation", "control"):
-        assert (tmp_path / f"{name}.{fig}.png").stat().st_size > 10_000
+        assert (tmp_path / f"{name}-seed3.{fig}.png").stat().st_size > 10_000
 
 
 def test_corner_slides_sideways_and_square_spins_wheels_open_loop(tmp_path):
     """Issue 2's done-criterion: visible side-slip in the corner, tangential slip in the square."""
     assert main(["run", "corner", "--out", str(tmp_path), "--no-figures", "--open-loop"]) == 0
-    corner = json.loads((tmp_path / "corner.summary.json").read_text())
+    corner = json.loads((tmp_path / "corner-seed0-open-loop.summary.json").read_text())
     assert corner["peak_abs_true_alpha_deg"] > 5.0
     assert corner["completion_time_s"] is not None
     assert (
         main(["run", "square", "--out", str(tmp_path), "--no-figures", "--duration", "1.0", "--open-loop"])
         == 0
     )
-    square = np.load(tmp_path / "square.npz")
+    square = np.load(tmp_path / "square-seed0-open-loop.npz")
     slip_speed = square["true_wheel_R"] - square["true_v_t"]
     assert np.max(np.abs(slip_speed)) > 0.4  # wheels run 0.4 m/s ahead of / behind the body
     assert np.max(np.abs(np.degrees(square["true_alpha"][square["true_v_t"] > 0.2]))) < 1.0
@@ -97,9 +97,9 @@ def test_control_flags(tmp_path):
         )
         == 0
     )
-    data = np.load(tmp_path / "corner.npz")
+    data = np.load(tmp_path / "corner-seed0-no-slip-control.npz")
     assert np.all(data["step_size"] == 1.0)
-    summary = json.loads((tmp_path / "corner.summary.json").read_text())
+    summary = json.loads((tmp_path / "corner-seed0-no-slip-control.summary.json").read_text())
     assert summary["slip_control"] is False
     assert (
         main(
@@ -117,7 +117,7 @@ def test_control_flags(tmp_path):
         )
         == 0
     )
-    data = np.load(tmp_path / "circle.npz")
+    data = np.load(tmp_path / "circle-seed0-speed-law-constant.npz")
     assert np.max(data["cmd_R"]) <= 0.5 * float(data["V_m"]) * 1.3  # u = V_m/2 plus steering
 
 
@@ -139,7 +139,7 @@ def test_yaml_file_scenario(tmp_path, capsys):
     f = tmp_path / "mine.yaml"
     f.write_text("trajectory:\n  segments:\n    - !Straight {length: 0.2, v_end: 0.5}\nsettle_time: 0.1\n")
     assert main(["run", str(f), "--out", str(tmp_path), "--no-figures"]) == 0
-    summary = json.loads((tmp_path / "mine.summary.json").read_text())
+    summary = json.loads((tmp_path / "mine-seed0.summary.json").read_text())
     assert summary["path_length_m"] == pytest.approx(0.2)
     bad = tmp_path / "bad.yaml"
     bad.write_text("trajectory:\n  segmnts: []\n")

@@ -6,7 +6,6 @@ import pytest
 from slipnav.scenarios.config import ScenarioError, builtin_scenarios, load_scenario, scenario_from_yaml
 
 GOOD = """
-robot: tinyphoon
 trajectory:
   segments:
     - !Straight {length: 1.0, v_end: 1.0}

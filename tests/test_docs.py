@@ -1,0 +1,82 @@
+"""The documentation runs and cannot drift: README snippets, the schema tables, the artifact keys."""
+
+import re
+from pathlib import Path
+
+import pytest
+from slipnav.scenarios import schema
+from slipnav.scenarios.cli import main
+from slipnav.scenarios.config import scenario_from_yaml
+from slipnav.scenarios.runner import run_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+README = (ROOT / "README.md").read_text()
+DOCS = ROOT / "docs"
+
+
+def _blocks(text: str, language: str) -> list[str]:
+    return re.findall(rf"```{language}\n(.*?)```", text, re.S)
+
+
+@pytest.mark.parametrize("index", range(len(_blocks(README, "python"))))
+def test_readme_python_blocks_run(index, capsys):
+    code = _blocks(README, "python")[index]
+    namespace = {}
+    exec(compile(code, f"README.md python block {index}", "exec"), namespace)
+    if "arrays" in namespace:  # the three-line example
+        assert len(namespace["arrays"]["t"]) == 251  # 0.5 s on the 2 ms grid
+    else:  # the worked script prints how far the fused estimate ends from the truth
+        assert re.search(r"fused estimate ends \d+\.\d mm from the truth", capsys.readouterr().out)
+
+
+def test_readme_python_blocks_exist():
+    assert len(_blocks(README, "python")) == 2
+
+
+@pytest.mark.parametrize("document", ["README.md", "docs/scenario-schema.md"])
+def test_every_yaml_example_loads(document):
+    blocks = _blocks((ROOT / document).read_text(), "yaml")
+    assert blocks
+    for block in blocks:
+        scenario_from_yaml(block, name="example")
+
+
+def test_schema_doc_is_generated_from_the_dataclasses():
+    text = (DOCS / "scenario-schema.md").read_text()
+    assert schema.generated_section() in text, (
+        "run: python -m slipnav.scenarios.schema --write docs/scenario-schema.md"
+    )
+    keys = [row[0] for row in schema.key_rows()]
+    for key in [
+        "navigation.ekf.Q",
+        "navigation.yaw_calibration.enabled",
+        "plant.deviations.wheel_radius_R",
+        "plant.tolerances.accel1_misalignment_deg",
+        "follower.k2",
+        "slip_control.k_s",
+        "name",
+    ]:
+        assert key in keys
+    for key in keys + [row[0] for row in schema.segment_rows() + schema.override_rows()]:
+        assert f"`{key}`" in text, key
+
+
+def test_artifact_doc_lists_every_npz_and_summary_key():
+    result = run_scenario(
+        scenario_from_yaml("trajectory:\n  segments:\n    - !Straight {length: 0.1, v_end: 0.5}\n"),
+        duration=0.1,
+    )
+    text = (DOCS / "artifacts.md").read_text()
+    for key in list(result.arrays) + list(result.summary):
+        assert f"`{key}`" in text, key
+
+
+def test_docs_point_into_the_repository(capsys):
+    for text in [README] + [p.read_text() for p in DOCS.glob("*.md")]:
+        assert "../shared" not in text.replace("`../shared/DESIGN.md`", "")
+    for name in ("design.md", "artifacts.md", "scenario-schema.md"):
+        assert f"docs/{name}" in README and (DOCS / name).is_file()
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    help_text = capsys.readouterr().out
+    assert "docs/design.md" in help_text and "docs/artifacts.md" in help_text
