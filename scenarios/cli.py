@@ -70,6 +70,18 @@ def _parser() -> argparse.ArgumentParser:
     bud.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
     bud.add_argument("--seeds", type=int, default=3, help="number of seeds (default 3)")
     bud.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    rob = sub.add_parser(
+        "robustness", help="nominal navigation on toleranced robots vs baselines (benchmark)"
+    )
+    rob.add_argument(
+        "scenarios",
+        nargs="*",
+        default=["corner", "square", "long_path"],
+        help="default: corner square long_path",
+    )
+    rob.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
+    rob.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    rob.add_argument("--out", default="runs", help="directory of robustness.png (default runs)")
     ben = sub.add_parser("bench", help="speed of the closed-loop diagram vs the plain loop (benchmark)")
     ben.add_argument("scenario", nargs="?", default="corner", help="closed-loop scenario (default corner)")
     ben.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
@@ -109,6 +121,19 @@ def _command(args) -> int:
         if args.seeds < 1:
             raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
         error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None)
+        return 0
+    if args.command == "robustness":
+        from slipnav.scenarios.runner import check_output_directory
+        from slipnav.studies.robustness import robustness
+
+        if args.seeds < 1:
+            raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
+        if not 1 <= args.workers <= 64:
+            raise ScenarioError(f"--workers={args.workers} is out of range: allowed 1 .. 64")
+        for name in args.scenarios:
+            load_scenario(name)
+        check_output_directory(args.out)
+        robustness(args.scenarios, args.seeds, args.workers, args.out)
         return 0
     if args.command == "accuracy":
         from slipnav.studies.accuracy import accuracy

@@ -1,0 +1,191 @@
+"""Robustness of the navigation to a real robot that is not its data sheet: ``slipnav robustness
+[SCENARIO ...] [--seeds N] [--workers N]`` (benchmark).
+
+Every case changes only the simulated robot (the scenario's ``plant`` section); navigation and control
+keep the nominal model. Cases: the matched robot, every single tolerance at its bound (each wheel radius
++-1 %, both +1 %, track +-3 %, gyro scale +-1 %, accelerometer misalignment 1 deg, accelerometer scale
++-2 %, mass +25 %, friction 0.5 and 0.9) and random draws of the tolerance preset. For each case and
+seed: the final position error (% of the path) of the fused estimate, odometry-only and Gyrodometry, the
+final heading errors and the side-slip RMS (where |alpha| > 1 deg). Prints a table (the matched row
+first), writes a figure, and ends with
+``robustness worst_fused_pct=<f> worst_fused_over_best_baseline=<f> worst_alpha_rms_deg=<f>``.
+"""
+
+import concurrent.futures as cf
+import dataclasses as dc
+import math
+import sys
+import time
+from pathlib import Path as FilePath
+
+import numpy as np
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.metrics import final_position_error, side_slip_rms_error
+from slipnav.scenarios.runner import run_scenario
+from slipnav.scenarios.tolerances import RobotDeviations
+
+CASES = {
+    "matched": ({}, {}),
+    "right radius +1 %": ({"wheel_radius_R": 0.01}, {}),
+    "right radius -1 %": ({"wheel_radius_R": -0.01}, {}),
+    "left radius +1 %": ({"wheel_radius_L": 0.01}, {}),
+    "left radius -1 %": ({"wheel_radius_L": -0.01}, {}),
+    "both radii +1 %": ({"wheel_radius_R": 0.01, "wheel_radius_L": 0.01}, {}),
+    "track +3 %": ({"track_width": 0.03}, {}),
+    "track -3 %": ({"track_width": -0.03}, {}),
+    "gyro scale +1 %": ({"gyro_scale": 0.01}, {}),
+    "gyro scale -1 %": ({"gyro_scale": -0.01}, {}),
+    "accel misalignment 1 deg": ({"accel1_misalignment_deg": 1.0, "accel2_misalignment_deg": 1.0}, {}),
+    "accel scale +2 %": ({"accel1_scale": 0.02, "accel2_scale": 0.02}, {}),
+    "accel scale -2 %": ({"accel1_scale": -0.02, "accel2_scale": -0.02}, {}),
+    "mass +25 %": ({"mass": 0.25, "yaw_inertia": 0.25}, {}),
+    "friction 0.5": ({}, {"tyre_friction": 0.5}),
+    "friction 0.9": ({}, {"tyre_friction": 0.9}),
+    "tolerance preset draws": None,
+}
+"""Case label -> (plant.deviations, plant.robot_overrides); None: random draws of TOLERANCE_PRESET."""
+
+
+def run_case(name: str, case: str, seed: int, open_loop=None) -> dict:
+    """One run of ``case``; returns its figures."""
+    scenario = load_scenario(name)
+    spec = CASES[case]
+    if spec is not None:
+        deviations, overrides = spec
+        scenario.plant = dc.replace(
+            scenario.plant,
+            deviations=RobotDeviations(**deviations),
+            robot_overrides={**scenario.plant.robot_overrides, **overrides},
+        )
+    a = run_scenario(scenario, seed=seed, open_loop=open_loop, tolerances=spec is None).arrays
+    length = float(a["path_length"])
+    out = {"scenario": name, "case": case, "seed": seed}
+    for label, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+        out[f"{label}_pct"] = 100.0 * final_position_error(a, prefix) / length
+        heading = a[f"{prefix}_phi"][-1] - a["true_phi"][-1]
+        out[f"{label}_heading_deg"] = math.degrees(math.remainder(heading, 2.0 * math.pi))
+    out["alpha_rms_deg"] = math.degrees(side_slip_rms_error(a))
+    return out
+
+
+def _run(job):
+    return run_case(*job)
+
+
+def robustness(names, seeds: int, workers: int = 2, out_dir="runs", open_loop=None, stream=None) -> list:
+    """Run every case of every scenario over seeds 0..seeds-1 (``workers`` processes); print the table
+    and the last line, write ``out_dir/robustness.png``; returns the per-run figures."""
+    stream = stream or sys.stdout
+    jobs = [(name, case, seed, open_loop) for name in names for case in CASES for seed in range(seeds)]
+    start = time.perf_counter()
+    rows = []
+    with cf.ProcessPoolExecutor(max_workers=workers) as pool:
+        for i, row in enumerate(pool.map(_run, jobs, chunksize=1)):
+            rows.append(row)
+            print(f"\rrobustness {i + 1}/{len(jobs)} runs", end="", file=sys.stderr, flush=True)
+    print(file=sys.stderr)
+    summary = summarise(rows, stream)
+    print(f"{len(jobs)} runs in {time.perf_counter() - start:.0f} s", file=stream)
+    figure = plot_robustness(rows, FilePath(out_dir) / "robustness.png")
+    print(f"figure: {figure}", file=stream)
+    pct, ratio, alpha = summary
+    print(
+        f"robustness worst_fused_pct={pct:.3f} worst_fused_over_best_baseline={ratio:.3f} "
+        f"worst_alpha_rms_deg={alpha:.3f}",
+        file=stream,
+    )
+    return rows
+
+
+def summarise(rows: list, stream) -> tuple:
+    """Print per scenario and case: mean (worst) of each error, the mean ratio of fused to the better
+    baseline, and the seeds on which fused exceeded either baseline. Returns the last line's figures."""
+    worst_pct, worst_ratio, worst_alpha = 0.0, 0.0, 0.0
+    for name in dict.fromkeys(r["scenario"] for r in rows):
+        print(f"\n{name}", file=stream)
+        print(
+            f"{'case':<26}{'fused %':>14}{'odometry %':>14}{'Gyrodom. %':>14}{'fused/best':>11}"
+            f"{'above a baseline':>17}{'heading fused/odo/gyro deg':>30}{'alpha RMS deg':>15}",
+            file=stream,
+        )
+        for case in CASES:
+            sel = [r for r in rows if r["scenario"] == name and r["case"] == case]
+            if not sel:
+                continue
+            col = {k: np.array([r[k] for r in sel], float) for k in sel[0] if k not in ("scenario", "case")}
+            best = np.minimum(col["odometry_pct"], col["gyrodometry_pct"])
+            ratio = col["fused_pct"].mean() / best.mean()
+            above = int(
+                np.sum((col["fused_pct"] > col["odometry_pct"]) | (col["fused_pct"] > col["gyrodometry_pct"]))
+            )
+            alpha = col["alpha_rms_deg"]
+            alpha_text = (
+                f"{np.nanmean(alpha):.2f} ({np.nanmax(alpha):.2f})" if np.isfinite(alpha).any() else "-"
+            )
+            worst_pct = max(worst_pct, col["fused_pct"].max())
+            worst_ratio = max(worst_ratio, ratio)
+            if np.isfinite(alpha).any():
+                worst_alpha = max(worst_alpha, float(np.nanmean(alpha)))
+
+            def mw(k, col=col):
+                return f"{col[k].mean():.2f} ({col[k].max():.2f})"
+
+            heading = "/".join(
+                f"{np.abs(col[f'{p}_heading_deg']).mean():.2f}" for p in ("fused", "odometry", "gyrodometry")
+            )
+            print(
+                f"{case:<26}{mw('fused_pct'):>14}{mw('odometry_pct'):>14}{mw('gyrodometry_pct'):>14}{ratio:>11.2f}"
+                f"{f'{above}/{len(sel)}':>17}{heading:>30}{alpha_text:>15}",
+                file=stream,
+            )
+    print(
+        "\nfigures: mean (worst) over seeds; fused/best = mean fused / mean of the better baseline per seed; "
+        "alpha RMS where |alpha| > 1 deg (its mean enters the last line)",
+        file=stream,
+    )
+    return worst_pct, worst_ratio, worst_alpha
+
+
+def plot_robustness(rows: list, path: FilePath) -> FilePath:
+    """Grouped bars: per case the mean final error of fused, odometry-only and Gyrodometry (% of the
+    path), one panel per scenario, worst seeds as error-bar tops."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(dict.fromkeys(r["scenario"] for r in rows))
+    fig, axes = plt.subplots(len(names), 1, figsize=(12, 3.6 * len(names)), squeeze=False)
+    cases = list(CASES)
+    x = np.arange(len(cases))
+    for ax, name in zip(axes[:, 0], names, strict=True):
+        for j, (label, key) in enumerate(
+            (("fused", "fused_pct"), ("odometry-only", "odometry_pct"), ("Gyrodometry", "gyrodometry_pct"))
+        ):
+            means, worsts = [], []
+            for case in cases:
+                values = [r[key] for r in rows if r["scenario"] == name and r["case"] == case]
+                means.append(np.mean(values) if values else np.nan)
+                worsts.append(np.max(values) if values else np.nan)
+            means, worsts = np.array(means), np.array(worsts)
+            ax.bar(
+                x + (j - 1) * 0.27,
+                means,
+                0.27,
+                label=label,
+                yerr=[np.zeros_like(means), worsts - means],
+                capsize=2,
+            )
+        ax.set_yscale("log")
+        ax.set_ylabel("final position error (% of path)")
+        ax.set_title(f"{name}: nominal navigation on a toleranced robot (bars: mean, whiskers: worst seed)")
+        ax.set_xticks(x, cases, rotation=30, ha="right", fontsize=8)
+        ax.axhline(1.0, color="k", lw=0.8, ls="--")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
