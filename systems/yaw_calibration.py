@@ -45,13 +45,10 @@ class YawCalibrationParameters:
             paper).
         initial_bias_std: prior standard deviation of the gyro bias (rad/s): the ADXRS300's residual
             0.2 deg/s = 0.0035.
-        initial_radius_difference_std: prior standard deviation of D = e_R - e_L: 0.008, that of the
-            difference of two radii each uniform within +-1 % of the nominal (sqrt(2) 0.01/sqrt(3)). At
-            constant speed the offset gyro - omega_o cannot tell b_g from D v/b; the prior splits it (a
-            looser prior hands Kurt3D's bias to D at 4 m/s: long path 1.1 % against 0.6 % with 0.005).
+        initial_radius_difference_std: prior standard deviation of D = e_R - e_L: 0.02 (each rolling
+            radius within +-1 % of the nominal).
         bias_drift_density: random walk of the bias (rad/s per sqrt(s)): the gyro's 0.0005.
-        radius_drift_density: random walk of D (1 per sqrt(s)): 0, a constant of the robot over a run
-            (a drift lets D absorb the bias's random walk at constant speed).
+        radius_drift_density: random walk of D (1 per sqrt(s)): 1e-4 (tyre wear and temperature).
         measurement_std: standard deviation of a batch's residual (rad/s): 0.01, the gyro's noise over a
             batch (0.014/sqrt(10)) and one encoder count per batch (Tinyphoon 0.005 rad/s), with margin.
         innovation_gate: a batch whose innovation exceeds this many sigmas is not learned from: 4.
@@ -62,9 +59,9 @@ class YawCalibrationParameters:
 
     enabled: bool = True
     initial_bias_std: float = 0.0035
-    initial_radius_difference_std: float = 0.008
+    initial_radius_difference_std: float = 0.02
     bias_drift_density: float = 0.0005
-    radius_drift_density: float = 0.0
+    radius_drift_density: float = 1e-4
     measurement_std: float = 0.01
     innovation_gate: float = 4.0
     trusted_c1: float = 0.9
