@@ -131,16 +131,16 @@ class Scenario:
             }
             truth = dc.replace(truth, tolerances=dc.replace(truth.tolerances, **bounds))
         _wrap(truth.validate)
-        robot = _prefixed(
+        robot = _wrap(
             lambda: _override(self.robot_parameters(), truth.robot_overrides, "plant.robot_overrides"),
             "plant.robot_overrides",
         )
-        sensors = _prefixed(
+        sensors = _wrap(
             lambda: _override(self.sensor_parameters(), truth.sensor_overrides, "plant.sensor_overrides"),
             "plant.sensor_overrides",
         )
         deviations = draw_deviations(truth, self.seed if seed is None else seed)
-        plant, true_sensors = _prefixed(lambda: apply_deviations(robot, sensors, deviations), "plant")
+        plant, true_sensors = _wrap(lambda: apply_deviations(robot, sensors, deviations), "plant")
         return plant, true_sensors, deviations
 
     def validate(self) -> "Scenario":
@@ -188,24 +188,15 @@ class Scenario:
         return self
 
 
-def _wrap(make):
-    try:
-        return make()
-    except ScenarioError:
-        raise
-    except (ValueError, TypeError) as e:
-        raise ScenarioError(str(e)) from None
-
-
-def _prefixed(make, where: str):
-    """make(), a ValueError naming its key as ``where.key``."""
+def _wrap(make, where: str | None = None):
+    """make(), its ValueError as a ScenarioError; with ``where``, naming its key as ``where.key``."""
     try:
         return make()
     except ScenarioError:
         raise
     except (ValueError, TypeError) as e:
         message = str(e)
-        if not message.startswith(where.split(".")[0] + "."):
+        if where is not None and not message.startswith(where.split(".")[0] + "."):
             message = f"{where}.{message}"
         raise ScenarioError(message) from None
 

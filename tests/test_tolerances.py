@@ -49,9 +49,8 @@ def test_navigation_and_control_read_the_nominal_robot():
     control_diagram = built.diagram.GetSubsystemByName("control")
     saturator = control_diagram.GetSubsystemByName("Wheel-speed saturator")
     follower = control_diagram.GetSubsystemByName("Lyapunov path follower")
-    assert nominal.track_width in vars(saturator).values() or saturator._half == pytest.approx(
-        0.5 * nominal.track_width
-    )
+    assert saturator._half == pytest.approx(0.5 * nominal.track_width)
+    assert saturator._V_m == nominal.wheel_speed_limit
     assert follower._half == pytest.approx(0.5 * nominal.track_width)
 
 
