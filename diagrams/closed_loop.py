@@ -8,7 +8,7 @@ from pydrake.systems.primitives import Demultiplexer
 from slipnav.diagrams.navigation import add_navigation
 from slipnav.diagrams.open_loop import LoggedDiagram, add_loggers, check_robot_inputs, robot_ports
 from slipnav.diagrams.robot import add_robot_with_sensors
-from slipnav.systems.checks import check_follower_gains, require_instance
+from slipnav.systems.checks import check_follower_gains, check_start_time, require_instance
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
@@ -28,6 +28,9 @@ class ControlSettings:
         follower: PathFollowerParameters. step_size: StepSizeParameters.
         slip_control: False keeps delta = 1 (``--no-slip-control``).
         speed_law: ``bounded`` (I(24)) or ``constant`` (u = V_m/2), max_speed mode.
+        start_time: the controller's first update (s, a multiple of T_C): until then the commands are
+            zero, the robot stands and the navigation learns the gyro's bias (the scenario's
+            ``standstill_time``).
     """
 
     mode: str
@@ -37,6 +40,7 @@ class ControlSettings:
     step_size: StepSizeParameters = dc.field(default_factory=StepSizeParameters)
     slip_control: bool = True
     speed_law: str = "bounded"
+    start_time: float = 0.0
 
 
 CONTROL_OUTPUTS = ("wheel_speed_command", "V1", "virtual_target", "frenet_errors", "reference_pose")
@@ -69,7 +73,12 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
     if control.mode not in ("trajectory", "max_speed"):
         raise ValueError(f"mode={control.mode!r} is unknown: allowed 'trajectory', 'max_speed'")
     b = DiagramBuilder()
-    follower = b.AddSystem(LyapunovPathFollower(control.follower, control.path, robot.track_width, rates.T_C))
+    check_start_time(control.start_time, rates.T_C, "control.start_time")
+    follower = b.AddSystem(
+        LyapunovPathFollower(
+            control.follower, control.path, robot.track_width, rates.T_C, start_time=control.start_time
+        )
+    )
     follower.set_name("Lyapunov path follower")
     saturator = b.AddSystem(
         WheelSpeedSaturator(
@@ -94,7 +103,9 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
     b.ExportOutput(follower.GetOutputPort("virtual_target"), "virtual_target")
     b.ExportOutput(follower.GetOutputPort("frenet_errors"), "frenet_errors")
     if control.mode == "trajectory":
-        step = b.AddSystem(StepSizeController(control.step_size, rates.T_C, control.slip_control))
+        step = b.AddSystem(
+            StepSizeController(control.step_size, rates.T_C, control.slip_control, control.start_time)
+        )
         step.set_name("Step-size controller")
         interpolator = b.AddSystem(TrajectoryInterpolator(control.trajectory, control.step_size))
         interpolator.set_name("Trajectory interpolator")
@@ -148,6 +159,11 @@ def build_closed_loop_diagram(
     if control.mode == "trajectory" and not hasattr(control.trajectory, "num_samples"):
         raise ValueError(
             f"control.trajectory must be a Trajectory in trajectory mode, got {control.trajectory!r}"
+        )
+    if control.start_time > 0.0 and initial_speed != 0.0:
+        raise ValueError(
+            f"control.start_time={control.start_time!r} needs a robot at rest: initial_speed="
+            f"{initial_speed!r}, allowed 0 (or start_time 0)"
         )
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(

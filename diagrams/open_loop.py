@@ -11,6 +11,7 @@ from slipnav.diagrams.navigation import add_navigation
 from slipnav.diagrams.robot import RobotHandles, add_robot_with_sensors
 from slipnav.systems.checks import (
     check_robot_physics,
+    check_start_time,
     require_finite,
     require_instance,
     require_pose,
@@ -105,11 +106,13 @@ def build_open_loop_diagram(
     navigation: NavigationParameters | None = None,
     plant_time_step: float = DEFAULT_TIME_STEP,
     plant: RobotParameters | None = None,
+    start_time: float = 0.0,
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
     the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out).
     ``robot`` is the nominal model the navigation reads, ``plant`` the real robot (default ``robot``).
-    Raises ValueError naming the parameter for an input that cannot be simulated."""
+    ``start_time``: the table's row 0 plays until then (the standstill; a robot at rest only). Raises
+    ValueError naming the parameter for an input that cannot be simulated."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     if navigation is not None:
         require_instance("navigation", navigation, NavigationParameters)
@@ -121,6 +124,11 @@ def build_open_loop_diagram(
             f"reference_poses has {len(reference_poses)} rows: allowed one per wheel_speeds row "
             f"({len(wheel_speeds)})"
         )
+    check_start_time(start_time, rates.T_C)
+    if start_time > 0.0 and initial_speed != 0.0:
+        raise ValueError(
+            f"start_time={start_time!r} needs a robot at rest: initial_speed={initial_speed!r}, allowed 0"
+        )
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
         builder, plant or robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
@@ -130,7 +138,9 @@ def build_open_loop_diagram(
         _, nav_ports = add_navigation(
             builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose
         )
-    feedforward = builder.AddSystem(TrajectoryFeedforward(rates.T_C, wheel_speeds, reference_poses))
+    feedforward = builder.AddSystem(
+        TrajectoryFeedforward(rates.T_C, wheel_speeds, reference_poses, start_time)
+    )
     feedforward.set_name("Trajectory feed-forward")
     builder.Connect(
         feedforward.GetOutputPort("wheel_speed_command"),

@@ -66,6 +66,9 @@ class Scenario:
         path: segments of the geometric path (mode max_speed).
         path_speed: speed of the open-loop run along a path (m/s); default V_m/2.
         initial_pose: [x, y, phi] of the robot at t = 0 (m, m, rad); the reference starts at the origin.
+        standstill_time: the robot stands this long before the controller starts (s, a multiple of
+            T_C), as a real robot does while its navigation initialises: the yaw calibration learns the
+            gyro's bias there (systems/yaw_calibration.py). Only where the run starts at rest.
         settle_time: simulated time after the reference ends (s).
         duration: hard limit of the simulated time (s); default: reference end + settle_time.
         controller: ``closed_loop`` (navigation -> path follower -> plant) or ``feedforward`` (the
@@ -93,6 +96,7 @@ class Scenario:
     path: PathConfig | None = None
     path_speed: float | None = None
     initial_pose: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    standstill_time: float = 1.0
     settle_time: float = 0.5
     duration: float | None = None
     navigation: NavigationParameters = dc.field(default_factory=NavigationParameters)
@@ -168,6 +172,11 @@ class Scenario:
             raise ScenarioError(f"initial_pose={self.initial_pose!r} must be three finite numbers")
         if not (math.isfinite(self.settle_time) and 0.0 <= self.settle_time <= 60.0):
             raise ScenarioError(f"settle_time={self.settle_time!r} is out of range: allowed [0, 60] s")
+        st = self.standstill_time
+        if not (math.isfinite(st) and 0.0 <= st <= 60.0) or abs(st / self.T_C - round(st / self.T_C)) > 1e-9:
+            raise ScenarioError(
+                f"standstill_time={st!r} is out of range: allowed [0, 60] s, a multiple of T_C={self.T_C}"
+            )
         if self.duration is not None and not (0.0 < self.duration <= 3600.0):
             raise ScenarioError(f"duration={self.duration!r} is out of range: allowed (0, 3600] s")
         if self.path_speed is not None and not (0.0 < self.path_speed <= 10.0):

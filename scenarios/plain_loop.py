@@ -79,6 +79,7 @@ def run_plain_loop(
     T_N, T_C, p = rates.T_N, rates.T_C, robot
     world = plant or robot
     n = int(round(T_C / T_N))
+    k_start = int(round(control.start_time / T_N))  # the controller's first instant (the standstill before)
     plant_steps = substeps_per(T_N, plant_time_step, "T_N")
     if noise is None:
         noise = np.random.default_rng(seed).standard_normal((num_steps, NOISE_CHANNELS))
@@ -129,7 +130,7 @@ def run_plain_loop(
         command = saturate_wheel_speeds(follower[1], follower[2], p.wheel_speed_limit)
         out[k] = (*x, *meas_acc, meas_gyro, *meas_enc, *command, follower[3], s, delta, progress, *nav_row)
 
-        if k % n == 0:  # control instant: pre-update values of t_K
+        if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K
             if trajectory_mode:
                 if progress >= table_end:
                     u = 0.0
@@ -138,7 +139,7 @@ def run_plain_loop(
                     u = max(delta * ref[3] + control.step_size.k_s * (ref[4] - s), 0.0)
                 if control.slip_control:
                     c1, alpha = nav_row[LOOP_KEYS.index("C1")], nav_row[LOOP_KEYS.index("est_alpha")]
-                    delta = step_size(delta, c1, alpha, k // n - progress, control.step_size)
+                    delta = step_size(delta, c1, alpha, (k - k_start) // n - progress, control.step_size)
                 else:
                     delta = 1.0
                 progress += delta

@@ -16,6 +16,11 @@ def _has(a, key) -> bool:
     return key in a and np.any(np.isfinite(a[key]))
 
 
+def _start(a) -> float:
+    """When the controller started (the standstill before it; 0 in artifacts without the key)."""
+    return float(a["start_time"]) if "start_time" in a else 0.0
+
+
 def plot_path(a, reference, ax):
     ax.plot(reference.x, reference.y, "k--", lw=1, label="reference")
     ax.plot(a["true_x"], a["true_y"], "C0", lw=1.5, label="true")
@@ -36,7 +41,7 @@ def plot_path(a, reference, ax):
 def plot_speeds(a, reference, axes):
     t = a["t"]
     ax = axes[0]
-    ax.plot(reference.t, reference.v, "k--", lw=1, label="reference v")
+    ax.plot(reference.t + _start(a), reference.v, "k--", lw=1, label="reference v")
     ax.plot(t, a["true_v_t"], "C0", label="true $v_t$")
     ax.plot(t, a["true_wheel_R"], "C1", lw=0.8, label="wheel R $r\\dot\\theta_R$")
     ax.plot(t, a["true_wheel_L"], "C2", lw=0.8, label="wheel L $r\\dot\\theta_L$")
@@ -54,7 +59,7 @@ def plot_speeds(a, reference, axes):
     ax.set_ylabel("lateral speed (m/s)")
     ax.legend(loc="best", fontsize=7)
     ax = axes[2]
-    ax.plot(reference.t, reference.omega, "k--", lw=1, label="reference $\\omega$")
+    ax.plot(reference.t + _start(a), reference.omega, "k--", lw=1, label="reference $\\omega$")
     ax.plot(t, a["true_omega"], "C0", label="true $\\omega$")
     if _has(a, "est_omega"):
         ax.plot(t, a["est_omega"], "C3", lw=0.8, label="estimate $\\omega$")
@@ -136,7 +141,7 @@ def plot_control(a, reference, axes):
         ax.plot(t, a["step_size"], "C0", label="step size $\\delta_K$")
         ax.axhline(1.0, color="k", lw=0.6, ls="--")
         ax2 = ax.twinx()
-        K = np.ceil(t / T_C - 1e-9)  # the log holds Pi_K+1 on (t_K, t_K+1]
+        K = np.maximum(np.ceil((t - _start(a)) / T_C - 1e-9), 0.0)  # the log holds Pi_K+1 on (t_K, t_K+1]
         ax2.plot(t, a["progress"] - K, "C1", lw=0.8, label="$\\Pi_K - K$")
         ax2.set_ylabel("$\\Pi_K - K$ (samples)", color="C1")
     else:
@@ -163,7 +168,7 @@ def plot_associated_points(a, reference, ax, every: float = 0.2):
     T_C = float(a["T_C"])
     step = max(int(round(every / float(a["T_N"]))), 1)
     for k in range(0, len(a["t"]), step):
-        K = min(int(round(a["t"][k] / T_C)), reference.num_samples - 1)
+        K = min(max(int(round((a["t"][k] - _start(a)) / T_C)), 0), reference.num_samples - 1)
         ax.plot([reference.x[K], a["ref_x"][k]], [reference.y[K], a["ref_y"][k]], color="0.6", lw=0.6)
         ax.plot(reference.x[K], reference.y[K], "o", color="0.6", ms=2)
 

@@ -60,7 +60,7 @@ SERIES_KEYS = (
     + SENSOR_KEYS
     + SLIP_KEYS
 )
-SCALAR_KEYS = ("path_length", "T_N", "T_C", "V_m", "track_width")
+SCALAR_KEYS = ("path_length", "T_N", "T_C", "V_m", "track_width", "start_time")
 """Nominal values (what navigation and control believe); the real robot's are the ``plant_*`` scalars
 (scenarios.tolerances.plant_record)."""
 
@@ -111,6 +111,7 @@ def closed_loop_settings(scenario: Scenario, slip_control: bool, speed_law: str)
         nominal = path.length / (0.5 * scenario.robot_parameters().wheel_speed_limit)
     else:
         nominal = reference.duration
+    start = standstill_for(scenario, initial_speed)
     control = ControlSettings(
         mode=scenario.mode,
         path=path,
@@ -119,8 +120,15 @@ def closed_loop_settings(scenario: Scenario, slip_control: bool, speed_law: str)
         step_size=scenario.slip_control,
         slip_control=slip_control,
         speed_law=speed_law,
+        start_time=start,
     )
-    return control, initial_speed, nominal
+    return control, initial_speed, nominal + start
+
+
+def standstill_for(scenario: Scenario, initial_speed: float) -> float:
+    """The standstill before the controller starts: ``standstill_time`` for a run that starts at rest,
+    else 0 (a robot already moving cannot stand)."""
+    return scenario.standstill_time if initial_speed == 0.0 else 0.0
 
 
 def end_time(scenario: Scenario, nominal: float, duration: float | None) -> float:
@@ -214,6 +222,7 @@ def run_scenario(
     pose0 = tuple(scenario.initial_pose)
 
     if open_loop:
+        start = standstill_for(scenario, initial_speed)
         v_R, v_L = reference.wheel_speeds(robot.track_width)
         built = _wrap_value(
             lambda: build_open_loop_diagram(
@@ -228,13 +237,14 @@ def run_scenario(
                 navigation=scenario.navigation,
                 plant_time_step=scenario.plant_time_step,
                 plant=plant,
+                start_time=start,
             )
         )
-        nominal = reference.duration
+        nominal = reference.duration + start
         path = None
     else:
         control, initial_speed, nominal = closed_loop_settings(scenario, slip_control, speed_law)
-        path = control.path
+        path, start = control.path, control.start_time
         try:
             built = build_closed_loop_diagram(
                 robot,
@@ -267,8 +277,8 @@ def run_scenario(
                 controller_done = done()
                 if controller_done is not None and duration is None and scenario.duration is None:
                     limit = min(limit, controller_done + scenario.settle_time)
-    if open_loop and reference.duration <= limit:
-        controller_done = reference.duration
+    if open_loop and nominal <= limit:
+        controller_done = nominal
     wall = time.perf_counter() - wall_start
 
     arrays = collect_arrays(built.loggers, context, plant)
@@ -282,6 +292,7 @@ def run_scenario(
         T_C=np.array(rates.T_C),
         V_m=np.array(robot.wheel_speed_limit),
         track_width=np.array(robot.track_width),
+        start_time=np.array(start),
         **{f"plant_{key}": np.array(value) for key, value in record.items()},
     )
     # Completion on the true pose against the path followed (closed loop) or the reference (open loop).
@@ -303,6 +314,7 @@ def run_scenario(
         "plant_deviations": {key: float(value) for key, value in deviations.items()},
         "path_length_m": float(arrays["path_length"]),
         "duration_s": float(arrays["t"][-1]),
+        "standstill_s": float(start),
         "completed": judged["completed"],
         "completion_time_s": judged["completion_time_s"],
         "completion_tolerance_m": judged["completion_tolerance_m"],

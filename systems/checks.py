@@ -124,3 +124,10 @@ def check_follower_gains(follower, T_C: float, where: str = "follower.") -> None
                 f"({name} T_C = {value * T_C:g}; the discrete follower's error is multiplied by "
                 f"1 - {name} T_C each control period, unstable beyond 2)"
             )
+
+
+def check_start_time(start_time, T_C: float, name: str = "start_time") -> None:
+    """A controller's start (the standstill before it) is a finite multiple of T_C in [0, 60] s."""
+    ok = isinstance(start_time, (int, float)) and math.isfinite(start_time) and 0.0 <= start_time <= 60.0
+    if not ok or abs(start_time / T_C - round(start_time / T_C)) > 1e-9:
+        raise ValueError(f"{name}={start_time!r} is out of range: allowed [0, 60] s, a multiple of T_C={T_C}")

@@ -159,15 +159,25 @@ class LyapunovPathFollower(LeafSystem):
     - lyapunov_value: V1 of I(14) at the last update. virtual_target: s. frenet_errors: [s1, y1, theta].
     - path_point: [x, y, phi] of the path at s (the virtual target's pose).
 
-    Update every T_C (offset 0): errors to the path point at s, I(15)-(16), s <- s + s_dot T_C. When s
-    reaches the end of the path the commands are zero (the path is complete).
+    Update every T_C from start_time on (before it nothing changes): errors to the path point at s,
+    I(15)-(16), s <- s + s_dot T_C. When s reaches the end of the path the commands are zero (the path
+    is complete).
 
     Args:
         params: PathFollowerParameters. path: scenarios.trajectories.Path-like (pose(s), curvature(s),
-        length). track_width: m. T_C: s. s0: initial virtual target.
+        length). track_width: m. T_C: s. s0: initial virtual target. start_time: the first update (s, a
+        multiple of T_C): until then the commands are zero and the robot stands (standstill_time).
     """
 
-    def __init__(self, params: PathFollowerParameters, path, track_width: float, T_C: float, s0=0.0):
+    def __init__(
+        self,
+        params: PathFollowerParameters,
+        path,
+        track_width: float,
+        T_C: float,
+        s0=0.0,
+        start_time: float = 0.0,
+    ):
         super().__init__()
         check_path_curvature(path.max_abs_curvature, track_width)
         self._p, self._path, self._half, self._T_C = params, path, 0.5 * track_width, T_C
@@ -189,9 +199,12 @@ class LyapunovPathFollower(LeafSystem):
             lambda c, o: o.SetFromVector(path.pose(c.get_discrete_state(self._s).get_value()[0])),
             prerequisites_of_calc={self.xd_ticket()},
         )
+        self._start = start_time
         self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
 
     def _update(self, context, discrete_state):
+        if context.get_time() < self._start - 1e-9:
+            return  # standing still: the state (zero commands) is kept
         s = context.get_discrete_state(self._s).get_value()[0]
         u = self._speed.Eval(context)[0]
         u_measured = self._measured_speed.Eval(context)[0]

@@ -116,11 +116,12 @@ class StepSizeController(LeafSystem):
 
     Update at t_K = K T_C: delta_K from delta_K-1, C1 and alpha (S(22)) bounded by S(23) on K - Pi_K,
     then Pi_K+1 = Pi_K + delta_K (S(24)). ``enabled=False`` keeps delta = 1 (Pi_K = K): slip control off.
+    K counts from ``start_time`` (s, a multiple of T_C; the robot stands until then).
     """
 
-    def __init__(self, params: StepSizeParameters, T_C: float, enabled: bool = True):
+    def __init__(self, params: StepSizeParameters, T_C: float, enabled: bool = True, start_time: float = 0.0):
         super().__init__()
-        self._p, self._T_C, self._enabled = params, T_C, enabled
+        self._p, self._T_C, self._enabled, self._start = params, T_C, enabled, start_time
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._alpha = self.DeclareVectorInputPort("side_slip_angle", 1)
         self._delta = self.DeclareDiscreteState([1.0])
@@ -130,7 +131,9 @@ class StepSizeController(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        K = round(context.get_time() / self._T_C)
+        if context.get_time() < self._start - 1e-9:
+            return  # standing still
+        K = round((context.get_time() - self._start) / self._T_C)
         progress = context.get_discrete_state(self._progress).get_value()[0]
         delta = context.get_discrete_state(self._delta).get_value()[0]
         if self._enabled:

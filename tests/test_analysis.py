@@ -152,13 +152,13 @@ def test_large_q_delta_produces_the_limit_cycle_the_paper_warns_of():
     scenario = load_scenario("square")
     default_mixing = scenario.navigation.mixing
     scenario.navigation.mixing = dc.replace(default_mixing, dv_memory=0.0)
-    default = run_scenario(scenario, duration=3.0).arrays
+    default = run_scenario(scenario, duration=4.0).arrays
     scenario.slip_control = dc.replace(scenario.slip_control, q_delta=2.5, delta_max=2.5)
-    large = run_scenario(scenario, duration=3.0).arrays
+    large = run_scenario(scenario, duration=4.0).arrays
     up_default = np.diff(step_sequence(default))
     assert np.max(up_default) <= 0.06
     scenario.navigation = dc.replace(scenario.navigation, mixing=default_mixing)
-    summed = run_scenario(scenario, duration=3.0).arrays
+    summed = run_scenario(scenario, duration=4.0).arrays
     for run in (large, summed):
         up_large = np.diff(step_sequence(run))
         assert np.sum(up_large > 0.2) >= 4  # repeated large jumps: the cycle recurs

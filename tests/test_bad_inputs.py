@@ -94,6 +94,8 @@ YAML_CASES = [
     (STRAIGHT + "robot: hal\n", "robot='hal'"),
     (STRAIGHT + "controller: sideways\n", "controller='sideways'"),
     (STRAIGHT + "settle_time: 100\n", "settle_time=100"),
+    (STRAIGHT + "standstill_time: 0.01\n", "standstill_time=0.01"),  # not a multiple of T_C
+    (STRAIGHT + "standstill_time: -1\n", "standstill_time=-1"),
     (STRAIGHT + "plant_time_step: -1\n", "plant_time_step=-1"),
     ("trajectory:\n  repeat: 0\n  segments:\n    - !Straight {length: 1.0, v_end: 1}\n", "repeat=0"),
     ("trajectory:\n  segments:\n    - !SpotTurn {angle_deg: 90, duration: 1}\n", "segments[0] (SpotTurn)"),

@@ -27,10 +27,10 @@ def test_list(capsys):
 
 @pytest.mark.parametrize("name", ["corner", "square", "circle", "long_path"])
 def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, capsys):
-    assert main(["run", name, "--out", str(tmp_path), "--seed", "3", "--duration", "0.2"]) == 0
+    assert main(["run", name, "--out", str(tmp_path), "--seed", "3", "--duration", "1.2"]) == 0
     data = np.load(tmp_path / f"{name}-seed3.npz")
     n = len(data["t"])
-    assert n == 101  # 0.2 s on the 2 ms grid, both ends included
+    assert n == 601  # 1.2 s on the 2 ms grid, both ends included (1 s standstill, then driving)
     np.testing.assert_allclose(np.diff(data["t"]), 0.002, atol=1e-12)
     for key in SERIES_KEYS:
         assert data[key].shape == (n,) and data[key].dtype == float, key
@@ -55,7 +55,10 @@ def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, c
         "ref_phi",
     ):
         assert np.all(np.isfinite(data[key])), key
-    assert data["V1"][0] == np.inf and np.all(np.isfinite(data["V1"][1:]))  # +inf before 1st update
+    assert float(data["start_time"]) == 1.0
+    before = data["t"] <= 1.0  # +inf until the follower's first update, at the standstill's end
+    assert np.all(data["V1"][before] == np.inf) and np.all(np.isfinite(data["V1"][~before]))
+    assert np.all(data["cmd_R"][before] == 0.0) and np.max(np.abs(data["true_x"][before])) < 1e-9
     summary = json.loads((tmp_path / f"{name}-seed3.summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["seed"] == 3 and summary["scenario"] == name
@@ -71,7 +74,7 @@ def test_corner_slides_sideways_and_square_spins_wheels_open_loop(tmp_path):
     assert corner["peak_abs_true_alpha_deg"] > 5.0
     assert corner["completion_time_s"] is not None
     assert (
-        main(["run", "square", "--out", str(tmp_path), "--no-figures", "--duration", "1.0", "--open-loop"])
+        main(["run", "square", "--out", str(tmp_path), "--no-figures", "--duration", "2.0", "--open-loop"])
         == 0
     )
     square = np.load(tmp_path / "square-seed0-open-loop.npz")

@@ -78,7 +78,7 @@ def test_side_slip_error_at_the_updates_leaves_out_the_hold():
 
 
 def test_accuracy_command_smoke(capsys):
-    assert main(["accuracy", "square", "--seeds", "1", "--duration", "1.0"]) == 0
+    assert main(["accuracy", "square", "--seeds", "1", "--duration", "2.0"]) == 0
     out = capsys.readouterr().out
     assert "fused final error" in out and "tangential slip" in out
     assert main(["accuracy", "--seeds", "0"]) == 2

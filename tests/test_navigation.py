@@ -505,7 +505,7 @@ def test_diagram_matches_sequential_reference_loop(name):
     """The multi-rate wiring has no stray delay: the Drake diagram (closed around the plant) equals the
     plain sequential loop of the same pure functions fed the same logged sensor rows."""
     scenario = load_scenario(name)
-    a = run_scenario(scenario, duration=1.2).arrays
+    a = run_scenario(scenario, duration=2.2).arrays  # 1 s standstill, then driving
     robot = scenario.robot_parameters()
     rates = scenario.rates()
     out = navigation_loop(

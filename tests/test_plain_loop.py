@@ -15,9 +15,9 @@ from slipnav.scenarios.runner import closed_loop_settings, run_scenario
 @pytest.mark.parametrize(
     "name, duration, overrides",
     [
-        ("corner", 2.0, {}),  # trajectory mode, slip control acting (delta < 1 in the turn)
-        ("square", 1.0, {"slip_control": False}),
-        ("circle", 1.0, {"speed_law": "bounded"}),  # Kurt3D, max_speed mode, I(24)
+        ("corner", 3.0, {}),  # 1 s standstill; trajectory mode, slip control acting (delta < 1)
+        ("square", 2.0, {"slip_control": False}),
+        ("circle", 2.0, {"speed_law": "bounded"}),  # Kurt3D, max_speed mode, I(24)
     ],
 )
 def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides):

@@ -53,12 +53,22 @@ def test_static_filter_equals_the_batch_least_squares_posterior():
 
 
 def test_standstill_learns_the_bias_alone():
-    p = YawCalibrationParameters()
-    state = run_batches(yaw_calibration_initial_state(p), [(0.003, 0.0, 0.0)] * 50, p)
+    """No encoder count in a batch: the row [1, 0] with the gyro's noise alone (standstill_measurement_std);
+    without drift the posterior is the prior's and the batches' information summed: 1 s pins the bias
+    to sqrt(1 / (1/0.0035^2 + 50/0.005^2)) = 0.7 mrad/s, and D keeps its prior."""
+    p = YawCalibrationParameters(bias_drift_density=0.0)
+    rng = np.random.default_rng(3)
+    gyro = 0.003 + 0.0044 * rng.standard_normal(50)  # the batch means of the gyro's 0.014 rad/s noise
+    state = run_batches(yaw_calibration_initial_state(p), [(g, 0.0, 0.0) for g in gyro], p)
     b, D, sigma_b, sigma_D, learned, rejected = calibration_parameters(state)
-    assert abs(b - 0.003) < 3 * sigma_b and sigma_b < 0.002
-    assert D == 0.0 and sigma_D == pytest.approx(p.initial_radius_difference_std, rel=1e-3)
+    info = 1 / p.initial_bias_std**2 + 50 / p.standstill_measurement_std**2
+    assert sigma_b == pytest.approx(info**-0.5, rel=1e-9) and sigma_b < 0.0008
+    assert b == pytest.approx(np.sum(gyro) / p.standstill_measurement_std**2 / info, rel=1e-9)
+    assert abs(b - 0.003) < 3 * sigma_b
+    assert D == 0.0 and sigma_D == pytest.approx(p.initial_radius_difference_std, rel=1e-9)
     assert (learned, rejected) == (50, 0)
+    moving = run_batches(yaw_calibration_initial_state(p), [(0.003, 0.0, 1e-3)] * 50, p)
+    assert calibration_parameters(moving)[2] > 1.5 * sigma_b  # a counting encoder: measurement_std
 
 
 def test_gates_keep_failed_data_out():
