@@ -24,7 +24,7 @@ def test_readme_python_blocks_run(index, capsys):
     namespace = {}
     exec(compile(code, f"README.md python block {index}", "exec"), namespace)
     if "arrays" in namespace:  # the three-line example
-        assert len(namespace["arrays"]["t"]) == 251  # 0.5 s on the 2 ms grid
+        assert len(namespace["arrays"]["t"]) == 751  # 1.5 s on the 2 ms grid
     else:  # the worked script prints how far the fused estimate ends from the truth
         assert re.search(r"fused estimate ends \d+\.\d mm from the truth", capsys.readouterr().out)
 
