@@ -43,11 +43,13 @@ NAVIGATION_OUTPUTS = (
 def build_navigation_diagram(
     params: NavigationParameters,
     rates: SampleRates,
-    wheel_radius: float,
+    wheel_radius,
     track_width: float,
     initial: NavigationInitialState | None = None,
 ) -> Diagram:
     """The navigation algorithm as a Diagram.
+
+    ``wheel_radius``: one radius for both wheels or the pair (r_R, r_L) of a calibrated model (m).
 
     .. pydrake_system::
 
@@ -215,6 +217,7 @@ def build_navigation_replay(
     loggers = {}
     for name in NAVIGATION_OUTPUTS:
         loggers[name] = LogVectorOutput(nav.GetOutputPort(name), b, rates.T_N)
+        loggers[name].set_name(f"log {name}")
     diagram = b.Build()
     diagram.set_name("navigation_replay")
     return diagram, loggers
@@ -231,7 +234,7 @@ def add_navigation(
         build_navigation_diagram(
             navigation,
             rates,
-            robot.wheel_radius,
+            (robot.radius_R, robot.radius_L),
             robot.track_width,
             NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
         )

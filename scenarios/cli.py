@@ -7,6 +7,8 @@
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
+    slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
+    slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--out DIR]
 
 User mistakes print one line to stderr (``slipnav: error: ...`` naming the key and the allowed range) and
 exit with status 2, without a traceback, before any simulation starts. Ctrl-C prints ``slipnav:
@@ -82,6 +84,26 @@ def _parser() -> argparse.ArgumentParser:
     rob.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
     rob.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     rob.add_argument("--out", default="runs", help="directory of robustness.png (default runs)")
+    rep = sub.add_parser("replay", help="run the navigation alone on a sensor log (CSV)")
+    rep.add_argument("log", help="sensor log CSV (README.md: Sensor log), e.g. runs/corner-seed0.sensors.csv")
+    rep.add_argument(
+        "--model",
+        default=None,
+        help="model YAML the navigation believes (default: the log's <name>.model.yaml beside it, else the "
+        "nominal robot of its '# robot:' line)",
+    )
+    rep.add_argument("--out", default="runs", help="output directory (default: runs)")
+    rep.add_argument("--no-figures", action="store_true", help="skip the figures")
+    cal = sub.add_parser("calibrate", help="identify the robot's parameters from calibration manoeuvres")
+    cal.add_argument(
+        "--simulate",
+        required=True,
+        metavar="ROBOT",
+        help="simulated robot (tinyphoon, kurt3d), drawn from the tolerance preset by the seed",
+    )
+    cal.add_argument("--seed", type=int, default=0, help="tolerance draw and noise seed (default 0)")
+    cal.add_argument("--seeds", type=int, default=None, help="benchmark: seeds 0 .. N-1 instead of --seed")
+    cal.add_argument("--out", default="runs", help="directory of the model YAML files (default: runs)")
     ben = sub.add_parser("bench", help="speed of the closed-loop diagram vs the plain loop (benchmark)")
     ben.add_argument("scenario", nargs="?", default="corner", help="closed-loop scenario (default corner)")
     ben.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
@@ -135,6 +157,28 @@ def _command(args) -> int:
         check_output_directory(args.out)
         robustness(args.scenarios, args.seeds, args.workers, args.out)
         return 0
+    if args.command == "calibrate":
+        from slipnav.scenarios.runner import check_output_directory
+        from slipnav.studies.calibration import calibrate_command
+        from slipnav.systems.checks import require_seed
+        from slipnav.systems.plant import ROBOTS
+
+        if args.simulate not in ROBOTS:
+            raise ScenarioError(
+                f"--simulate={args.simulate!r} is unknown: allowed {', '.join(sorted(ROBOTS))}"
+            )
+        if args.seeds is not None and not 1 <= args.seeds <= 1000:
+            raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1 .. 1000")
+        try:
+            require_seed(args.seed, "--seed")
+        except ValueError as e:
+            raise ScenarioError(str(e)) from None
+        check_output_directory(args.out)
+        seeds = list(range(args.seeds)) if args.seeds is not None else [args.seed]
+        calibrate_command(args.simulate, seeds, args.out)
+        return 0
+    if args.command == "replay":
+        return _replay(args)
     if args.command == "accuracy":
         from slipnav.studies.accuracy import accuracy
 
@@ -185,6 +229,30 @@ def _command(args) -> int:
             f"{s['path_length_m'] - s['end_progress_m']:.3f} m short along the path (completed: false)",
             file=sys.stderr,
         )
+    return 0
+
+
+def _replay(args) -> int:
+    from slipnav.scenarios.replay import replay_file, write_replay_artifacts
+    from slipnav.scenarios.runner import check_output_directory
+
+    check_output_directory(args.out)
+    result = replay_file(args.log, args.model)  # every log or model mistake before the simulation
+    try:
+        written = write_replay_artifacts(result, args.out, figures=not args.no_figures)
+    except OSError as e:
+        print(f"slipnav: error: cannot write the artifacts into --out={args.out!r}: {e}", file=sys.stderr)
+        return 1
+    for path in written:
+        print(path)
+    s = result.summary
+    errors = s["final_position_error_m"]
+    truth = (
+        f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
+        if s["has_truth"]
+        else " (no truth columns: no error figures)"
+    )
+    print(f"{s['scenario']}: {s['rows']} rows replayed with model {s['model']}{truth}")
     return 0
 
 

@@ -22,8 +22,11 @@ def _start(a) -> float:
 
 
 def plot_path(a, reference, ax):
-    ax.plot(reference.x, reference.y, "k--", lw=1, label="reference")
-    ax.plot(a["true_x"], a["true_y"], "C0", lw=1.5, label="true")
+    """Reference (None: none, e.g. a replayed log), true path (where known) and the estimates."""
+    if reference is not None:
+        ax.plot(reference.x, reference.y, "k--", lw=1, label="reference")
+    if _has(a, "true_x"):
+        ax.plot(a["true_x"], a["true_y"], "C0", lw=1.5, label="true")
     for prefix, label, style in (
         ("est", "fused estimate", "C1"),
         ("odo", "odometry only", "C2"),
@@ -204,4 +207,28 @@ def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
     if _has(a, "V1") or _has(a, "step_size"):
         figure("control", 2, (9, 6), lambda axes: plot_control(a, reference, axes), "control")
     figure("slip", 2, (9, 6), lambda axes: plot_slip(a, axes), "slip")
+    return files
+
+
+def write_replay_figures(a, out_dir, name: str) -> list[FilePath]:
+    """<name>.path.png and <name>.navigation.png of a replayed sensor log (no reference; the truth where
+    the log has it)."""
+    out = FilePath(out_dir)
+    files = []
+    for suffix, rows, size, draw, title in (
+        ("path", 1, (6, 6), lambda ax: plot_path(a, None, ax), "replayed path"),
+        (
+            "navigation",
+            5,
+            (9, 11),
+            lambda axes: plot_navigation(a, axes),
+            "navigation estimates" + (" vs truth" if _has(a, "true_v_t") else "") + " (grey: detected slip)",
+        ),
+    ):
+        fig, axes = plt.subplots(rows, 1, figsize=size, sharex=rows > 1)
+        draw(axes)
+        (axes if rows == 1 else axes[0]).set_title(f"{name}: {title}")
+        files.append(out / f"{name}.{suffix}.png")
+        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
+        plt.close(fig)
     return files

@@ -27,6 +27,8 @@ from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios.config import MAX_DURATION, Scenario, ScenarioError, check_duration
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.metrics import moving_alpha
+from slipnav.scenarios.model import RobotModel, model_text
+from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays, sensor_log_text
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.scenarios.trajectories import (
     Path,
@@ -67,11 +69,16 @@ SCALAR_KEYS = ("path_length", "T_N", "T_C", "V_m", "track_width", "start_time")
 
 @dc.dataclass
 class RunResult:
+    """A run: its artifact arrays and summary, the reference, and what the robot logged (``sensor_log``:
+    the CSV of scenarios/sensor_log.py) with the model its navigation read (``model``)."""
+
     scenario: Scenario
     seed: int
     arrays: dict
     summary: dict
     reference: Trajectory
+    sensor_log: SensorLog | None = None
+    model: RobotModel | None = None
 
 
 def reference_for(scenario: Scenario) -> tuple[Trajectory, float]:
@@ -344,7 +351,43 @@ def run_scenario(
         err = judged["distance"][until]
         summary["path_error_rms_m"] = float(np.sqrt(np.mean(err**2)))
         summary["path_error_max_m"] = float(np.max(err))
-    return RunResult(scenario=scenario, seed=seed, arrays=arrays, summary=summary, reference=reference)
+    log = sensor_log_from_arrays(
+        arrays,
+        sensor_params.encoder_counts_per_revolution,
+        {
+            "robot": robot.name,
+            "T_N": rates.T_N,
+            "T_C": rates.T_C,
+            "encoder_counts_per_revolution": sensor_params.encoder_counts_per_revolution,
+            "initial_pose": tuple(float(v) for v in pose0),
+            "initial_speed": float(initial_speed),
+            "scenario": scenario.name or "scenario",
+            "seed": seed,
+        },
+    )
+    return RunResult(
+        scenario=scenario,
+        seed=seed,
+        arrays=arrays,
+        summary=summary,
+        reference=reference,
+        sensor_log=log,
+        model=belief_model(scenario),
+    )
+
+
+def belief_model(scenario: Scenario) -> RobotModel:
+    """The model the run's navigation and control read (its ``<stem>.model.yaml``): the nominal robot with
+    the scenario's overrides, its periods and navigation tuning."""
+    return RobotModel(
+        robot=scenario.robot,
+        description=f"the model scenario {scenario.name!r} believed (written by slipnav run)",
+        robot_overrides=dict(scenario.robot_overrides),
+        sensor_overrides=dict(scenario.sensor_overrides),
+        T_N=scenario.T_N,
+        T_C=scenario.T_C,
+        navigation=scenario.navigation,
+    )
 
 
 def _completion_check(built, context, mode, reference, path):
@@ -550,8 +593,9 @@ def check_output_directory(out_dir) -> FilePath:
 
 
 def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[FilePath]:
-    """Write ``<stem>.npz``, the figures and ``<stem>.summary.json`` (stem: artifact_stem) into
-    ``out_dir``; returns the written paths.
+    """Write ``<stem>.npz``, ``<stem>.sensors.csv`` (the sensor log), ``<stem>.model.yaml`` (the model
+    navigation read), the figures and ``<stem>.summary.json`` (stem: artifact_stem) into ``out_dir``;
+    returns the written paths.
 
     Atomic: everything is first written into a temporary folder inside ``out_dir``, then renamed into
     place (``os.replace``) with Ctrl-C deferred, the summary last. An interruption or error while
@@ -565,16 +609,28 @@ def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[Fi
     try:
         np.savez(staging / f"{stem}.npz", **{k: np.asarray(v, dtype=float) for k, v in result.arrays.items()})
         staged = [staging / f"{stem}.npz"]
+        if result.sensor_log is not None:
+            staged.append(staging / f"{stem}.sensors.csv")
+            staged[-1].write_text(sensor_log_text(result.sensor_log))
+        if result.model is not None:
+            staged.append(staging / f"{stem}.model.yaml")
+            staged[-1].write_text(model_text(result.model))
         if figures:
             staged += write_figures(result.arrays, result.reference, staging, stem)
-        summary = staging / f"{stem}.summary.json"
-        summary.write_text(json.dumps(result.summary, indent=2) + "\n")
-        staged.append(summary)  # renamed last: a summary means the run's files are complete
-        with deferred_interrupt():
-            written = []
-            for path in staged:
-                os.replace(path, out / path.name)
-                written.append(out / path.name)
+        return _publish(staging, staged, stem, result.summary, out)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def _publish(staging, staged: list, stem: str, summary_data: dict, out: FilePath) -> list[FilePath]:
+    """Write the summary into ``staging`` and move every staged file into ``out``, the summary last (a
+    summary means the files are complete), with Ctrl-C deferred."""
+    summary = staging / f"{stem}.summary.json"
+    summary.write_text(json.dumps(summary_data, indent=2) + "\n")
+    staged = [*staged, summary]
+    with deferred_interrupt():
+        written = []
+        for path in staged:
+            os.replace(path, out / path.name)
+            written.append(out / path.name)
     return written

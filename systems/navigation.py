@@ -43,7 +43,7 @@ from slipnav.systems.mixing import (
     mixing_c2,
     mixing_c3,
 )
-from slipnav.systems.odometry import odometry_step
+from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.pose import pose_step
 from slipnav.systems.sensor_check import check_sample
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
@@ -106,14 +106,16 @@ class NavigationLoop:
     def __init__(
         self,
         params: NavigationParameters,
-        wheel_radius: float,
+        wheel_radius,
         track_width: float,
         T_N: float,
         T_C: float,
         initial: NavigationInitialState | None = None,
     ):
         initial = initial or NavigationInitialState()
-        self.params, self.wheel_radius, self.track_width, self.T_N = params, wheel_radius, track_width, T_N
+        r_R, r_L = wheel_radii(wheel_radius)
+        self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
+        self.params, self.track_width, self.T_N = params, track_width, T_N
         self.n = int(round(T_C / T_N))
         self.Q, self.R, self.P = params.ekf.matrices()
         self.x = initial.ekf_state()
@@ -202,7 +204,7 @@ def navigation_loop(
     gyro,
     encoders,
     params: NavigationParameters,
-    wheel_radius: float,
+    wheel_radius,
     track_width: float,
     T_N: float,
     T_C: float,

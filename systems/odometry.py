@@ -11,10 +11,23 @@ def odometry(v_R: float, v_L: float, track_width: float):
     return 0.5 * (v_R + v_L), (v_R - v_L) / track_width
 
 
-def odometry_step(state, encoders, wheel_radius: float, track_width: float, T_N: float):
+def wheel_radii(wheel_radius) -> tuple[float, float]:
+    """(r_R, r_L) of a wheel radius given as one number (both wheels) or a pair (right, left), in m."""
+    if isinstance(wheel_radius, (tuple, list, np.ndarray)):
+        r_R, r_L = (float(r) for r in wheel_radius)
+    else:
+        r_R = r_L = float(wheel_radius)
+    for name, r in (("wheel_radius (right)", r_R), ("wheel_radius (left)", r_L)):
+        if not (math.isfinite(r) and r > 0.0):
+            raise ValueError(f"{name}={r!r} is out of range: allowed (0, inf) m")
+    return r_R, r_L
+
+
+def odometry_step(state, encoders, wheel_radius, track_width: float, T_N: float):
     """One sample of encoder differencing + S(10).
 
     Args:
+        wheel_radius: one radius for both wheels, or the pair (r_R, r_L) of a calibrated model (m).
         state: [theta_R_prev, theta_L_prev, samples_since_valid, v_t, omega, v_R, v_L]; theta_prev NaN
             means "no reading yet".
         encoders: [theta_R, theta_L] (rad); a non-finite reading is skipped (the counter keeps counting, so
@@ -29,8 +42,9 @@ def odometry_step(state, encoders, wheel_radius: float, track_width: float, T_N:
         return [prev_R, prev_L, gap + 1.0, v_t, omega, v_R, v_L], [v_t, omega, v_R, v_L], 1.0
     if math.isfinite(prev_R):
         dt = (gap + 1.0) * T_N
-        v_R = wheel_radius * (theta_R - prev_R) / dt
-        v_L = wheel_radius * (theta_L - prev_L) / dt
+        r_R, r_L = wheel_radius if isinstance(wheel_radius, tuple) else (wheel_radius, wheel_radius)
+        v_R = r_R * (theta_R - prev_R) / dt
+        v_L = r_L * (theta_L - prev_L) / dt
         v_t, omega = odometry(v_R, v_L, track_width)
     return [theta_R, theta_L, 0.0, v_t, omega, v_R, v_L], [v_t, omega, v_R, v_L], 0.0
 
@@ -54,14 +68,17 @@ class Odometry(LeafSystem):
     - fault: 1 when the current encoder sample is not finite (the previous output is held).
 
     Args:
-        wheel_radius, track_width: calibrated geometry (m).
+        wheel_radius, track_width: calibrated geometry (m); wheel_radius one number for both wheels or
+            the pair (r_R, r_L).
         T_N: navigation period (s).
         initial_speed: v_t output before the first difference is available (m/s).
     """
 
-    def __init__(self, wheel_radius: float, track_width: float, T_N: float, initial_speed: float = 0.0):
+    def __init__(self, wheel_radius, track_width: float, T_N: float, initial_speed: float = 0.0):
         super().__init__()
-        self._r, self._b, self._T_N = wheel_radius, track_width, T_N
+        r_R, r_L = wheel_radii(wheel_radius)
+        self._r = (r_R, r_L) if r_R != r_L else r_R
+        self._b, self._T_N = track_width, T_N
         self._enc = self.DeclareVectorInputPort("encoders", 2)
         v0 = float(initial_speed)
         self._state = self.DeclareDiscreteState(np.array([np.nan, np.nan, 0.0, v0, 0.0, v0, v0]))

@@ -86,16 +86,13 @@ def test_artifact_names_carry_seed_and_switches(tmp_path):
     assert _run(tmp_path, "--no-figures") == 0
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == [
-        "corner-seed0.npz",
-        "corner-seed0.summary.json",
-        "corner-seed3-no-slip-control.npz",
-        "corner-seed3-no-slip-control.summary.json",
-        "corner-seed3-open-loop.npz",
-        "corner-seed3-open-loop.summary.json",
+        f"corner-{stem}.{suffix}"
+        for stem in ("seed0", "seed3-no-slip-control", "seed3-open-loop")
+        for suffix in ("model.yaml", "npz", "sensors.csv", "summary.json")
     ]
 
 
-@pytest.mark.parametrize("where", ["npz", "figures", "summary"])
+@pytest.mark.parametrize("where", ["npz", "sensors", "figures", "summary"])
 def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, monkeypatch, capsys):
     """Ctrl-C while writing: exit 130, one line, no new file, the previous run's files as they were."""
     previous = {}
@@ -108,6 +105,8 @@ def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, mo
 
     if where == "npz":
         monkeypatch.setattr(runner.np, "savez", interrupt)
+    elif where == "sensors":
+        monkeypatch.setattr(runner, "sensor_log_text", interrupt)
     elif where == "figures":
         real = plots.write_figures
 

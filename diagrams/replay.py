@@ -1,0 +1,43 @@
+"""The navigation diagram alone, fed by a sensor log instead of the plant and its sensors."""
+
+from __future__ import annotations
+
+from pydrake.systems.framework import DiagramBuilder
+from slipnav.diagrams.navigation import NAVIGATION_OUTPUTS, SensorReplay, build_navigation_diagram
+from slipnav.diagrams.open_loop import add_loggers
+from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
+from slipnav.systems.rates import SampleRates
+
+
+def build_log_replay_diagram(
+    params: NavigationParameters,
+    rates: SampleRates,
+    wheel_radius,
+    track_width: float,
+    accelerometers,
+    gyro,
+    encoders,
+    initial: NavigationInitialState | None = None,
+):
+    """SensorReplay (the log's rows, row k at t_k = k T_N) -> navigation diagram, every navigation output
+    but the covariance logged every T_N through diagrams.open_loop.add_loggers, keyed ``nav_<output>``
+    as in a run (so runner.collect_navigation reads them).
+
+    Args:
+        params, rates, wheel_radius, track_width, initial: as build_navigation_diagram (the model).
+        accelerometers: (N, 4) a_t1, a_n1, a_t2, a_n2; gyro: (N,); encoders: (N, 2) wheel angles (rad).
+
+    Returns:
+        (diagram, loggers keyed ``nav_<output>``).
+    """
+    b = DiagramBuilder()
+    source = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders))
+    source.set_name("Sensor log")
+    nav = b.AddSystem(build_navigation_diagram(params, rates, wheel_radius, track_width, initial))
+    for name in ("accelerometers", "gyro", "encoders"):
+        b.Connect(source.GetOutputPort(name), nav.GetInputPort(name))
+    ports = {f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"}
+    loggers = add_loggers(b, ports, rates.T_N)
+    diagram = b.Build()
+    diagram.set_name("navigation_replay")
+    return diagram, loggers

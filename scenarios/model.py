@@ -1,0 +1,213 @@
+"""The model YAML: what navigation and control believe about the robot (README.md "Model files").
+
+A model names a nominal robot (``robot``, the data sheet) and changes it by what was measured or
+identified: ``robot_overrides`` (RobotParameters fields, e.g. ``rolling_radius_R``, ``track_width``),
+``sensor_overrides`` (SensorParameters fields of the nominal sensor set, e.g.
+``encoder_counts_per_revolution``), ``calibration`` (the sensors' systematic errors the navigation
+removes from every sample: SensorCalibration), ``navigation`` (tuning of the navigation blocks, e.g. the
+EKF's ``R`` from an Allan variance, the tyres' ``mixing.tyre_peak_acceleration``, the drag) and
+``standard_errors`` (informative: each identified value's standard error, keyed as in
+studies/calibration.py). ``slipnav run`` writes the model its navigation read (``<stem>.model.yaml``);
+``slipnav calibrate`` writes an identified one; ``slipnav replay --model`` and a scenario's ``model:``
+key read them.
+
+Never the plant: a model changes only the belief. The simulated robot stays the scenario's ``robot``
+with its ``plant:`` section.
+"""
+
+import dataclasses as dc
+import math
+from pathlib import Path as FilePath
+
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.plant import ROBOTS, RobotParameters, robot_parameters
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
+
+
+class ModelError(ValueError):
+    """A model YAML that cannot be loaded; the message names the key."""
+
+
+@dc.dataclass
+class SensorCalibration:
+    """The sensors' systematic errors as the model believes them (a reading is (1 + scale error) times the
+    truth, turned by the misalignment, plus the bias; systems/sensors.py). Zero everywhere: the sensors
+    are taken as perfect (the nominal model).
+
+    Args:
+        gyro_scale_error: relative sensitivity error of the gyro (1).
+        gyro_bias: the gyro's bias (rad/s), e.g. from a standstill.
+        accel1_scale_error, accel2_scale_error: relative sensitivity errors of the accelerometers (1).
+        accel1_misalignment, accel2_misalignment: angle of each accelerometer's axes against the body's
+            (rad, about the vertical, counter-clockwise).
+        accel_bias: biases of a_t1, a_n1, a_t2, a_n2 as read (m/s^2).
+    """
+
+    gyro_scale_error: float = 0.0
+    gyro_bias: float = 0.0
+    accel1_scale_error: float = 0.0
+    accel2_scale_error: float = 0.0
+    accel1_misalignment: float = 0.0
+    accel2_misalignment: float = 0.0
+    accel_bias: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
+
+    def is_identity(self) -> bool:
+        return all(getattr(self, f.name) == 0.0 for f in dc.fields(self) if f.name != "accel_bias") and all(
+            b == 0.0 for b in self.accel_bias
+        )
+
+    def validate(self) -> "SensorCalibration":
+        for name in ("gyro_scale_error", "accel1_scale_error", "accel2_scale_error"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and -0.5 < value < 0.5):
+                raise ModelError(f"calibration.{name}={value!r} is out of range: allowed (-0.5, 0.5)")
+        for name in ("accel1_misalignment", "accel2_misalignment"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and abs(value) < 0.5):
+                raise ModelError(f"calibration.{name}={value!r} is out of range: allowed (-0.5, 0.5) rad")
+        if not (math.isfinite(self.gyro_bias) and abs(self.gyro_bias) < 1.0):
+            raise ModelError(
+                f"calibration.gyro_bias={self.gyro_bias!r} is out of range: allowed (-1, 1) rad/s"
+            )
+        if len(self.accel_bias) != 4 or not all(math.isfinite(b) and abs(b) < 10.0 for b in self.accel_bias):
+            raise ModelError(
+                f"calibration.accel_bias={self.accel_bias!r}: allowed four finite numbers in (-10, 10) m/s^2"
+            )
+        return self
+
+
+@dc.dataclass
+class RobotModel:
+    """A model file (see the module docstring).
+
+    Args:
+        robot: the nominal robot, ``tinyphoon`` or ``kurt3d``.
+        description: free text (how the model was made).
+        robot_overrides: RobotParameters fields changed from the nominal (m, kg, ...), e.g.
+            ``rolling_radius_R``, ``rolling_radius_L``, ``track_width``.
+        sensor_overrides: SensorParameters fields of the nominal sensor set.
+        calibration: the sensors' systematic errors (SensorCalibration).
+        T_N, T_C: navigation and control periods (s).
+        navigation: navigation tuning; keys given here replace a scenario's (the rest keep the
+            scenario's values).
+        standard_errors: the standard error of each identified value (informative).
+    """
+
+    robot: str = "tinyphoon"
+    description: str = ""
+    robot_overrides: dict[str, float] = dc.field(default_factory=dict)
+    sensor_overrides: dict[str, float] = dc.field(default_factory=dict)
+    calibration: SensorCalibration = dc.field(default_factory=SensorCalibration)
+    T_N: float = 0.002
+    T_C: float = 0.02
+    navigation: NavigationParameters = dc.field(default_factory=NavigationParameters)
+    standard_errors: dict[str, float] = dc.field(default_factory=dict)
+
+    def robot_parameters(self) -> RobotParameters:
+        if self.robot not in ROBOTS:
+            raise ModelError(f"robot={self.robot!r} is unknown: allowed {sorted(ROBOTS)}")
+        return _apply(robot_parameters(self.robot), self.robot_overrides, "robot_overrides")
+
+    def sensor_parameters(self) -> SensorParameters:
+        return _apply(default_sensor_parameters(self.robot), self.sensor_overrides, "sensor_overrides")
+
+    def rates(self) -> SampleRates:
+        try:
+            return SampleRates(T_N=self.T_N, T_C=self.T_C)
+        except ValueError as e:
+            raise ModelError(str(e)) from None
+
+    def navigation_over(self, base: NavigationParameters) -> NavigationParameters:
+        """``base`` (a scenario's tuning) with the navigation keys this model's file gives."""
+        text = getattr(self, "_source_text", "")
+        if not text:
+            return self.navigation
+        try:
+            return yaml_load_typed(
+                schema=NavigationParameters,
+                data=text,
+                child_name="navigation",
+                defaults=dc.replace(base),
+            ).validate()
+        except RuntimeError:  # no navigation key in the file
+            return base
+
+    def validate(self) -> "RobotModel":
+        self.robot_parameters()
+        self.sensor_parameters()
+        self.rates()
+        self.calibration.validate()
+        try:
+            self.navigation.validate()
+        except ValueError as e:
+            raise ModelError(f"navigation.{e}") from None
+        for key, value in self.standard_errors.items():
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ModelError(f"standard_errors.{key}={value!r} is out of range: allowed [0, inf)")
+        return self
+
+
+def _apply(base, overrides: dict, where: str):
+    names = {f.name for f in dc.fields(base)} - {"name"}
+    for key, value in overrides.items():
+        if key not in names:
+            raise ModelError(f"{where}.{key} is unknown: allowed {sorted(names)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ModelError(f"{where}.{key}={value!r} is out of range: allowed finite numbers")
+    changes = {k: (int(v) if isinstance(getattr(base, k), int) else float(v)) for k, v in overrides.items()}
+    try:
+        return dc.replace(base, **changes)
+    except ValueError as e:
+        raise ModelError(f"{where}.{e}") from None
+
+
+def model_from_text(text: str, where: str = "model") -> RobotModel:
+    """Parse and validate a model YAML text (strict: unknown keys are errors)."""
+    from slipnav.scenarios.config import ScenarioError, _check, _load_yaml
+
+    try:
+        raw = _load_yaml(text)
+        if not isinstance(raw, dict):
+            raise ModelError(f"{where}: expected a mapping of keys (README.md: Model files), got {raw!r}")
+        hints = {f.name for f in dc.fields(RobotModel)}
+        for key in raw:
+            if key not in hints:
+                raise ModelError(f"{where}: {key} is an unknown key: allowed {sorted(hints)}")
+        _check(RobotModel, raw, "")
+    except ScenarioError as e:
+        raise ModelError(f"{where}: {e}") from None
+    try:
+        model = yaml_load_typed(schema=RobotModel, data=text)
+    except Exception as e:
+        raise ModelError(f"{where}: {e}") from None
+    model._source_text = text  # navigation_over overlays exactly the keys the file gives
+    try:
+        return model.validate()
+    except ModelError as e:
+        raise ModelError(f"{where}: {e}") from None
+
+
+def load_model(path) -> RobotModel:
+    """Read a model YAML file; ModelError naming the file and the key."""
+    path = FilePath(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise ModelError(
+            f"model file {str(path)!r} cannot be read: {getattr(e, 'strerror', None) or e}"
+        ) from None
+    return model_from_text(text, where=f"model file {str(path)!r}")
+
+
+def model_text(model: RobotModel) -> str:
+    """YAML text of ``model`` (floats round-trip exactly)."""
+    header = "# slipnav model: what navigation and control believe (README.md: Model files)\n"
+    return header + yaml_dump_typed(model)
+
+
+def write_model(model: RobotModel, path) -> FilePath:
+    path = FilePath(path)
+    path.write_text(model_text(model))
+    return path

@@ -1,0 +1,208 @@
+"""``slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR]``: the navigation alone on a sensor log.
+
+The log's rows (scenarios/sensor_log.py) drive the navigation diagram through a log source in place of
+the plant and its sensors (diagrams/replay.py); the model (scenarios/model.py) is what the navigation
+believes. The result is a run artifact with the same keys (docs/artifacts.md: Replay): the navigation
+keys from the diagram, ``meas_*`` from the log, ``cmd_*`` and ``true_*`` where the log has those columns
+(NaN otherwise), and a summary that compares with the truth only where the log has it. Replaying the
+sensor log of a ``slipnav run`` with the model it wrote reproduces the run's estimates bit for bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+import shutil
+import tempfile
+import time
+from pathlib import Path as FilePath
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+from slipnav.diagrams.replay import build_log_replay_diagram
+from slipnav.scenarios.config import ScenarioError
+from slipnav.scenarios.interrupt import deferred_interrupt
+from slipnav.scenarios.model import ModelError, RobotModel, load_model
+from slipnav.scenarios.runner import (
+    SERIES_KEYS,
+    _publish,
+    check_output_directory,
+    collect_navigation,
+    final_position_errors,
+)
+from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_sensor_log
+from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
+
+
+@dc.dataclass
+class ReplayResult:
+    name: str
+    arrays: dict
+    summary: dict
+
+
+def log_name(path) -> str:
+    """The replay's name from the log's file name: ``corner-seed0.sensors.csv`` -> ``corner-seed0``."""
+    name = FilePath(path).name
+    for suffix in (".csv", ".sensors"):
+        name = name.removesuffix(suffix)
+    return name or "log"
+
+
+def companion_model(path) -> FilePath | None:
+    """The ``<name>.model.yaml`` that ``slipnav run`` writes beside ``<name>.sensors.csv``, if present."""
+    candidate = FilePath(path).with_name(f"{log_name(path)}.model.yaml")
+    return candidate if candidate.is_file() else None
+
+
+def resolve_model(log_path, model_path=None, robot: str | None = None) -> tuple[RobotModel, str]:
+    """(model, description): ``model_path``, else the log's companion model, else the nominal model of
+    the log's ``# robot:`` (``robot``, default tinyphoon)."""
+    path = model_path if model_path is not None else companion_model(log_path)
+    if path is not None:
+        return load_model(path), str(path)
+    name = robot or "tinyphoon"
+    model = RobotModel(robot=name)
+    model.validate()
+    return model, f"nominal {name}"
+
+
+def initial_state(log: SensorLog) -> NavigationInitialState:
+    """The navigation's initial state: the log's ``# initial_pose`` / ``# initial_speed``, else the truth
+    of its first row, else at rest at the origin."""
+    pose = log.metadata.get("initial_pose")
+    if pose is None and log.has_truth:
+        pose = tuple(float(log.columns[c][0]) for c in ("true_x", "true_y", "true_phi"))
+    speed = log.metadata.get("initial_speed")
+    if speed is None and "true_v_t" in log.columns and math.isfinite(log.columns["true_v_t"][0]):
+        speed = float(log.columns["true_v_t"][0])
+    return NavigationInitialState(speed=float(speed or 0.0), pose=tuple(pose or (0.0, 0.0, 0.0)))
+
+
+def check_counts(log: SensorLog, model: RobotModel) -> int:
+    """Encoder counts per revolution: the model's, which the log's metadata (if any) must match."""
+    counts = model.sensor_parameters().encoder_counts_per_revolution
+    logged = log.metadata.get("encoder_counts_per_revolution")
+    if logged is not None and logged != counts:
+        raise SensorLogError(
+            f"sensor log: metadata encoder_counts_per_revolution={logged} differs from the model's {counts} "
+            "(sensor_overrides.encoder_counts_per_revolution): allowed the same encoder resolution"
+        )
+    return counts
+
+
+def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=None) -> ReplayResult:
+    """Run the navigation diagram on ``log`` with ``model``'s belief; returns arrays and summary.
+
+    ``navigation``: NavigationParameters (default: the model's tuning over the defaults).
+    """
+    rates = model.rates()
+    robot = model.robot_parameters()
+    counts = check_counts(log, model)
+    if navigation is None:
+        navigation = model.navigation_over(NavigationParameters())
+    initial = initial_state(log)
+    acc, gyro, enc = log.accelerometers, log.gyro, log.encoder_angles(counts)
+    diagram, loggers = build_log_replay_diagram(
+        navigation, rates, (robot.radius_R, robot.radius_L), robot.track_width, acc, gyro, enc, initial
+    )
+    simulator = Simulator(diagram)
+    simulator.Initialize()
+    end = (len(log) - 1) * rates.T_N
+    wall_start = time.perf_counter()
+    with deferred_interrupt() as pending:
+        t = 0.0
+        while t < end - 1e-12:
+            t = min(t + 0.1, end)
+            simulator.AdvanceTo(t)
+            pending.raise_if_interrupted()
+    wall = time.perf_counter() - wall_start
+    context = simulator.get_context()
+    logs = {key: logger.FindLog(context) for key, logger in loggers.items()}
+    n = len(log)
+
+    def data(key):
+        d = logs[key].data()
+        if d.shape[1] != n:
+            raise RuntimeError(f"logger {key} has {d.shape[1]} samples, the log has {n} rows")
+        return d
+
+    a = {"t": log.t.copy()}
+    collect_navigation(a, data)
+    for i, key in enumerate(("meas_a_t1", "meas_a_n1", "meas_a_t2", "meas_a_n2")):
+        a[key] = acc[:, i].copy()
+    a["meas_gyro"] = gyro.copy()
+    a["meas_enc_R"], a["meas_enc_L"] = enc[:, 0].copy(), enc[:, 1].copy()
+    for key in ("cmd_R", "cmd_L", "true_x", "true_y", "true_phi", "true_v_t", "true_v_n", "true_omega"):
+        if key in log.columns:
+            a[key] = log.columns[key].copy()
+    if "true_v_t" in a and "true_v_n" in a:
+        a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
+    for key in SERIES_KEYS:
+        a.setdefault(key, np.full(n, np.nan))
+    if log.has_truth:
+        path_length = float(np.sum(np.hypot(np.diff(a["true_x"]), np.diff(a["true_y"]))))
+    else:
+        path_length = math.nan
+    a.update(
+        path_length=np.array(path_length),
+        T_N=np.array(rates.T_N),
+        T_C=np.array(rates.T_C),
+        V_m=np.array(robot.wheel_speed_limit),
+        track_width=np.array(robot.track_width),
+    )
+    errors = (
+        final_position_errors(a) if log.has_truth else dict.fromkeys(("fused", "odometry", "gyrodometry"))
+    )
+    summary = {
+        "scenario": name,
+        "source": "replay",
+        "seed": log.metadata.get("seed"),
+        "robot": robot.name,
+        "rows": n,
+        "has_truth": log.has_truth,
+        "sensor_faults": int(np.nansum(a["fault"])),
+        "path_length_m": path_length if math.isfinite(path_length) else None,
+        "duration_s": float(a["t"][-1] - a["t"][0]),
+        "final_position_error_m": errors,
+        "wall_time_s": wall,
+        "realtime_factor": float((a["t"][-1] - a["t"][0]) / wall) if wall > 0 else None,
+    }
+    return ReplayResult(name=name, arrays=a, summary=summary)
+
+
+def replay_file(log_path, model_path=None) -> ReplayResult:
+    """Read the log and the model (resolve_model), check both, replay; errors as ScenarioError naming the
+    column and row, or the model key."""
+    try:
+        if model_path is not None:
+            model, described = load_model(model_path), str(model_path)
+        else:
+            peek = read_sensor_log(log_path, None)
+            model, described = resolve_model(log_path, None, peek.metadata.get("robot"))
+        log = read_sensor_log(log_path, model.T_N)
+        check_counts(log, model)
+    except (SensorLogError, ModelError) as e:
+        raise ScenarioError(str(e)) from None
+    result = replay_log(log, model, log_name(log_path))
+    result.summary["sensor_log"] = str(log_path)
+    result.summary["model"] = described
+    return result
+
+
+def write_replay_artifacts(result: ReplayResult, out_dir, figures: bool = True) -> list[FilePath]:
+    """``<name>-replay.npz``, figures (``.path.png``, ``.navigation.png``) and ``<name>-replay.summary.json``
+    (last), atomically as runner.write_artifacts."""
+    from slipnav.scenarios.plots import write_replay_figures
+
+    out = check_output_directory(out_dir)
+    stem = f"{result.name}-replay"
+    staging = FilePath(tempfile.mkdtemp(dir=out, prefix=f".{stem}.partial-"))
+    try:
+        np.savez(staging / f"{stem}.npz", **{k: np.asarray(v, dtype=float) for k, v in result.arrays.items()})
+        staged = [staging / f"{stem}.npz"]
+        if figures:
+            staged += write_replay_figures(result.arrays, staging, stem)
+        return _publish(staging, staged, stem, result.summary, out)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)

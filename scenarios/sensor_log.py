@@ -1,0 +1,391 @@
+"""The sensor log: a CSV file a real robot can write, one row per navigation sample T_N.
+
+Format (README.md "Sensor log", docs/artifacts.md):
+
+- optional comment lines starting with ``#`` before the header; a comment ``# key: value`` with a key of
+  METADATA_KEYS is read as metadata (robot name, periods, encoder resolution, initial state), any other
+  comment is ignored;
+- one header row naming the columns (any order, each once);
+- one row per sample, comma separated, SI units, radians. Required columns (REQUIRED_COLUMNS): ``t`` (s),
+  ``gyro`` (rad/s), ``acc1_t acc1_n acc2_t acc2_n`` (m/s^2, tangential and lateral of accelerometer 1
+  and 2), ``enc_R enc_L`` (cumulative encoder counts, integers). Optional: ``cmd_R cmd_L`` (commanded
+  circumferential wheel speeds, m/s, both or neither), ground truth ``true_x true_y true_phi`` (m, m,
+  rad; all three or none) and ``true_v_t true_v_n true_omega`` (m/s, m/s, rad/s).
+
+Row k holds what the navigation reads at t_k = t_0 + k T_N. Floats are written with ``repr`` (the
+shortest string that reads back to the same double), so a log written and read again is bit-identical.
+``nan`` (or an empty cell) in a sensor column is a missing sample: it passes to the navigation, whose
+sensor check holds the last valid value and flags it, as in a live run. ``t`` must be finite, increase,
+and step by T_N (within SPACING_TOLERANCE).
+
+Every malformed file raises SensorLogError (a ValueError) naming the column, the data row (1 = the first
+row after the header) and the file line.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses as dc
+import math
+import os
+import tempfile
+from pathlib import Path as FilePath
+
+import numpy as np
+
+FORMAT_VERSION = 1
+REQUIRED_COLUMNS = ("t", "gyro", "acc1_t", "acc1_n", "acc2_t", "acc2_n", "enc_R", "enc_L")
+COMMAND_COLUMNS = ("cmd_R", "cmd_L")
+TRUTH_POSE_COLUMNS = ("true_x", "true_y", "true_phi")
+TRUTH_VELOCITY_COLUMNS = ("true_v_t", "true_v_n", "true_omega")
+OPTIONAL_COLUMNS = COMMAND_COLUMNS + TRUTH_POSE_COLUMNS + TRUTH_VELOCITY_COLUMNS
+ALL_COLUMNS = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
+ENCODER_COLUMNS = ("enc_R", "enc_L")
+ACCELEROMETER_COLUMNS = ("acc1_t", "acc1_n", "acc2_t", "acc2_n")
+
+UNITS = {
+    "t": "s",
+    "gyro": "rad/s",
+    "acc1_t": "m/s^2",
+    "acc1_n": "m/s^2",
+    "acc2_t": "m/s^2",
+    "acc2_n": "m/s^2",
+    "enc_R": "counts",
+    "enc_L": "counts",
+    "cmd_R": "m/s",
+    "cmd_L": "m/s",
+    "true_x": "m",
+    "true_y": "m",
+    "true_phi": "rad",
+    "true_v_t": "m/s",
+    "true_v_n": "m/s",
+    "true_omega": "rad/s",
+}
+
+METADATA_KEYS = {
+    "format": "format version (1)",
+    "robot": "the nominal robot the log belongs to (tinyphoon, kurt3d)",
+    "T_N": "navigation period (s), the row spacing",
+    "T_C": "control period (s)",
+    "encoder_counts_per_revolution": "encoder counts per wheel revolution",
+    "initial_pose": "x y phi of the robot at the first row (m m rad)",
+    "initial_speed": "forward speed at the first row (m/s)",
+    "scenario": "what ran (informative)",
+    "seed": "noise seed of a simulated run (informative)",
+}
+
+SPACING_TOLERANCE = 0.01
+"""Allowed relative deviation of a row spacing t_k - t_k-1 from T_N (1 %)."""
+
+DEFAULT_T_N = 0.002
+
+
+class SensorLogError(ValueError):
+    """A sensor log that cannot be read; the message names the file, the column and the row."""
+
+
+@dc.dataclass
+class SensorLog:
+    """A sensor log in memory.
+
+    Args:
+        columns: column name -> (N,) float array (encoder counts as integer-valued floats, NaN allowed).
+        metadata: the ``# key: value`` metadata (typed: floats, int, str, tuple for initial_pose).
+    """
+
+    columns: dict
+    metadata: dict = dc.field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.columns["t"])
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.columns["t"]
+
+    @property
+    def accelerometers(self) -> np.ndarray:
+        """(N, 4): a_t1, a_n1, a_t2, a_n2 (m/s^2)."""
+        return np.column_stack([self.columns[c] for c in ACCELEROMETER_COLUMNS])
+
+    @property
+    def gyro(self) -> np.ndarray:
+        return self.columns["gyro"]
+
+    @property
+    def encoder_counts(self) -> np.ndarray:
+        """(N, 2): cumulative counts of the right and left encoder."""
+        return np.column_stack([self.columns[c] for c in ENCODER_COLUMNS])
+
+    def encoder_angles(self, counts_per_revolution: int) -> np.ndarray:
+        """(N, 2): wheel angles (rad) = counts * 2 pi / counts_per_revolution (what systems.sensors'
+        encoders output: for a simulated log bit-identical to the run's samples)."""
+        step = 2.0 * math.pi / counts_per_revolution
+        return self.encoder_counts * step
+
+    @property
+    def has_truth(self) -> bool:
+        return all(c in self.columns for c in TRUTH_POSE_COLUMNS)
+
+    @property
+    def has_commands(self) -> bool:
+        return all(c in self.columns for c in COMMAND_COLUMNS)
+
+
+def _where(path, column: str | None, row: int | None, line: int | None) -> str:
+    parts = [f"sensor log {str(path)!r}"]
+    if column is not None:
+        parts.append(f"column {column!r}")
+    if row is not None:
+        parts.append(f"row {row} (line {line})")
+    return ", ".join(parts)
+
+
+def _metadata_value(key: str, text: str, path, line: int):
+    where = f"sensor log {str(path)!r}, line {line}: metadata {key!r}"
+    try:
+        if key in ("robot", "scenario"):
+            return text
+        if key in ("format", "encoder_counts_per_revolution", "seed"):
+            value = int(text)
+            if key == "format" and value != FORMAT_VERSION:
+                raise SensorLogError(f"{where}={text!r} is unknown: allowed {FORMAT_VERSION}")
+            if key == "encoder_counts_per_revolution" and not 1 <= value <= 10**7:
+                raise SensorLogError(f"{where}={text!r} is out of range: allowed integers in [1, 10000000]")
+            return value
+        if key == "initial_pose":
+            values = tuple(float(v) for v in text.replace(",", " ").split())
+            if len(values) != 3 or not all(math.isfinite(v) for v in values):
+                raise SensorLogError(f"{where}={text!r}: allowed three finite numbers 'x y phi'")
+            return values
+        value = float(text)
+        if not math.isfinite(value):
+            raise SensorLogError(f"{where}={text!r}: allowed a finite number")
+        if key in ("T_N", "T_C") and not 0.0 < value <= 1.0:
+            raise SensorLogError(f"{where}={text!r} is out of range: allowed (0, 1] s")
+        return value
+    except ValueError as e:
+        if isinstance(e, SensorLogError):
+            raise
+        raise SensorLogError(f"{where}={text!r} is not a valid value: {METADATA_KEYS[key]}") from None
+
+
+def _check_header(header: list[str], path, line: int) -> None:
+    names = [h.strip() for h in header]
+    seen = set()
+    for name in names:
+        if name in seen:
+            raise SensorLogError(
+                f"{_where(path, name, None, None)} appears twice in the header (line {line})"
+            )
+        seen.add(name)
+        if name not in ALL_COLUMNS:
+            raise SensorLogError(
+                f"{_where(path, name, None, None)} (header, line {line}) is unknown: allowed "
+                f"{', '.join(ALL_COLUMNS)} (README.md: Sensor log)"
+            )
+    for name in REQUIRED_COLUMNS:
+        if name not in seen:
+            raise SensorLogError(
+                f"{_where(path, name, None, None)} is missing (header, line {line}): the required columns "
+                f"are {', '.join(REQUIRED_COLUMNS)}"
+            )
+    for group in (COMMAND_COLUMNS, TRUTH_POSE_COLUMNS):
+        present = [c for c in group if c in seen]
+        if present and len(present) != len(group):
+            missing = [c for c in group if c not in seen][0]
+            raise SensorLogError(
+                f"{_where(path, missing, None, None)} is missing (header, line {line}): "
+                f"{', '.join(group)} come together"
+            )
+
+
+def _parse_cell(text: str, column: str, path, row: int, line: int) -> float:
+    text = text.strip()
+    if text == "":
+        value = math.nan
+    else:
+        try:
+            value = float(text)
+        except ValueError:
+            raise SensorLogError(
+                f"{_where(path, column, row, line)}: {text!r} is not a number (allowed: a decimal number, "
+                "nan or an empty cell for a missing sample)"
+            ) from None
+    if column == "t" and not math.isfinite(value):
+        raise SensorLogError(f"{_where(path, column, row, line)}: {text!r}: the time must be a finite number")
+    if column in ENCODER_COLUMNS and math.isfinite(value) and value != math.floor(value):
+        raise SensorLogError(
+            f"{_where(path, column, row, line)}: {text!r} is not a whole number of encoder counts"
+        )
+    return value
+
+
+def check_time(t: np.ndarray, T_N: float, path="<arrays>", lines=None) -> None:
+    """t increases by T_N per row (within SPACING_TOLERANCE); SensorLogError naming the row."""
+    if len(t) < 2:
+        raise SensorLogError(f"{_where(path, None, None, None)} has {len(t)} rows: allowed at least 2")
+    dt = np.diff(t)
+    for k in np.flatnonzero(~(dt > 0.0)):
+        row = int(k) + 2
+        line = lines[k + 1] if lines is not None else row
+        raise SensorLogError(
+            f"{_where(path, 't', row, line)}: {float(t[k + 1])!r} s is not after the previous row's "
+            f"{float(t[k])!r} s: "
+            "the time must increase"
+        )
+    off = np.flatnonzero(np.abs(dt - T_N) > SPACING_TOLERANCE * T_N)
+    if len(off):
+        k = int(off[0])
+        row = k + 2
+        line = lines[k + 1] if lines is not None else row
+        raise SensorLogError(
+            f"{_where(path, 't', row, line)}: spacing {float(dt[k])!r} s from the previous row is off "
+            f"T_N = {T_N!r} s: "
+            f"allowed T_N +- {100 * SPACING_TOLERANCE:g} % (one row per navigation sample)"
+        )
+
+
+def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
+    """Read and check a sensor log (the module's format).
+
+    Args:
+        path: the CSV file.
+        T_N: the navigation period the rows must be spaced by (s); None: the log's ``# T_N`` metadata, or
+            DEFAULT_T_N. A log whose ``# T_N`` differs from a given T_N is an error.
+
+    Raises:
+        SensorLogError naming the column, the row and the line.
+    """
+    path = FilePath(path)
+    try:
+        handle = open(path, newline="", encoding="utf-8")  # noqa: SIM115 (closed below)
+    except OSError as e:
+        raise SensorLogError(f"sensor log {str(path)!r} cannot be read: {e.strerror or e}") from None
+    metadata: dict = {}
+    header = None
+    rows: list[list[str]] = []
+    lines: list[int] = []
+    try:
+        with handle:
+            reader = csv.reader(handle)
+            for record in reader:
+                line = reader.line_num
+                if header is None:
+                    if not record or (len(record) == 1 and not record[0].strip()):
+                        continue
+                    first = record[0].lstrip()
+                    if first.startswith("#"):
+                        text = ",".join(record).lstrip()[1:]
+                        key, sep, value = text.partition(":")
+                        if sep and key.strip() in METADATA_KEYS:
+                            metadata[key.strip()] = _metadata_value(key.strip(), value.strip(), path, line)
+                        continue
+                    _check_header(record, path, line)
+                    header = [h.strip() for h in record]
+                    header_line = line
+                    continue
+                if not record or (len(record) == 1 and not record[0].strip()):
+                    continue  # blank line
+                rows.append(record)
+                lines.append(line)
+    except UnicodeDecodeError as e:
+        raise SensorLogError(f"sensor log {str(path)!r} is not UTF-8 text (offset {e.start})") from None
+    except csv.Error as e:
+        raise SensorLogError(f"sensor log {str(path)!r} is not valid CSV: {e}") from None
+    if header is None:
+        raise SensorLogError(
+            f"sensor log {str(path)!r} has no header row: allowed '{','.join(REQUIRED_COLUMNS)}' (+ optional)"
+        )
+    data = np.empty((len(rows), len(header)))
+    for i, (record, line) in enumerate(zip(rows, lines, strict=True)):
+        if len(record) != len(header):
+            raise SensorLogError(
+                f"{_where(path, None, i + 1, line)} has {len(record)} cells: allowed {len(header)}, one per "
+                f"header column (line {header_line})"
+            )
+        for j, (cell, column) in enumerate(zip(record, header, strict=True)):
+            data[i, j] = _parse_cell(cell, column, path, i + 1, line)
+    columns = {name: data[:, j].copy() for j, name in enumerate(header)}
+    logged_T_N = metadata.get("T_N")
+    if T_N is not None and logged_T_N is not None and abs(logged_T_N - T_N) > 1e-12 * T_N:
+        raise SensorLogError(
+            f"sensor log {str(path)!r}: metadata T_N={logged_T_N!r} s differs from the navigation's "
+            f"T_N={T_N!r} s: allowed a log sampled at the navigation period"
+        )
+    T_N = T_N if T_N is not None else logged_T_N if logged_T_N is not None else DEFAULT_T_N
+    check_time(columns["t"], T_N, path, lines)
+    return SensorLog(columns=columns, metadata=metadata)
+
+
+def _format(value: float) -> str:
+    return repr(float(value))
+
+
+def _format_count(value: float) -> str:
+    return str(int(value)) if math.isfinite(value) else repr(float(value))
+
+
+def sensor_log_text(log: SensorLog) -> str:
+    """The CSV text of ``log``: metadata comments, header, rows (floats by repr: exact round trip)."""
+    names = [c for c in ALL_COLUMNS if c in log.columns]
+    out = [
+        f"# slipnav sensor log, format {FORMAT_VERSION}; one row per T_N sample, SI units "
+        "(README.md: Sensor log)",
+        "# units: " + " ".join(f"{c}[{UNITS[c]}]" for c in names),
+    ]
+    meta = {"format": FORMAT_VERSION, **{k: v for k, v in log.metadata.items() if k != "format"}}
+    for key, value in meta.items():
+        if key not in METADATA_KEYS:
+            raise ValueError(f"metadata key {key!r} is unknown: allowed {sorted(METADATA_KEYS)}")
+        if key == "initial_pose":
+            value = " ".join(_format(v) for v in value)
+        elif isinstance(value, float):
+            value = _format(value)
+        out.append(f"# {key}: {value}")
+    out.append(",".join(names))
+    cols = [log.columns[c] for c in names]
+    formats = [_format_count if c in ENCODER_COLUMNS else _format for c in names]
+    for k in range(len(log)):
+        out.append(",".join(f(col[k]) for f, col in zip(formats, cols, strict=True)))
+    return "\n".join(out) + "\n"
+
+
+def write_sensor_log(log: SensorLog, path) -> FilePath:
+    """Write ``log`` to ``path`` atomically (a temporary file in the same folder, then os.replace)."""
+    path = FilePath(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.partial-")
+    try:
+        with os.fdopen(fd, "w", newline="") as handle:
+            handle.write(sensor_log_text(log))
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def sensor_log_from_arrays(
+    arrays: dict, counts_per_revolution: int, metadata: dict | None = None
+) -> SensorLog:
+    """The sensor log of a run artifact's arrays (``meas_*``, ``cmd_*``, ``true_*``): the encoder angles
+    become counts (the sensor model's floor(theta / step) exactly), NaN columns are left out."""
+    step = 2.0 * math.pi / counts_per_revolution
+    columns = {"t": np.asarray(arrays["t"], float)}
+    columns["gyro"] = np.asarray(arrays["meas_gyro"], float)
+    for column, key in zip(
+        ACCELEROMETER_COLUMNS, ("meas_a_t1", "meas_a_n1", "meas_a_t2", "meas_a_n2"), strict=True
+    ):
+        columns[column] = np.asarray(arrays[key], float)
+    for column, key in (("enc_R", "meas_enc_R"), ("enc_L", "meas_enc_L")):
+        angle = np.asarray(arrays[key], float)
+        with np.errstate(invalid="ignore"):
+            columns[column] = np.where(np.isfinite(angle), np.round(angle / step), np.nan)
+    for column in OPTIONAL_COLUMNS:
+        if column in arrays and np.any(np.isfinite(arrays[column])):
+            columns[column] = np.asarray(arrays[column], float)
+    if any(c in columns for c in COMMAND_COLUMNS) and not all(c in columns for c in COMMAND_COLUMNS):
+        for c in COMMAND_COLUMNS:
+            columns.pop(c, None)
+    return SensorLog(columns=columns, metadata=dict(metadata or {}))

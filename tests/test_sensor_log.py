@@ -1,0 +1,219 @@
+"""The sensor log (scenarios/sensor_log.py), slipnav replay and the model file (scenarios/model.py)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from slipnav.scenarios.cli import main
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.model import ModelError, load_model
+from slipnav.scenarios.replay import replay_file
+from slipnav.scenarios.runner import run_scenario
+from slipnav.scenarios.sensor_log import (
+    REQUIRED_COLUMNS,
+    SensorLog,
+    SensorLogError,
+    read_sensor_log,
+    sensor_log_text,
+    write_sensor_log,
+)
+
+COMPARED = [
+    "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed",
+    "odo_x odo_y odo_phi odo_v_t odo_omega gyro_x gyro_y gyro_phi C1 C2 C3 delta_v fault est_gyro_bias",
+    "est_radius_difference est_radius_difference_std",
+]
+COMPARED = " ".join(COMPARED).split()
+
+
+def _small_log(n=6):
+    t = 0.002 * np.arange(n)
+    columns = {c: np.linspace(-1.0, 1.0, n) + i for i, c in enumerate(REQUIRED_COLUMNS)}
+    columns["t"] = t
+    columns["enc_R"] = np.arange(n, dtype=float) * 3 - 2
+    columns["enc_L"] = -np.arange(n, dtype=float)
+    return SensorLog(columns=columns, metadata={"robot": "tinyphoon", "T_N": 0.002})
+
+
+def _lines(tmp_path, log=None):
+    return sensor_log_text(log or _small_log()).splitlines()
+
+
+def _write(tmp_path, lines):
+    path = tmp_path / "bad.sensors.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_floats_and_counts_round_trip_exactly(tmp_path):
+    log = _small_log()
+    log.columns["gyro"] = np.array([0.1 + 0.2, 1e-300, -2.0 / 3.0, math.pi, np.nan, np.inf])
+    log.columns["enc_R"][4] = np.nan
+    path = write_sensor_log(log, tmp_path / "x.sensors.csv")
+    back = read_sensor_log(path)
+    assert set(back.columns) == set(log.columns)
+    for key, values in log.columns.items():
+        np.testing.assert_array_equal(back.columns[key], values, err_msg=key)
+    assert back.gyro[0] == 0.1 + 0.2 and back.gyro[2] == -2.0 / 3.0  # bit for bit, not approximately
+    assert back.metadata["robot"] == "tinyphoon" and back.metadata["T_N"] == 0.002
+
+
+def _header_index(lines):
+    return next(i for i, line in enumerate(lines) if line.startswith("t,"))
+
+
+@pytest.mark.parametrize(
+    "edit, column, row, phrase",
+    [
+        (lambda h, rows: (h.replace("gyro", "gyr"), rows), "gyr", None, "is unknown"),
+        (
+            lambda h, rows: (h.replace(",enc_L", ""), [r.rsplit(",", 1)[0] for r in rows]),
+            "enc_L",
+            None,
+            "missing",
+        ),
+        (lambda h, rows: (h + ",cmd_R", [r + ",0.5" for r in rows]), "cmd_L", None, "come together"),
+        (lambda h, rows: (h, rows[:3] + [rows[1]] + rows[4:]), "t", 4, "must increase"),
+        (lambda h, rows: (h, rows[:3] + rows[4:]), "t", 4, "off T_N"),
+        (
+            lambda h, rows: (h, [rows[0], rows[1].replace(rows[1].split(",")[1], "abc", 1), *rows[2:]]),
+            "gyro",
+            2,
+            "not a number",
+        ),
+        (
+            lambda h, rows: (h, [rows[0], rows[1], rows[2].rsplit(",", 1)[0] + ",7.5", *rows[3:]]),
+            "enc_L",
+            3,
+            "whole number",
+        ),
+        (lambda h, rows: (h, [rows[0], rows[1] + ",1.0", *rows[2:]]), None, 2, "cells"),
+        (lambda h, rows: (h, [rows[0].replace("0.0,", "nan,", 1), *rows[1:]]), "t", 1, "finite"),
+    ],
+)
+def test_malformed_logs_name_the_column_and_row(tmp_path, capsys, edit, column, row, phrase):
+    lines = _lines(tmp_path)
+    i = _header_index(lines)
+    header, rows = edit(lines[i], lines[i + 1 :])
+    path = _write(tmp_path, [*lines[:i], header, *rows])
+    with pytest.raises(SensorLogError) as info:
+        read_sensor_log(path)
+    message = str(info.value)
+    assert phrase in message
+    if column is not None:
+        assert f"column {column!r}" in message
+    if row is not None:
+        assert f"row {row} (line {i + 1 + row})" in message
+    out = tmp_path / "out"
+    assert main(["replay", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: error: ") and phrase in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in out.iterdir()) == []  # nothing written
+
+
+def test_spacing_is_checked_against_the_navigation_period(tmp_path):
+    log = _small_log()
+    log.columns["t"] = 0.004 * np.arange(len(log))
+    log.metadata = {}
+    path = write_sensor_log(log, tmp_path / "slow.csv")
+    with pytest.raises(
+        SensorLogError, match=r"column 't', row 2 \(line \d+\): spacing 0.004 s .* off T_N = 0.002"
+    ):
+        read_sensor_log(path)
+    assert len(read_sensor_log(path, T_N=0.004)) == len(log)
+    log.metadata = {"T_N": 0.004}
+    path = write_sensor_log(log, tmp_path / "slow.csv")
+    with pytest.raises(SensorLogError, match="metadata T_N=0.004 s differs from the navigation's T_N=0.002"):
+        read_sensor_log(path, T_N=0.002)
+
+
+@pytest.fixture(scope="module")
+def corner_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs")
+    assert (
+        main(["run", "corner", "--out", str(out), "--duration", "1.2", "--no-figures", "--tolerances"]) == 0
+    )
+    return out
+
+
+def test_run_writes_its_sensor_log_and_model(corner_run):
+    a = np.load(corner_run / "corner-seed0-tolerances.npz")
+    log = read_sensor_log(corner_run / "corner-seed0-tolerances.sensors.csv")
+    assert log.has_truth and log.has_commands and len(log) == len(a["t"])
+    np.testing.assert_array_equal(log.t, a["t"])
+    np.testing.assert_array_equal(log.gyro, a["meas_gyro"])
+    np.testing.assert_array_equal(log.accelerometers[:, 3], a["meas_a_n2"])
+    np.testing.assert_array_equal(
+        log.encoder_angles(6144), np.column_stack([a["meas_enc_R"], a["meas_enc_L"]])
+    )
+    assert np.all(log.encoder_counts == np.round(log.encoder_counts))
+    assert log.encoder_counts[-1, 0] > 1000  # the wheels turned: about 0.8 m / (2 pi 15 mm) * 6144
+    model = load_model(corner_run / "corner-seed0-tolerances.model.yaml")
+    assert model.robot == "tinyphoon" and model.robot_overrides == {}  # the belief, not the drawn plant
+    summary = json.loads((corner_run / "corner-seed0-tolerances.summary.json").read_text())
+    assert summary["plant"]["wheel_radius_R"] != 0.015  # the plant was drawn; the model did not see it
+
+
+def test_replaying_a_runs_log_reproduces_its_navigation_bit_for_bit(corner_run, capsys):
+    capsys.readouterr()
+    log = corner_run / "corner-seed0-tolerances.sensors.csv"
+    assert main(["replay", str(log), "--out", str(corner_run)]) == 0
+    printed = capsys.readouterr().out
+    assert "corner-seed0-tolerances-replay.npz" in printed and "model.yaml" in printed
+    run = np.load(corner_run / "corner-seed0-tolerances.npz")
+    replay = np.load(corner_run / "corner-seed0-tolerances-replay.npz")
+    from slipnav.scenarios.runner import SCALAR_KEYS, SERIES_KEYS
+
+    assert set(SERIES_KEYS) | set(SCALAR_KEYS) <= set(replay.files)  # the same artifact keys
+    assert np.isnan(replay["ref_x"]).all() and np.isnan(replay["true_slip_R"]).all()  # no plant, no reference
+    for key in COMPARED + ["t", "meas_gyro", "meas_enc_L", "true_x", "cmd_R"]:
+        np.testing.assert_array_equal(replay[key], run[key], err_msg=key)
+    assert np.isfinite(run["est_x"]).all() and np.ptp(run["est_x"]) > 0.5
+    summary = json.loads((corner_run / "corner-seed0-tolerances-replay.summary.json").read_text())
+    ran = json.loads((corner_run / "corner-seed0-tolerances.summary.json").read_text())
+    assert summary["final_position_error_m"] == ran["final_position_error_m"]
+    assert (corner_run / "corner-seed0-tolerances-replay.path.png").is_file()
+
+
+def test_replay_of_a_kurt3d_run_with_its_own_navigation_tuning(tmp_path):
+    """circle: Kurt3D with the scenario's navigation keys; the written model carries them."""
+    result = run_scenario(load_scenario("circle"), seed=2, duration=1.5)
+    from slipnav.scenarios.runner import write_artifacts
+
+    write_artifacts(result, tmp_path, figures=False)
+    replayed = replay_file(tmp_path / "circle-seed2.sensors.csv")
+    for key in COMPARED:
+        np.testing.assert_array_equal(replayed.arrays[key], result.arrays[key], err_msg=key)
+
+
+def test_nan_cells_reach_the_sensor_check_and_no_truth_means_no_comparison(corner_run, tmp_path):
+    log = read_sensor_log(corner_run / "corner-seed0-tolerances.sensors.csv")
+    for key in ("true_x", "true_y", "true_phi", "true_v_t", "true_v_n", "true_omega", "cmd_R", "cmd_L"):
+        del log.columns[key]
+    log.columns["gyro"][200] = np.nan
+    log.columns["acc2_n"][300] = np.nan
+    log.columns["enc_R"][400] = np.nan
+    path = write_sensor_log(log, tmp_path / "robot.sensors.csv")
+    result = replay_file(path, corner_run / "corner-seed0-tolerances.model.yaml")
+    a = result.arrays
+    np.testing.assert_array_equal(np.flatnonzero(a["fault"]), [200, 300, 400])
+    assert np.isfinite(a["est_x"]).all() and np.isnan(a["true_x"]).all()
+    assert result.summary["has_truth"] is False
+    assert result.summary["final_position_error_m"] == {"fused": None, "odometry": None, "gyrodometry": None}
+    run = np.load(corner_run / "corner-seed0-tolerances.npz")
+    np.testing.assert_array_equal(a["est_x"][:200], run["est_x"][:200])  # identical until the first fault
+    assert abs(a["est_x"][-1] - run["est_x"][-1]) < 2e-3
+
+
+def test_model_file_errors_name_the_key(tmp_path, capsys, corner_run):
+    bad = tmp_path / "bad.model.yaml"
+    bad.write_text("robot: tinyphoon\nrobot_overrides: {track_widht: 0.07}\n")
+    with pytest.raises(ModelError, match=r"robot_overrides.track_widht is unknown"):
+        load_model(bad)
+    log = corner_run / "corner-seed0-tolerances.sensors.csv"
+    assert main(["replay", str(log), "--model", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert "track_widht" in capsys.readouterr().err
+    bad.write_text("robot: tinyphoon\nsensor_overrides: {encoder_counts_per_revolution: 512}\n")
+    assert main(["replay", str(log), "--model", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert "encoder_counts_per_revolution" in capsys.readouterr().err
