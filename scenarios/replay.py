@@ -150,6 +150,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         T_C=np.array(rates.T_C),
         V_m=np.array(robot.wheel_speed_limit),
         track_width=np.array(robot.track_width),
+        start_time=np.array(log.metadata.get("start_time", math.nan)),  # the run's, if the log says
     )
     errors = (
         final_position_errors(a) if log.has_truth else dict.fromkeys(("fused", "odometry", "gyrodometry"))

@@ -361,6 +361,7 @@ def run_scenario(
             "encoder_counts_per_revolution": sensor_params.encoder_counts_per_revolution,
             "initial_pose": tuple(float(v) for v in pose0),
             "initial_speed": float(initial_speed),
+            "start_time": float(start),
             "scenario": scenario.name or "scenario",
             "seed": seed,
         },

@@ -70,6 +70,7 @@ METADATA_KEYS = {
     "encoder_counts_per_revolution": "encoder counts per wheel revolution",
     "initial_pose": "x y phi of the robot at the first row (m m rad)",
     "initial_speed": "forward speed at the first row (m/s)",
+    "start_time": "when the controller started (s); the robot stood still before (informative)",
     "scenario": "what ran (informative)",
     "seed": "noise seed of a simulated run (informative)",
 }

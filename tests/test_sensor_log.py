@@ -132,7 +132,7 @@ def test_spacing_is_checked_against_the_navigation_period(tmp_path):
 def corner_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs")
     assert (
-        main(["run", "corner", "--out", str(out), "--duration", "1.2", "--no-figures", "--tolerances"]) == 0
+        main(["run", "corner", "--out", str(out), "--duration", "2.2", "--no-figures", "--tolerances"]) == 0
     )
     return out
 
@@ -178,7 +178,7 @@ def test_replaying_a_runs_log_reproduces_its_navigation_bit_for_bit(corner_run, 
 
 def test_replay_of_a_kurt3d_run_with_its_own_navigation_tuning(tmp_path):
     """circle: Kurt3D with the scenario's navigation keys; the written model carries them."""
-    result = run_scenario(load_scenario("circle"), seed=2, duration=1.5)
+    result = run_scenario(load_scenario("circle"), seed=2, duration=2.5)
     from slipnav.scenarios.runner import write_artifacts
 
     write_artifacts(result, tmp_path, figures=False)
