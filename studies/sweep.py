@@ -270,7 +270,7 @@ class Engine:
         start = time.perf_counter()
         from dask.distributed import Client, LocalCluster
 
-        quiet = logging.ERROR  # no worker start/stop chatter nor "event loop unresponsive" warnings
+        quiet = logging.CRITICAL  # no start/stop chatter, "unresponsive" warnings, nor a failed run twice
         try:
             if self.scheduler is not None:
                 for name in ("distributed", "distributed.client"):
