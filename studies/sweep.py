@@ -435,6 +435,8 @@ def check_sweep(name: str, sets: dict, seeds: int, duration=None) -> None:
     """Every combination's scenario loads and validates, seeds >= 1, the duration fits: before any run."""
     if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
         raise ScenarioError(f"--seeds={seeds!r} is out of range: allowed 1, 2, ...")
+    if "seed" in sets:
+        raise ScenarioError("--set seed=...: the sweep runs seeds 0..N-1 of --seeds N; allowed any other key")
     for combination in combinations(sets):
         scenario = _scenario(name, tuple(combination.items()))
         if duration is not None:
