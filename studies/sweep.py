@@ -113,19 +113,22 @@ class ResultsFile:
     def _read(self) -> None:
         data = self.path.read_bytes()
         complete = data[: data.rfind(b"\n") + 1]  # a partial last line (the run being written) is dropped
-        if len(complete) < len(data):
-            with open(self.path, "r+b") as f:
-                f.truncate(len(complete))
-        lines = complete.decode("utf-8").splitlines()
-        if not lines:
-            return
-        reader = csv.reader(lines)
-        header = next(reader)
-        if not header or header[0] != KEY:
+        try:
+            lines = complete.decode("utf-8").splitlines()
+        except UnicodeDecodeError:
+            lines = ["(not UTF-8 text)"]
+        if lines and next(csv.reader(lines[:1]))[:1] != [KEY]:
             raise ScenarioError(
                 f"--resume: {str(self.path)!r} is not a sweep results file (its first column is not "
                 f"{KEY!r}): allowed a file written by a sweep"
             )
+        if len(complete) < len(data):
+            with open(self.path, "r+b") as f:
+                f.truncate(len(complete))
+        if not lines:
+            return
+        reader = csv.reader(lines)
+        header = next(reader)
         self.columns = header
         for cells in reader:
             if len(cells) == len(header):

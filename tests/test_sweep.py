@@ -145,3 +145,7 @@ def test_resume_refuses_another_sweeps_file(tmp_path, capsys):
     argv = ["sweep", "corner", "--set", "follower.k2=2", "--workers", "0", "--out", str(tmp_path), "--resume"]
     assert main(argv) == 2
     assert "has no column 'set:follower.k2'" in capsys.readouterr().err
+    (tmp_path / "sweep-corner.csv").write_bytes(b"\xff\xfe not a csv\n")
+    assert main(argv) == 2
+    assert "is not a sweep results file" in capsys.readouterr().err
+    assert (tmp_path / "sweep-corner.csv").read_bytes() == b"\xff\xfe not a csv\n"  # left as it was
