@@ -47,6 +47,15 @@ from slipnav.scenarios.config import (
 DEFAULT_WORKERS = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 """Worker processes of the local cluster: one per core this process may use."""
 MAX_WORKERS = 64
+WORKER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+"""dask settings of the local workers: no statistical profiler (it samples the running thread's stack
+every 10 ms) and the event loop's housekeeping every second instead of every 20-500 ms; every wake-up
+takes the GIL from the simulation (corner, one worker: 0.72 -> 0.68 s per run; in process 0.64 s)."""
 PLAIN = (str, int, float, bool, type(None))
 KEY = "key"
 """The results file's first column: the job's key."""
@@ -271,6 +280,7 @@ class Engine:
         if self.scheduler is None and self.workers == 0:
             return self
         start = time.perf_counter()
+        import dask
         from dask.distributed import Client, LocalCluster
 
         quiet = logging.CRITICAL  # no start/stop chatter, "unresponsive" warnings, nor a failed run twice
@@ -288,7 +298,7 @@ class Engine:
                         f"--scheduler={self.scheduler!r} has no workers: allowed a cluster with at least one"
                     )
             else:
-                with _workers_ignore_ctrl_c():
+                with _workers_ignore_ctrl_c(), dask.config.set(WORKER_CONFIG):
                     self._cluster = LocalCluster(
                         n_workers=self.workers,
                         threads_per_worker=1,
