@@ -3,12 +3,18 @@
     slipnav list
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
                          [--speed-law bounded|constant] [--open-loop] [--tolerances]
-    slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop]
-    slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop]
+    slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
+    slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
+    slipnav robustness [SCENARIO ...] [--seeds N] [ENGINE]
+    slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
     slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
     slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--out DIR]
+
+ENGINE (studies/sweep.py): [--workers N] [--scheduler ADDRESS] [--out DIR] [--resume]: the runs go to a
+dask.distributed cluster of N worker processes (default one per core; 0: in this process) or to the
+cluster at ADDRESS, and each finished run is appended to DIR/<study>.csv, which --resume continues.
 
 User mistakes print one line to stderr (``slipnav: error: ...`` naming the key and the allowed range) and
 exit with status 2, without a traceback, before any simulation starts. Ctrl-C prints ``slipnav:
@@ -32,6 +38,25 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):
         """One line on stderr and exit status 2 (argparse's usage block left out)."""
         self.exit(2, f"slipnav: error: {message} (see slipnav {self.prog.split()[-1]} --help)\n")
+
+
+def _engine_options(parser, study: str) -> None:
+    """--workers, --scheduler, --out, --resume of a study on the sweep engine (studies/sweep.py)."""
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local dask worker processes (default: one per core; 0: run in this process)",
+    )
+    parser.add_argument(
+        "--scheduler", default=None, help="address of an existing dask cluster, e.g. tcp://127.0.0.1:8786"
+    )
+    parser.add_argument(
+        "--out", default="runs", help=f"directory of {study}.csv and the figure (default runs)"
+    )
+    parser.add_argument(
+        "--resume", action="store_true", help=f"keep the finished runs in {study}.csv and run only the rest"
+    )
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -68,10 +93,12 @@ def _parser() -> argparse.ArgumentParser:
     acc.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
     acc.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     acc.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    _engine_options(acc, "accuracy")
     bud = sub.add_parser("error-budget", help="navigation errors with oracle inputs (benchmark)")
     bud.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
     bud.add_argument("--seeds", type=int, default=3, help="number of seeds (default 3)")
     bud.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    _engine_options(bud, "error-budget")
     rob = sub.add_parser(
         "robustness", help="nominal navigation on toleranced robots vs baselines (benchmark)"
     )
@@ -82,8 +109,7 @@ def _parser() -> argparse.ArgumentParser:
         help="default: corner square long_path",
     )
     rob.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
-    rob.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
-    rob.add_argument("--out", default="runs", help="directory of robustness.png (default runs)")
+    _engine_options(rob, "robustness")
     rep = sub.add_parser("replay", help="run the navigation alone on a sensor log (CSV)")
     rep.add_argument("log", help="sensor log CSV (README.md: Sensor log), e.g. runs/corner-seed0.sensors.csv")
     rep.add_argument(
@@ -104,6 +130,21 @@ def _parser() -> argparse.ArgumentParser:
     cal.add_argument("--seed", type=int, default=0, help="tolerance draw and noise seed (default 0)")
     cal.add_argument("--seeds", type=int, default=None, help="benchmark: seeds 0 .. N-1 instead of --seed")
     cal.add_argument("--out", default="runs", help="directory of the model YAML files (default: runs)")
+    swe = sub.add_parser(
+        "sweep", help="a scenario over seeds and --set values on the sweep engine (benchmark)"
+    )
+    swe.add_argument("scenario", help="built-in scenario name or path to a scenario YAML file")
+    swe.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 per combination (default 10)")
+    swe.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=V1,V2",
+        help="scenario key (dotted path, e.g. navigation.mixing.b1) and its values; repeat for a product",
+    )
+    swe.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
+    swe.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    _engine_options(swe, "sweep-SCENARIO")
     ben = sub.add_parser("bench", help="speed of the closed-loop diagram vs the plain loop (benchmark)")
     ben.add_argument("scenario", nargs="?", default="corner", help="closed-loop scenario (default corner)")
     ben.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
@@ -120,6 +161,16 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("slipnav: interrupted", file=sys.stderr)
         return 130
+
+
+def _engine(args) -> dict:
+    """The sweep engine's options (studies/sweep.py), checked before any run."""
+    from slipnav.scenarios.runner import check_output_directory
+    from slipnav.studies.sweep import check_engine_options
+
+    check_engine_options(args.workers, args.scheduler)
+    check_output_directory(args.out)
+    return dict(workers=args.workers, scheduler=args.scheduler, out_dir=args.out, resume=args.resume)
 
 
 def _command(args) -> int:
@@ -142,20 +193,32 @@ def _command(args) -> int:
 
         if args.seeds < 1:
             raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-        error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None)
+        for name in args.scenarios:
+            load_scenario(name)
+        error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None, **_engine(args))
         return 0
     if args.command == "robustness":
-        from slipnav.scenarios.runner import check_output_directory
         from slipnav.studies.robustness import robustness
 
         if args.seeds < 1:
             raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-        if not 1 <= args.workers <= 64:
-            raise ScenarioError(f"--workers={args.workers} is out of range: allowed 1 .. 64")
         for name in args.scenarios:
             load_scenario(name)
-        check_output_directory(args.out)
-        robustness(args.scenarios, args.seeds, args.workers, args.out)
+        engine = _engine(args)
+        robustness(args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine)
+        return 0
+    if args.command == "sweep":
+        from slipnav.studies.sweep import parse_set_options, sweep
+
+        sets = parse_set_options(args.set)
+        sweep(
+            args.scenario,
+            args.seeds,
+            sets,
+            duration=args.duration,
+            open_loop=args.open_loop or None,
+            **_engine(args),
+        )
         return 0
     if args.command == "calibrate":
         from slipnav.scenarios.runner import check_output_directory
@@ -184,10 +247,11 @@ def _command(args) -> int:
 
         if args.seeds < 1:
             raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-        if args.duration is not None:
-            for name in args.scenarios:
-                check_duration(load_scenario(name), args.duration)
-        accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None)
+        for name in args.scenarios:
+            scenario = load_scenario(name)
+            if args.duration is not None:
+                check_duration(scenario, args.duration)
+        accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None, **_engine(args))
         return 0
     from slipnav.scenarios.runner import (
         check_output_directory,

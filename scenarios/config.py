@@ -4,6 +4,7 @@ Unknown keys, wrong types, unknown segment tags and malformed YAML raise Scenari
 (e.g. ``trajectory.segments[2].length``). Values are range-checked when the scenario is built.
 """
 
+import copy as _copy
 import dataclasses as dc
 import math
 import re
@@ -493,3 +494,86 @@ def check_plausible(scenario: Scenario) -> None:
         _wrap(lambda: check_trajectory_size(scenario.trajectory))
     if scenario.path is not None:
         _wrap(lambda: check_path_size(scenario.path))
+
+
+# ---------------------------------------------------------------------------------------------------
+# Changing keys of a loaded scenario by dotted path (``slipnav sweep --set``).
+
+_KEY_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$")
+
+
+def parse_value(text: str):
+    """A value as the scenario YAML reads it: ``0.05`` -> float, ``true`` -> bool, ``[0, 0, 1]`` -> list,
+    ``bounded`` -> str."""
+    return _load_yaml(text)
+
+
+def _key_steps(key: str) -> list:
+    """``trajectory.segments[1].length`` -> ['trajectory', 'segments', 1, 'length']."""
+    steps = []
+    for part in key.split("."):
+        match = _KEY_PART.match(part)
+        if not match:
+            raise ScenarioError(
+                f"{key!r} is not a key path: allowed e.g. navigation.mixing.b1 or segments[1]"
+            )
+        steps.append(match.group(1))
+        steps += [int(i) for i in re.findall(r"\[(\d+)\]", match.group(2))]
+    return steps
+
+
+def _replaced(node, hint, steps: list, value, where: str):
+    """``node`` (of declared type ``hint``) with the item at ``steps`` set to ``value``, type-checked."""
+    if not steps:
+        _check(hint, value, where)
+        return _as_declared(hint, value)
+    step, rest = steps[0], steps[1:]
+    if node is None:
+        raise ScenarioError(f"{where} is not set in this scenario: it has no {step!r} to change")
+    if isinstance(step, int):
+        if not isinstance(node, list):
+            raise ScenarioError(f"{where}[{step}]: {where} is not a list")
+        if not 0 <= step < len(node):
+            raise ScenarioError(f"{where}[{step}] is out of range: allowed index 0 .. {len(node) - 1}")
+        item_hint = typing.get_args(hint)[0] if typing.get_origin(hint) is list else typing.Any
+        if dc.is_dataclass(node[step]):
+            item_hint = type(node[step])
+        copy = list(node)
+        copy[step] = _replaced(node[step], item_hint, rest, value, f"{where}[{step}]")
+        return copy
+    path = f"{where}.{step}" if where else step
+    if isinstance(node, dict):
+        if rest:
+            raise ScenarioError(f"{path}.{rest[0]}: {path} is a number, it has no keys")
+        return {**node, step: _replaced(None, typing.get_args(hint)[1], [], value, path)}
+    if not dc.is_dataclass(node):
+        raise ScenarioError(f"{path}: {where} is a single value, it has no keys")
+    hints = typing.get_type_hints(type(node))
+    if step not in hints:
+        raise ScenarioError(f"{path} is an unknown key: allowed {sorted(hints)}")
+    child = getattr(node, step)
+    child_hint = type(child) if dc.is_dataclass(child) else hints[step]
+    copy = _copy.copy(node)  # no __post_init__ here: validate() range-checks the whole scenario afterwards
+    object.__setattr__(copy, step, _replaced(child, child_hint, rest, value, path))
+    return copy
+
+
+def _as_declared(hint, value):
+    """``value`` (checked against ``hint``) with integers where floats are declared made floats."""
+    union = typing.get_origin(hint) in (typing.Union, types.UnionType)
+    options = [a for a in typing.get_args(hint) if a is not type(None)] if union else [hint]
+    if float in options and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(value, list) and typing.get_origin(options[0]) is list:
+        return [_as_declared(typing.get_args(options[0])[0], v) for v in value]
+    return value
+
+
+def with_keys(scenario: Scenario, changes: dict) -> Scenario:
+    """A copy of ``scenario`` with ``{dotted key path: value}`` set (e.g. ``navigation.mixing.b1``,
+    ``plant.robot_overrides.mass``, ``trajectory.segments[1].length``), validated as a loaded scenario:
+    unknown keys, wrong types and out-of-range values raise ScenarioError naming the key."""
+    for key, value in changes.items():
+        steps = _key_steps(key)
+        scenario = _replaced(scenario, Scenario, steps, value, "")
+    return scenario.validate()

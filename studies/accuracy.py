@@ -13,17 +13,7 @@ import numpy as np
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, navigation_figures
 from slipnav.scenarios.runner import run_scenario
-
-
-def progress(done: int, total: int, label: str, stream=None) -> None:
-    """A one-line text progress bar, redrawn in place (on ``stream``, default stderr)."""
-    stream = stream or sys.stderr
-    width = 30
-    filled = int(width * done / total)
-    stream.write(f"\r{label:<12} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
-    if done == total:
-        stream.write("\n")
-    stream.flush()
+from slipnav.studies.sweep import session
 
 
 def summarise(name: str, figures: list, wall: float, stream=None) -> None:
@@ -70,21 +60,37 @@ def summarise(name: str, figures: list, wall: float, stream=None) -> None:
     print("\n".join(lines), file=stream)
 
 
-def accuracy(names, seeds: int, duration=None, stream=None, open_loop=None) -> dict:
-    """Run each scenario for seeds 0..seeds-1; print and return the per-scenario figures."""
+def run_seed(job: dict) -> dict:
+    """The figures of one run (job: scenario, seed, duration, open_loop)."""
+    scenario = load_scenario(job["scenario"])
+    return navigation_figures(
+        run_scenario(scenario, seed=job["seed"], duration=job["duration"], open_loop=job["open_loop"]).arrays
+    )
+
+
+def accuracy(
+    names,
+    seeds: int,
+    duration=None,
+    stream=None,
+    open_loop=None,
+    *,
+    workers=None,
+    scheduler=None,
+    out_dir=None,
+    resume=False,
+) -> dict:
+    """Run each scenario for seeds 0..seeds-1 on the sweep engine (studies/sweep.py: ``workers``,
+    ``scheduler``, results in ``out_dir``/accuracy.csv, ``resume``); print and return the per-scenario
+    rows (the figures with their job)."""
     results = {}
-    for name in names:
-        scenario = load_scenario(name)
-        figures = []
-        start = time.perf_counter()
-        for seed in range(seeds):
-            progress(seed, seeds, name)
-            figures.append(
-                navigation_figures(
-                    run_scenario(scenario, seed=seed, duration=duration, open_loop=open_loop).arrays
-                )
-            )
-        progress(seeds, seeds, name)
-        results[name] = figures
-        summarise(name, figures, time.perf_counter() - start, stream)
+    with session("accuracy", workers, scheduler, out_dir, resume) as (engine, file):
+        for name in names:
+            start = time.perf_counter()
+            jobs = [
+                {"scenario": name, "seed": seed, "duration": duration, "open_loop": open_loop}
+                for seed in range(seeds)
+            ]
+            results[name] = figures = engine.map(run_seed, jobs, file, label=name)
+            summarise(name, figures, time.perf_counter() - start, stream)
     return results

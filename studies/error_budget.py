@@ -49,7 +49,7 @@ from slipnav.scenarios.metrics import (
     tangential_slip_speed,
 )
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.accuracy import progress
+from slipnav.studies.sweep import session
 from slipnav.systems.navigation import NavigationInitialState, NavigationLoop, run_navigation_loop
 from slipnav.systems.sideslip import side_slip_angle
 
@@ -197,29 +197,47 @@ def _mean_worst(values) -> str:
     return f"{np.nanmean(values):6.2f} ({np.nanmax(values):5.2f})"
 
 
-def error_budget(names, seeds: int, open_loop=None, stream=None) -> dict:
+def run_seed(job: dict) -> dict:
+    """The budget of one run (job: scenario, seed, open_loop) as a row: ``pct[<variant>]`` and
+    ``alpha_deg[<variant>]``."""
+    scenario = load_scenario(job["scenario"])
+    a = run_scenario(scenario, seed=job["seed"], open_loop=job["open_loop"]).arrays
+    budget = error_budget_of_run(a, scenario)
+    return {f"{kind}[{v}]": budget[v][i] for v in VARIANTS for i, kind in enumerate(("pct", "alpha_deg"))}
+
+
+def error_budget(
+    names,
+    seeds: int,
+    open_loop=None,
+    stream=None,
+    *,
+    workers=None,
+    scheduler=None,
+    out_dir=None,
+    resume=False,
+) -> dict:
     """Print (to ``stream``, default stdout) and return, per scenario, the budget of each seed; the
-    printed figures are mean (worst) over seeds."""
+    printed figures are mean (worst) over seeds. Runs on the sweep engine (studies/sweep.py: ``workers``,
+    ``scheduler``, results in ``out_dir``/error-budget.csv, ``resume``)."""
     stream = stream or sys.stdout
     if not (isinstance(seeds, int) and seeds >= 1):
         raise ScenarioError(f"--seeds={seeds!r} is out of range: allowed 1, 2, ...")
     results = {}
-    for name in names:
-        scenario = load_scenario(name)
-        start, budgets = time.perf_counter(), []
-        for seed in range(seeds):
-            progress(seed, seeds, name)
-            a = run_scenario(scenario, seed=seed, open_loop=open_loop).arrays
-            budgets.append(error_budget_of_run(a, scenario))
-        progress(seeds, seeds, name)
-        results[name] = budgets
-        lines = [
-            f"{name}: {seeds} seeds in {time.perf_counter() - start:.1f} s, mean (worst)",
-            f"  {'variant':<44} {'final error %':>15}  {'alpha RMS deg':>15}",
-        ]
-        for variant in VARIANTS:
-            pct = [b[variant][0] for b in budgets]
-            alpha = [b[variant][1] for b in budgets]
-            lines.append(f"  {variant:<44} {_mean_worst(pct)}  {_mean_worst(alpha)}")
-        print("\n".join(lines), file=stream)
+    with session("error-budget", workers, scheduler, out_dir, resume) as (engine, file):
+        for name in names:
+            start = time.perf_counter()
+            jobs = [{"scenario": name, "seed": seed, "open_loop": open_loop} for seed in range(seeds)]
+            rows = engine.map(run_seed, jobs, file, label=name)
+            budgets = [{v: (r[f"pct[{v}]"], r[f"alpha_deg[{v}]"]) for v in VARIANTS} for r in rows]
+            results[name] = budgets
+            lines = [
+                f"{name}: {seeds} seeds in {time.perf_counter() - start:.1f} s, mean (worst)",
+                f"  {'variant':<44} {'final error %':>15}  {'alpha RMS deg':>15}",
+            ]
+            for variant in VARIANTS:
+                pct = [b[variant][0] for b in budgets]
+                alpha = [b[variant][1] for b in budgets]
+                lines.append(f"  {variant:<44} {_mean_worst(pct)}  {_mean_worst(alpha)}")
+            print("\n".join(lines), file=stream)
     return results

@@ -11,8 +11,8 @@ first), writes a figure, and ends with
 ``robustness worst_fused_pct=<f> worst_fused_over_best_baseline=<f> worst_alpha_rms_deg=<f>``.
 """
 
-import concurrent.futures as cf
 import dataclasses as dc
+import functools
 import math
 import sys
 import time
@@ -23,6 +23,7 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error, side_slip_rms_error
 from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.tolerances import RobotDeviations
+from slipnav.studies.sweep import run_jobs
 
 CASES = {
     "matched": ({}, {}),
@@ -68,22 +69,38 @@ def run_case(name: str, case: str, seed: int, open_loop=None) -> dict:
     return out
 
 
-def _run(job):
-    return run_case(*job)
+def _run(job, open_loop=None):
+    return run_case(job["scenario"], job["case"], job["seed"], open_loop)
 
 
-def robustness(names, seeds: int, workers: int = 2, out_dir="runs", open_loop=None, stream=None) -> list:
-    """Run every case of every scenario over seeds 0..seeds-1 (``workers`` processes); print the table
-    and the last line, write ``out_dir/robustness.png``; returns the per-run figures."""
+def robustness(
+    names,
+    seeds: int,
+    workers=None,
+    out_dir="runs",
+    open_loop=None,
+    stream=None,
+    *,
+    scheduler=None,
+    resume=False,
+) -> list:
+    """Run every case of every scenario over seeds 0..seeds-1 on the sweep engine (studies/sweep.py:
+    ``workers`` processes, default one per core, or ``scheduler``; results in ``out_dir``/robustness.csv,
+    ``resume``); print the table and the last line, write ``out_dir/robustness.png``; returns the
+    per-run figures."""
     stream = stream or sys.stdout
-    jobs = [(name, case, seed, open_loop) for name in names for case in CASES for seed in range(seeds)]
+    jobs = [
+        {"scenario": name, "case": case, "seed": seed}
+        for name in names
+        for case in CASES
+        for seed in range(seeds)
+    ]
     start = time.perf_counter()
-    rows = []
-    with cf.ProcessPoolExecutor(max_workers=workers) as pool:
-        for i, row in enumerate(pool.map(_run, jobs, chunksize=1)):
-            rows.append(row)
-            print(f"\rrobustness {i + 1}/{len(jobs)} runs", end="", file=sys.stderr, flush=True)
-    print(file=sys.stderr)
+    results = FilePath(out_dir) / "robustness.csv"
+    run = functools.partial(_run, open_loop=open_loop)
+    rows = run_jobs(
+        run, jobs, workers=workers, scheduler=scheduler, results=results, resume=resume, label="robustness"
+    )
     summary = summarise(rows, stream)
     print(f"{len(jobs)} runs in {time.perf_counter() - start:.0f} s", file=stream)
     figure = plot_robustness(rows, FilePath(out_dir) / "robustness.png")

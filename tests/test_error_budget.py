@@ -88,8 +88,8 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
     assert final_position_error(a, "est") > final_position_error({**a, **oracle}, "est")
 
 
-def test_error_budget_command(capsys):
-    assert main(["error-budget", "corner", "--seeds", "1"]) == 0
+def test_error_budget_command(capsys, tmp_path):
+    assert main(["error-budget", "corner", "--seeds", "1", "--workers", "0", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     for variant in VARIANTS:
         assert variant in out

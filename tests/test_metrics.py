@@ -77,8 +77,9 @@ def test_side_slip_error_at_the_updates_leaves_out_the_hold():
     assert math.isnan(side_slip_rms_error_at_updates(a))
 
 
-def test_accuracy_command_smoke(capsys):
-    assert main(["accuracy", "square", "--seeds", "1", "--duration", "2.0"]) == 0
+def test_accuracy_command_smoke(capsys, tmp_path):
+    argv = ["accuracy", "square", "--seeds", "1", "--duration", "2.0", "--workers", "0"]
+    assert main([*argv, "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "fused final error" in out and "tangential slip" in out
     assert main(["accuracy", "--seeds", "0"]) == 2
