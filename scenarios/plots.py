@@ -16,6 +16,19 @@ def _has(a, key) -> bool:
     return key in a and np.any(np.isfinite(a[key]))
 
 
+def save_figure_atomically(fig, path) -> FilePath:
+    """Write ``fig`` to ``path`` via a temporary file and a rename (no half-written figure), close it."""
+    import matplotlib.pyplot as plt
+
+    path = FilePath(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
 def _start(a) -> float:
     """When the controller started (the standstill before it; 0 in artifacts without the key)."""
     return float(a["start_time"]) if "start_time" in a else 0.0

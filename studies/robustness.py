@@ -21,6 +21,7 @@ from pathlib import Path as FilePath
 import numpy as np
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error, side_slip_rms_error
+from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.tolerances import RobotDeviations
 from slipnav.studies.sweep import run_jobs
@@ -200,9 +201,4 @@ def plot_robustness(rows: list, path: FilePath) -> FilePath:
         ax.axhline(1.0, color="k", lw=0.8, ls="--")
         ax.legend(fontsize=8)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    return save_figure_atomically(fig, path)

@@ -43,6 +43,7 @@ from slipnav.scenarios.config import (
     parse_value,
     with_keys,
 )
+from slipnav.scenarios.plots import save_figure_atomically
 
 DEFAULT_WORKERS = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 """Worker processes of the local cluster: one per core this process may use."""
@@ -589,12 +590,7 @@ def plot_distributions(name: str, jobs: list, rows: list, path) -> FilePath:
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    return save_figure_atomically(fig, path)
 
 
 def sweep(
