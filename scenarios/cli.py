@@ -191,19 +191,13 @@ def _command(args) -> int:
     if args.command == "error-budget":
         from slipnav.studies.error_budget import error_budget
 
-        if args.seeds < 1:
-            raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-        for name in args.scenarios:
-            load_scenario(name)
+        _check_study(args)
         error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None, **_engine(args))
         return 0
     if args.command == "robustness":
         from slipnav.studies.robustness import robustness
 
-        if args.seeds < 1:
-            raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-        for name in args.scenarios:
-            load_scenario(name)
+        _check_study(args)
         engine = _engine(args)
         robustness(args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine)
         return 0
@@ -245,12 +239,7 @@ def _command(args) -> int:
     if args.command == "accuracy":
         from slipnav.studies.accuracy import accuracy
 
-        if args.seeds < 1:
-            raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
-        for name in args.scenarios:
-            scenario = load_scenario(name)
-            if args.duration is not None:
-                check_duration(scenario, args.duration)
+        _check_study(args, args.duration)
         accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None, **_engine(args))
         return 0
     from slipnav.scenarios.runner import (
@@ -294,6 +283,16 @@ def _command(args) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+def _check_study(args, duration=None) -> None:
+    """A study's --seeds and scenarios (and --duration against each), before any run starts."""
+    if args.seeds < 1:
+        raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
+    for name in args.scenarios:
+        scenario = load_scenario(name)
+        if duration is not None:
+            check_duration(scenario, duration)
 
 
 def _replay(args) -> int:

@@ -26,7 +26,7 @@ from slipnav.scenarios.trajectories import (
     check_path_size,
     check_trajectory_size,
 )
-from slipnav.systems.checks import check_follower_gains, check_robot_physics
+from slipnav.systems.checks import check_follower_gains, check_robot_physics, check_start_time
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
@@ -173,11 +173,7 @@ class Scenario:
             raise ScenarioError(f"initial_pose={self.initial_pose!r} must be three finite numbers")
         if not (math.isfinite(self.settle_time) and 0.0 <= self.settle_time <= 60.0):
             raise ScenarioError(f"settle_time={self.settle_time!r} is out of range: allowed [0, 60] s")
-        st = self.standstill_time
-        if not (math.isfinite(st) and 0.0 <= st <= 60.0) or abs(st / self.T_C - round(st / self.T_C)) > 1e-9:
-            raise ScenarioError(
-                f"standstill_time={st!r} is out of range: allowed [0, 60] s, a multiple of T_C={self.T_C}"
-            )
+        _wrap(lambda: check_start_time(self.standstill_time, self.T_C, "standstill_time"))
         if self.duration is not None and not (0.0 < self.duration <= 3600.0):
             raise ScenarioError(f"duration={self.duration!r} is out of range: allowed (0, 3600] s")
         if self.path_speed is not None and not (0.0 < self.path_speed <= 10.0):

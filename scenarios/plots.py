@@ -189,18 +189,23 @@ def plot_associated_points(a, reference, ax, every: float = 0.2):
         ax.plot(reference.x[K], reference.y[K], "o", color="0.6", ms=2)
 
 
+def _write_figure(out_dir, name: str, suffix: str, rows: int, size, draw, title: str) -> FilePath:
+    """``out_dir/<name>.<suffix>.png``: ``rows`` stacked axes drawn by ``draw``, titled on the first."""
+    fig, axes = plt.subplots(rows, 1, figsize=size, sharex=rows > 1)
+    draw(axes)
+    (axes if rows == 1 else axes[0]).set_title(f"{name}: {title}")
+    path = FilePath(out_dir) / f"{name}.{suffix}.png"
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
 def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
     """<name>.path/.speeds/.navigation/.control/.slip.png (navigation and control when present)."""
-    out = FilePath(out_dir)
     files = []
 
     def figure(suffix, rows, size, draw, title):
-        fig, axes = plt.subplots(rows, 1, figsize=size, sharex=rows > 1)
-        draw(axes)
-        (axes if rows == 1 else axes[0]).set_title(f"{name}: {title}")
-        files.append(out / f"{name}.{suffix}.png")
-        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-        plt.close(fig)
+        files.append(_write_figure(out_dir, name, suffix, rows, size, draw, title))
 
     def path(ax):
         plot_path(a, reference, ax)
@@ -226,7 +231,6 @@ def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
 def write_replay_figures(a, out_dir, name: str) -> list[FilePath]:
     """<name>.path.png and <name>.navigation.png of a replayed sensor log (no reference; the truth where
     the log has it)."""
-    out = FilePath(out_dir)
     files = []
     for suffix, rows, size, draw, title in (
         ("path", 1, (6, 6), lambda ax: plot_path(a, None, ax), "replayed path"),
@@ -238,10 +242,5 @@ def write_replay_figures(a, out_dir, name: str) -> list[FilePath]:
             "navigation estimates" + (" vs truth" if _has(a, "true_v_t") else "") + " (grey: detected slip)",
         ),
     ):
-        fig, axes = plt.subplots(rows, 1, figsize=size, sharex=rows > 1)
-        draw(axes)
-        (axes if rows == 1 else axes[0]).set_title(f"{name}: {title}")
-        files.append(out / f"{name}.{suffix}.png")
-        fig.savefig(files[-1], dpi=110, bbox_inches="tight")
-        plt.close(fig)
+        files.append(_write_figure(out_dir, name, suffix, rows, size, draw, title))
     return files
