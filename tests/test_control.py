@@ -163,6 +163,49 @@ def test_discrete_follower_block_converges_on_a_unicycle():
         assert V[-1] < 1e-3, (pose0, V[-1])
 
 
+def test_controllers_stand_still_until_their_start_time():
+    """start_time = 0.1 s (5 T_C): before it the follower keeps zero commands and s = 0, the step-size
+    controller delta = 1 and Pi = 0, the feed-forward row 0; from it on K counts from start_time (Pi_K
+    = K with slip control off) and the feed-forward plays row round((t - start)/T_C)."""
+    from slipnav.systems.feedforward import TrajectoryFeedforward
+    from slipnav.systems.slip_control import StepSizeController
+
+    T_C, start = 0.02, 0.1
+    path = build_path(PathConfig(segments=[Straight(length=5.0)]))
+    follower = LyapunovPathFollower(PathFollowerParameters(), path, 0.4, T_C, start_time=start)
+    context = follower.CreateDefaultContext()
+    follower.GetInputPort("estimated_pose").FixValue(context, [0.0, 0.1, 0.0])
+    follower.GetInputPort("speed").FixValue(context, [1.0])
+    follower.GetInputPort("estimated_speed").FixValue(context, [1.0])
+    simulator = Simulator(follower, context)
+    simulator.AdvanceTo(start - 0.5 * T_C)  # the updates at 0, ..., 0.08 changed nothing
+    np.testing.assert_array_equal(follower.GetOutputPort("wheel_speed_command").Eval(context), [0.0, 0.0])
+    assert follower.GetOutputPort("virtual_target").Eval(context)[0] == 0.0
+    simulator.AdvanceTo(start + 0.5 * T_C)  # the first update, at 0.1
+    assert follower.GetOutputPort("virtual_target").Eval(context)[0] > 0.0
+    assert np.all(np.abs(follower.GetOutputPort("wheel_speed_command").Eval(context)) > 0.5)
+
+    step = StepSizeController(StepSizeParameters(), T_C, enabled=False, start_time=start)
+    context = step.CreateDefaultContext()
+    step.GetInputPort("C1").FixValue(context, [1.0])
+    step.GetInputPort("side_slip_angle").FixValue(context, [0.0])
+    simulator = Simulator(step, context)
+    simulator.AdvanceTo(start - 0.5 * T_C)
+    assert step.GetOutputPort("progress").Eval(context)[0] == 0.0
+    simulator.AdvanceTo(start + 3.5 * T_C)  # updates at K = 0, 1, 2, 3
+    assert step.GetOutputPort("progress").Eval(context)[0] == 4.0
+
+    table = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]])
+    feedforward = TrajectoryFeedforward(T_C, table, np.zeros((3, 3)), start_time=start)
+    context = feedforward.CreateDefaultContext()
+    simulator = Simulator(feedforward, context)
+    for t, row in ((start - 0.5 * T_C, 0), (start + 0.5 * T_C, 0), (start + 1.5 * T_C, 1), (1.0, 2)):
+        simulator.AdvanceTo(t)
+        np.testing.assert_array_equal(
+            feedforward.GetOutputPort("wheel_speed_command").Eval(context), table[row], err_msg=str(t)
+        )
+
+
 def test_wheel_commands_speed_law_and_saturator():
     v_r, v_l = wheel_commands(2.0, 0.5, 1.8, 0.1, 0.2)
     assert v_r == pytest.approx(2.0 + 0.2 * (0.5 * 1.8 + 0.1)) and v_l == pytest.approx(2.0 - 0.2 * 1.0)
