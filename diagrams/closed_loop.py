@@ -138,6 +138,8 @@ def build_closed_loop_diagram(
     log: bool = True,
     plant_time_step: float = DEFAULT_TIME_STEP,
     plant: RobotParameters | None = None,
+    faults=(),
+    nominal_sensors: SensorParameters | None = None,
 ) -> LoggedDiagram:
     """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
     (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). ``plant_time_step``: see
@@ -145,7 +147,9 @@ def build_closed_loop_diagram(
     cannot be simulated.
 
     Truth and belief: ``robot`` is the nominal model that navigation and control read; ``plant`` the
-    simulated robot as it really is (default ``robot``), and ``sensor_params`` the real sensors."""
+    simulated robot as it really is (default ``robot``), and ``sensor_params`` the real sensors;
+    ``nominal_sensors`` their data sheet, which the navigation knows (default the robot's).
+    ``faults``: sensor FaultEvents between the sensors and the navigation (systems/faults.py)."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     require_instance("navigation", navigation, NavigationParameters)
     navigation.validate()
@@ -167,10 +171,18 @@ def build_closed_loop_diagram(
         )
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
-        builder, plant or robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
+        builder,
+        plant or robot,
+        sensor_params,
+        rates.T_N,
+        seed,
+        initial_pose,
+        initial_speed,
+        plant_time_step,
+        faults,
     )
     nav, nav_ports = add_navigation(
-        builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose
+        builder, handles.readings, navigation, rates, robot, initial_speed, initial_pose, nominal_sensors
     )
     ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
     builder.Connect(nav.GetOutputPort("pose"), ctrl.GetInputPort("estimated_pose"))

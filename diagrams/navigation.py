@@ -12,11 +12,12 @@ from pydrake.systems.primitives import LogVectorOutput
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from slipnav.systems.gyrodometry import Gyrodometry
 from slipnav.systems.mixing import MixerC1, MixerC2C3, VelocityMixer
-from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
+from slipnav.systems.navigation import NavigationInitialState, NavigationParameters, health_geometry
 from slipnav.systems.odometry import Odometry
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_check import InertialSampleCheck
+from slipnav.systems.sensor_health import SensorHealthMonitor
+from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector
 from slipnav.systems.yaw_calibration import YawRateCalibration
@@ -37,6 +38,7 @@ NAVIGATION_OUTPUTS = (
     "covariance",
     "gyro_bias",
     "yaw_calibration",
+    "health",
 )
 
 
@@ -46,10 +48,14 @@ def build_navigation_diagram(
     wheel_radius,
     track_width: float,
     initial: NavigationInitialState | None = None,
+    sensors: SensorParameters | None = None,
+    no_load_speed: float | None = None,
 ) -> Diagram:
     """The navigation algorithm as a Diagram.
 
     ``wheel_radius``: one radius for both wheels or the pair (r_R, r_L) of a calibrated model (m).
+    ``sensors``, ``no_load_speed``: the sensors' data sheet (default Tinyphoon's) and the nominal motors'
+    no-load speed (m/s) for the sensor checks (systems.navigation.health_geometry).
 
     .. pydrake_system::
 
@@ -74,6 +80,7 @@ def build_navigation_diagram(
         - covariance
         - gyro_bias
         - yaw_calibration
+        - health
     """
     params.validate()
     initial = initial or NavigationInitialState()
@@ -84,7 +91,8 @@ def build_navigation_diagram(
         system.set_name(name)
         return b.AddSystem(system)
 
-    check = add(InertialSampleCheck(T_N), "Sensor check")
+    geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed)
+    check = add(SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
     odometry = add(Odometry(wheel_radius, track_width, T_N, initial.speed), "Odometry")
     ekf = add(InertialEkf(params.ekf, T_N, initial.ekf_state()), "EKF")
     Q, _, P0 = params.ekf.matrices()
@@ -105,7 +113,8 @@ def build_navigation_diagram(
 
     b.ExportInput(check.GetInputPort("accelerometers"), "accelerometers")
     b.ExportInput(check.GetInputPort("gyro"), "gyro")
-    b.ExportInput(odometry.GetInputPort("encoders"), "encoders")
+    b.ExportInput(check.GetInputPort("encoders"), "encoders")
+    b.Connect(check.GetOutputPort("encoders"), odometry.GetInputPort("encoders"))
 
     acc, gyro, raw_odo = (
         check.GetOutputPort("accelerometers"),
@@ -117,8 +126,8 @@ def build_navigation_diagram(
     b.Connect(gyro, calibration.GetInputPort("gyro"))
     b.Connect(raw_odo, calibration.GetInputPort("odometry"))
     b.Connect(c1.GetOutputPort("C1"), calibration.GetInputPort("C1"))
-    b.Connect(check.GetOutputPort("fault"), calibration.GetInputPort("inertial_fault"))
-    b.Connect(odometry.GetOutputPort("fault"), calibration.GetInputPort("encoder_fault"))
+    b.Connect(check.GetOutputPort("inertial_fault"), calibration.GetInputPort("inertial_fault"))
+    b.Connect(check.GetOutputPort("encoder_fault"), calibration.GetInputPort("encoder_fault"))
     b.Connect(calibration.GetOutputPort("gyro"), ekf.GetInputPort("gyro"))
     b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
     b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
@@ -149,11 +158,12 @@ def build_navigation_diagram(
     b.ExportOutput(raw_odo, "odometry")
     b.ExportOutput(odo_pose.GetOutputPort("pose"), "odometry_pose")
     b.ExportOutput(gyrodometry.GetOutputPort("pose"), "gyrodometry_pose")
-    b.ExportOutput(check.GetOutputPort("fault"), "inertial_fault")
-    b.ExportOutput(odometry.GetOutputPort("fault"), "encoder_fault")
+    b.ExportOutput(check.GetOutputPort("inertial_fault"), "inertial_fault")
+    b.ExportOutput(check.GetOutputPort("encoder_fault"), "encoder_fault")
     b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")
     b.ExportOutput(calibration.GetOutputPort("bias"), "gyro_bias")
     b.ExportOutput(calibration.GetOutputPort("parameters"), "yaw_calibration")
+    b.ExportOutput(check.GetOutputPort("health"), "health")
     diagram = b.Build()
     diagram.set_name("navigation")
     return diagram
@@ -224,9 +234,17 @@ def build_navigation_replay(
 
 
 def add_navigation(
-    builder, sensors, navigation, rates, robot, initial_speed=0.0, initial_pose=(0.0, 0.0, 0.0)
+    builder,
+    sensors,
+    navigation,
+    rates,
+    robot,
+    initial_speed=0.0,
+    initial_pose=(0.0, 0.0, 0.0),
+    nominal_sensors: SensorParameters | None = None,
 ):
-    """Add the navigation diagram fed by ``sensors`` (ProprioceptiveSensors) to ``builder``.
+    """Add the navigation diagram fed by ``sensors`` (ProprioceptiveSensors or a SensorFaultInjector) to
+    ``builder``; ``robot`` and ``nominal_sensors`` (default the robot's data sheet) are what it knows.
 
     Returns (navigation subsystem, its output ports keyed ``nav_<name>`` for logging).
     """
@@ -237,6 +255,8 @@ def add_navigation(
             (robot.radius_R, robot.radius_L),
             robot.track_width,
             NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
+            nominal_sensors or default_sensor_parameters(robot.name),
+            robot.no_load_speed,
         )
     )
     for name in ("accelerometers", "gyro", "encoders"):

@@ -73,12 +73,13 @@ def add_loggers(builder: DiagramBuilder, ports: dict, period: float) -> dict[str
 
 
 def robot_ports(robot: RobotHandles) -> dict:
-    plant, sensors = robot.plant, robot.sensors
+    plant, sensors = robot.plant, robot.readings or robot.sensors
     return {
         "state": plant.GetOutputPort("state"),  # wheel speeds, angles and tyre slip follow from it
         "accelerometers": sensors.GetOutputPort("accelerometers"),
         "gyro": sensors.GetOutputPort("gyro"),
         "encoders": sensors.GetOutputPort("encoders"),
+        "gyro_bias": robot.sensors.GetOutputPort("gyro_bias"),
     }
 
 
@@ -107,12 +108,16 @@ def build_open_loop_diagram(
     plant_time_step: float = DEFAULT_TIME_STEP,
     plant: RobotParameters | None = None,
     start_time: float = 0.0,
+    faults=(),
+    nominal_sensors: SensorParameters | None = None,
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
     the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out).
     ``robot`` is the nominal model the navigation reads, ``plant`` the real robot (default ``robot``).
     ``start_time``: the table's row 0 plays until then (the standstill; a robot at rest only). Raises
-    ValueError naming the parameter for an input that cannot be simulated."""
+    ValueError naming the parameter for an input that cannot be simulated. ``faults``: sensor FaultEvents
+    between the sensors and the navigation; ``nominal_sensors``: the sensors' data sheet the navigation
+    knows (default the robot's, systems.sensors.default_sensor_parameters)."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     if navigation is not None:
         require_instance("navigation", navigation, NavigationParameters)
@@ -131,12 +136,20 @@ def build_open_loop_diagram(
         )
     builder = DiagramBuilder()
     handles = add_robot_with_sensors(
-        builder, plant or robot, sensor_params, rates.T_N, seed, initial_pose, initial_speed, plant_time_step
+        builder,
+        plant or robot,
+        sensor_params,
+        rates.T_N,
+        seed,
+        initial_pose,
+        initial_speed,
+        plant_time_step,
+        faults,
     )
     nav_ports = {}
     if navigation is not None:
         _, nav_ports = add_navigation(
-            builder, handles.sensors, navigation, rates, robot, initial_speed, initial_pose
+            builder, handles.readings, navigation, rates, robot, initial_speed, initial_pose, nominal_sensors
         )
     feedforward = builder.AddSystem(
         TrajectoryFeedforward(rates.T_C, wheel_speeds, reference_poses, start_time)

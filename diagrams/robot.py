@@ -10,6 +10,7 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import RandomSource
 from slipnav.systems.checks import require_seed
+from slipnav.systems.faults import SensorFaultInjector, check_fault_events
 from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
 from slipnav.systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
 
@@ -19,6 +20,8 @@ class RobotHandles:
     plant: DifferentialDrivePlant
     sensors: ProprioceptiveSensors
     noise: RandomSource
+    readings: object = None
+    """What the navigation reads: the sensors, or the SensorFaultInjector after them."""
 
 
 def add_robot_with_sensors(
@@ -30,6 +33,7 @@ def add_robot_with_sensors(
     initial_pose=(0.0, 0.0, 0.0),
     initial_speed: float = 0.0,
     plant_time_step: float = DEFAULT_TIME_STEP,
+    faults=(),
 ) -> RobotHandles:
     """Add the plant, a Gaussian RandomSource (seeded through SetRandomContext) and the sensors.
 
@@ -37,7 +41,10 @@ def add_robot_with_sensors(
     and vibration draws come from the RandomSource, whose state the caller must seed with
     ``diagram.SetRandomContext(context, RandomGenerator(seed))`` (see ``make_simulator``).
     ``plant_time_step`` > 0 makes the plant discrete, updated with the sensors every T_N; 0: continuous.
+    ``faults``: FaultEvents (systems/faults.py); with any, a SensorFaultInjector sits after the sensors and
+    ``readings`` is it.
     """
+    faults = check_fault_events(faults)
     plant = builder.AddSystem(
         DifferentialDrivePlant(robot, initial_pose, initial_speed, plant_time_step, update_period=T_N)
     )
@@ -51,7 +58,13 @@ def add_robot_with_sensors(
     builder.Connect(plant.GetOutputPort("state"), sensors.GetInputPort("plant_state"))
     builder.Connect(plant.GetOutputPort("body_acceleration"), sensors.GetInputPort("body_acceleration"))
     builder.Connect(noise.get_output_port(0), sensors.GetInputPort("noise"))
-    return RobotHandles(plant=plant, sensors=sensors, noise=noise)
+    readings = sensors
+    if faults:
+        readings = builder.AddSystem(SensorFaultInjector(faults, T_N, sensor_params.encoder_step))
+        readings.set_name("Sensor faults")
+        for name in ("accelerometers", "gyro", "encoders"):
+            builder.Connect(sensors.GetOutputPort(name), readings.GetInputPort(name))
+    return RobotHandles(plant=plant, sensors=sensors, noise=noise, readings=readings)
 
 
 PLANT_INTEGRATION_ACCURACY = 1e-2

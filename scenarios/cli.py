@@ -6,6 +6,7 @@
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [ENGINE]
+    slipnav faults [SCENARIO ...] [--seeds N] [ENGINE]
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
@@ -110,6 +111,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     rob.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
     _engine_options(rob, "robustness")
+    fau = sub.add_parser(
+        "faults", help="every sensor fault class on every channel: detection, error (benchmark)"
+    )
+    fau.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
+    fau.add_argument("--seeds", type=int, default=1, help="number of seeds (default 1)")
+    _engine_options(fau, "faults")
     rep = sub.add_parser("replay", help="run the navigation alone on a sensor log (CSV)")
     rep.add_argument("log", help="sensor log CSV (README.md: Sensor log), e.g. runs/corner-seed0.sensors.csv")
     rep.add_argument(
@@ -236,6 +243,12 @@ def _command(args) -> int:
         return 0
     if args.command == "replay":
         return _replay(args)
+    if args.command == "faults":
+        from slipnav.studies.faults import faults
+
+        _check_study(args)
+        faults(args.scenarios, args.seeds, **_engine(args))
+        return 0
     if args.command == "accuracy":
         from slipnav.studies.accuracy import accuracy
 

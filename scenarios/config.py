@@ -27,6 +27,7 @@ from slipnav.scenarios.trajectories import (
     check_trajectory_size,
 )
 from slipnav.systems.checks import check_follower_gains, check_robot_physics, check_start_time
+from slipnav.systems.faults import FaultEvent, check_fault_events
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
@@ -79,7 +80,10 @@ class Scenario:
         slip_control_enabled: False keeps the step size at 1.
         speed_law: ``bounded`` (Indiveri I(24)) or ``constant`` (u = V_m/2), max_speed mode.
         navigation: tuning of the navigation blocks (NavigationParameters: ekf, mixing, sideslip,
-            gyrodometry), e.g. ``navigation: {mixing: {b1: 0.05}}``.
+            gyrodometry, yaw_calibration, health), e.g. ``navigation: {mixing: {b1: 0.05}}``.
+        faults: timed sensor faults between the sensors and the navigation (systems/faults.py
+            FaultEvent: kind, channel, start, duration, value), e.g. ``faults: [{kind: dropout,
+            channel: gyro, start: 2.0, duration: 0.5}]``.
     """
 
     name: str = ""
@@ -106,6 +110,7 @@ class Scenario:
     slip_control: StepSizeParameters = dc.field(default_factory=StepSizeParameters)
     slip_control_enabled: bool = True
     speed_law: str = "bounded"
+    faults: list[FaultEvent] = dc.field(default_factory=list)
 
     # -- derived, validated objects -----------------------------------------------------------------
     def rates(self) -> SampleRates:
@@ -189,6 +194,7 @@ class Scenario:
             period = self.robot_parameters().speed_loop_period
             _wrap(lambda: substeps_per(self.T_N, self.plant_time_step, "T_N"))
             _wrap(lambda: substeps_per(period, self.plant_time_step, "speed_loop_period"))
+        _wrap(lambda: check_fault_events(self.faults))
         check_plausible(self)
         self.plant_parameters()  # after the seed check: the draw needs a valid seed
         return self

@@ -17,6 +17,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, RandomSource
 from slipnav.diagrams.closed_loop import ControlSettings
+from slipnav.systems.faults import apply_sensor_faults, check_fault_events
 from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
 from slipnav.systems.path_follower import (
     bounded_speed,
@@ -32,7 +33,13 @@ from slipnav.systems.plant import (
     substeps_per,
 )
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensors import NOISE_CHANNELS, SensorParameters, initial_biases, sensor_update
+from slipnav.systems.sensors import (
+    NOISE_CHANNELS,
+    SensorParameters,
+    default_sensor_parameters,
+    initial_biases,
+    sensor_update,
+)
 from slipnav.systems.slip_control import interpolate, step_size
 
 PLAIN_LOOP_KEYS = (
@@ -57,6 +64,8 @@ def run_plain_loop(
     noise=None,
     timings: dict | None = None,
     plant: RobotParameters | None = None,
+    faults=(),
+    nominal_sensors: SensorParameters | None = None,
 ) -> dict:
     """Simulate ``num_steps`` samples t_0 ... t_{num_steps-1} of the closed loop.
 
@@ -70,6 +79,8 @@ def run_plain_loop(
             and ``control``.
         plant: the simulated robot as it really is (default ``robot``); navigation and control read
             ``robot``, the nominal model.
+        faults: sensor FaultEvents between the sensors and the navigation (apply_sensor_faults).
+        nominal_sensors: the sensors' data sheet the navigation knows (default the robot's).
 
     Returns:
         dict of (num_steps,) arrays keyed by PLAIN_LOOP_KEYS.
@@ -106,6 +117,8 @@ def run_plain_loop(
         T_N,
         T_C,
         NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
+        nominal_sensors or default_sensor_parameters(p.name),
+        p.no_load_speed,
     )
     # Control (build_control_diagram).
     path, half = control.path, 0.5 * p.track_width
@@ -121,8 +134,19 @@ def run_plain_loop(
     out = np.empty((num_steps, len(PLAIN_LOOP_KEYS)))
     clock = time.perf_counter
     spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
+    faults = check_fault_events(faults)
+    held = previous = None
     for k in range(num_steps):
         t0 = clock()
+        if faults:  # SensorFaultInjector: what the navigation reads at t_k
+            raw = [*meas_acc, meas_gyro, *meas_enc]
+            held = (
+                raw if held is None else [r if math.isnan(h) else h for r, h in zip(raw, held, strict=True)]
+            )
+            previous = raw if previous is None else previous
+            held = apply_sensor_faults(k * T_N, raw, held, previous, faults, T_N, sensor_params.encoder_step)
+            previous = raw
+            meas_acc, meas_gyro, meas_enc = held[0:4], held[4], held[5:7]
         nav_row = nav.step(meas_acc, meas_gyro, meas_enc)
         t1 = clock()
         spent["navigation"] += t1 - t0
@@ -208,4 +232,6 @@ def run_scenario_plain_loop(
         noise=noise,
         timings=timings,
         plant=plant,
+        faults=scenario.faults,
+        nominal_sensors=scenario.sensor_parameters(),
     )

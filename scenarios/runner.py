@@ -40,7 +40,9 @@ from slipnav.scenarios.trajectories import (
     trajectory_path,
 )
 from slipnav.systems.checks import require_seed
+from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.plant import RobotParameters, tyre_slip
+from slipnav.systems.sensor_health import health_report
 
 TRUTH_KEYS = (
     "true_x true_y true_phi true_v_t true_v_n true_omega true_alpha true_wheel_R true_wheel_L".split()
@@ -205,6 +207,7 @@ def run_scenario(
     speed_law: str | None = None,
     open_loop: bool | None = None,
     tolerances: bool = False,
+    faults=None,
 ):
     """Simulate ``scenario`` and collect the run artifact.
 
@@ -227,6 +230,8 @@ def run_scenario(
     plant, sensor_params, deviations = scenario.plant_parameters(seed, tolerances)
     reference, initial_speed = reference_for(scenario)
     pose0 = tuple(scenario.initial_pose)
+    faults = scenario.faults if faults is None else faults
+    nominal_sensors = scenario.sensor_parameters()
 
     if open_loop:
         start = standstill_for(scenario, initial_speed)
@@ -245,6 +250,8 @@ def run_scenario(
                 plant_time_step=scenario.plant_time_step,
                 plant=plant,
                 start_time=start,
+                faults=faults,
+                nominal_sensors=nominal_sensors,
             )
         )
         nominal = reference.duration + start
@@ -264,6 +271,8 @@ def run_scenario(
                 initial_speed=initial_speed,
                 plant_time_step=scenario.plant_time_step,
                 plant=plant,
+                faults=faults,
+                nominal_sensors=nominal_sensors,
             )
         except ValueError as e:
             raise ScenarioError(str(e)) from None
@@ -316,6 +325,8 @@ def run_scenario(
         "slip_control": bool(slip_control) if scenario.mode == "trajectory" and not open_loop else None,
         "speed_law": speed_law if scenario.mode == "max_speed" and not open_loop else None,
         "sensor_faults": int(np.nansum(arrays["fault"])),
+        "sensor_health": health_report(arrays["t"], arrays, SENSOR_CHANNELS),
+        "faults": [dc.asdict(event) for event in faults],
         "tolerances": bool(tolerances),
         "plant": record,
         "plant_deviations": {key: float(value) for key, value in deviations.items()},
@@ -517,6 +528,7 @@ def collect_arrays(loggers, context, robot: RobotParameters) -> dict:
     a["meas_gyro"] = data("gyro")[0].copy()
     enc = data("encoders")
     a["meas_enc_R"], a["meas_enc_L"] = enc[0].copy(), enc[1].copy()
+    a["true_gyro_bias"] = data("gyro_bias")[0].copy()
     cmd = data("command")
     a["cmd_R"], a["cmd_L"] = cmd[0].copy(), cmd[1].copy()
     for key, name in (
@@ -556,6 +568,10 @@ def collect_navigation(a: dict, data) -> None:
     a["odo_v_t"], a["odo_omega"] = odo[0].copy(), odo[1].copy()
     a["fault"] = np.maximum(data("nav_inertial_fault")[0], data("nav_encoder_fault")[0])
     a["est_gyro_bias"] = data("nav_gyro_bias")[0].copy()
+    a["est_gyro_bias_std"] = data("nav_yaw_calibration")[2].copy()
+    health = data("nav_health")
+    for i, channel in enumerate(SENSOR_CHANNELS):
+        a[f"health_{channel}"] = health[i].copy()
     calibration = data("nav_yaw_calibration")
     a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1].copy(), calibration[3].copy()
 

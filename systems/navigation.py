@@ -5,7 +5,8 @@ order the diagram's timing implies, over logged sensor rows. It is the test orac
 diagram's multi-rate wiring (sample-for-sample agreement) and the baseline of the speed benchmark.
 
 Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K n):
-1. check the inertial sample (hold non-finite channels), odometry S(10) from the encoder difference;
+1. check every sensor channel (systems/sensor_health.py: exclude and replace faulty ones, flag them),
+   odometry S(10) from the encoder difference;
    the gyro and the odometric yaw rate calibrated with the bias and radius difference learned up to
    the last batch (systems/yaw_calibration.py);
 2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
@@ -33,6 +34,7 @@ from slipnav.systems.ekf import (
     ekf_prior_covariance,
     ekf_update,
 )
+from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
     MixingParameters,
@@ -45,7 +47,13 @@ from slipnav.systems.mixing import (
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.pose import pose_step
-from slipnav.systems.sensor_check import check_sample
+from slipnav.systems.sensor_health import (
+    HealthGeometry,
+    SensorHealthParameters,
+    health_initial_state,
+    health_step,
+)
+from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 from slipnav.systems.yaw_calibration import (
@@ -66,10 +74,12 @@ class NavigationParameters:
     sideslip: SideSlipParameters = dc.field(default_factory=SideSlipParameters)
     gyrodometry: GyrodometryParameters = dc.field(default_factory=GyrodometryParameters)
     yaw_calibration: YawCalibrationParameters = dc.field(default_factory=YawCalibrationParameters)
+    health: SensorHealthParameters = dc.field(default_factory=SensorHealthParameters)
 
     def validate(self) -> "NavigationParameters":
         """Re-run every part's range checks (YAML loading sets fields after construction)."""
-        for part in (self.ekf, self.mixing, self.sideslip, self.gyrodometry, self.yaw_calibration):
+        parts = (self.ekf, self.mixing, self.sideslip, self.gyrodometry, self.yaw_calibration, self.health)
+        for part in parts:
             part.__post_init__()
         return self
 
@@ -92,7 +102,31 @@ class NavigationInitialState:
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
     "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 delta_v odo_v_t odo_omega fault est_gyro_bias"
-).split()
+).split() + [f"health_{channel}" for channel in SENSOR_CHANNELS]
+
+DEFAULT_WHEEL_SPEED_BOUND = 10.0
+"""Plausible wheel speed (m/s) when neither the health parameters nor the robot give one."""
+
+
+def health_geometry(
+    params: NavigationParameters,
+    wheel_radius,
+    track_width: float,
+    T_N: float,
+    sensors: SensorParameters | None = None,
+    no_load_speed: float | None = None,
+) -> HealthGeometry:
+    """What the sensor checks know: the nominal (or calibrated) geometry and the sensors' data sheet
+    (default Tinyphoon's); the plausible wheel speed is the parameter's, else 1.5 x the nominal motors'
+    no-load speed."""
+    r_R, r_L = wheel_radii(wheel_radius)
+    sensors = sensors or SensorParameters()
+    bound = params.health.max_wheel_speed
+    if bound is None:
+        bound = 1.5 * no_load_speed if no_load_speed else DEFAULT_WHEEL_SPEED_BOUND
+    return HealthGeometry(
+        r_R, r_L, track_width, T_N, sensors.encoder_step, tuple(sensors.accelerometer_position), bound
+    )
 
 
 class NavigationLoop:
@@ -111,16 +145,19 @@ class NavigationLoop:
         T_N: float,
         T_C: float,
         initial: NavigationInitialState | None = None,
+        sensors: SensorParameters | None = None,
+        no_load_speed: float | None = None,
     ):
         initial = initial or NavigationInitialState()
         r_R, r_L = wheel_radii(wheel_radius)
+        self.geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed)
+        self.health = health_initial_state(self.geometry, initial.speed)
         self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
         self.params, self.track_width, self.T_N = params, track_width, T_N
         self.n = int(round(T_C / T_N))
         self.Q, self.R, self.P = params.ekf.matrices()
         self.x = initial.ekf_state()
         self.L = ekf_gain(ekf_prior_covariance(self.P, self.x, self.Q, T_N), self.R)
-        self.last_valid = np.zeros(5)
         self.odo_state = initial.odometry_state()
         self.det_state = [0.0, 0.0, initial.speed]
         self.c1, self.dv_held, self.dv_sum, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0, 0.0
@@ -140,11 +177,15 @@ class NavigationLoop:
         """Process sample k; returns the values the blocks output at t_k, in LOOP_KEYS order (the covariance
         P_k-1 is ``self.P`` before the call)."""
         mp, T_N = self.params.mixing, self.T_N
-        sample, fault_imu = check_sample([*accelerometers, gyro], self.last_valid)
-        acc, g = sample[0:4], sample[4]
-        odo_next, odo_raw, fault_enc = odometry_step(
-            self.odo_state, encoders, self.wheel_radius, self.track_width, T_N
+        self.health, sample, codes = health_step(
+            self.health, [*accelerometers, gyro, *encoders], self.params.health, self.geometry
         )
+        acc, g = sample[0:4], sample[4]
+        fault_imu = 1.0 if any(codes[0:5]) else 0.0
+        odo_next, odo_raw, fault_enc = odometry_step(
+            self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
+        )
+        fault_enc = max(fault_enc, 1.0 if any(codes[5:7]) else 0.0)
         cal, theta = self.params.yaw_calibration, self.calibration[0:2]
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         bias = theta[0]
@@ -172,6 +213,7 @@ class NavigationLoop:
             odo_raw[1],
             max(fault_imu, fault_enc),
             bias,
+            *codes,
         )
         self.x = mixed
         self.P = ekf_joseph(P_prior, self.L, self.R)
@@ -185,7 +227,6 @@ class NavigationLoop:
             self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n
         )
         self.c3_residual = residual
-        self.last_valid = sample
         self.odo_state = odo_next
         self.det_state = det_next
         if self.k % self.n == 0:
@@ -209,16 +250,20 @@ def navigation_loop(
     T_N: float,
     T_C: float,
     initial: NavigationInitialState | None = None,
+    sensors: SensorParameters | None = None,
+    no_load_speed: float | None = None,
 ):
     """Run the navigation algorithm sequentially over N sensor rows (as read at t_0 ... t_N-1).
 
     Args:
         accelerometers: (N, 4); gyro: (N,) or (N, 1); encoders: (N, 2).
+        sensors, no_load_speed: the sensors' data sheet and the nominal motors' no-load speed (m/s) for
+            the sensor checks (health_geometry).
 
     Returns:
         dict of (N,) arrays keyed by LOOP_KEYS, plus ``P`` (N, 5, 5): the EKF covariance P_k-1 at t_k.
     """
-    loop = NavigationLoop(params, wheel_radius, track_width, T_N, T_C, initial)
+    loop = NavigationLoop(params, wheel_radius, track_width, T_N, T_C, initial, sensors, no_load_speed)
     return run_navigation_loop(loop, accelerometers, gyro, encoders)
 
 

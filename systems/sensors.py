@@ -218,6 +218,7 @@ class ProprioceptiveSensors(LeafSystem):
         - accelerometers
         - gyro
         - encoders
+        - gyro_bias
 
     - plant_state: true PlantState (10).
     - body_acceleration: true [a_t, a_n, omega_dot].
@@ -225,6 +226,7 @@ class ProprioceptiveSensors(LeafSystem):
     - accelerometers: [a_t1, a_n1, a_t2, a_n2] (m/s^2).
     - gyro: [omega] (rad/s).
     - encoders: quantised wheel angles [theta_R, theta_L] (rad).
+    - gyro_bias: the true bias [b_g] (rad/s) in the gyro sample the outputs hold (for evaluation only).
 
     Timing: the sample taken at t_k = k*T_N is the value of the output ports from t_k on. A discrete block
     updating at the same t_k reads the previous sample (Drake's pre-update semantics), i.e. the sensors
@@ -262,6 +264,12 @@ class ProprioceptiveSensors(LeafSystem):
         self.DeclareStateOutputPort("accelerometers", self._accel)
         self.DeclareStateOutputPort("gyro", self._gyro)
         self.DeclareStateOutputPort("encoders", self._enc)
+        self.DeclareVectorOutputPort(
+            "gyro_bias",
+            1,
+            lambda c, o: o.SetFromVector(c.get_discrete_state(self._internal).get_value()[4:5]),
+            prerequisites_of_calc={self.xd_ticket()},
+        )
 
     @property
     def params(self) -> SensorParameters:

@@ -582,12 +582,16 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
     inertial_fault = np.flatnonzero(logs["inertial_fault"][0])
     encoder_fault = np.flatnonzero(logs["encoder_fault"][0])
     np.testing.assert_array_equal(inertial_fault, [100, 101, 102, 103, 200, 201])
-    np.testing.assert_array_equal(encoder_fault, [300, 301, 302])
-    # During the encoder gap the odometric speed is held, and afterwards it spans the gap correctly.
+    # 303: the first increment after the gap spans it and is not used (recovering).
+    np.testing.assert_array_equal(encoder_fault, [300, 301, 302, 303])
+    # 300: the left wheel's increment is replaced by v_R - b omega_gyro (systems/sensor_health.py);
+    # 301-303: no wheel is readable, the increments used at 300 are held; 304: the encoders' own again.
     odo_v = logs["odometry"][0]
-    assert odo_v[300] == odo_v[299] == odo_v[302]
-    span = enc[303] - enc[299]  # four samples' worth of encoder counts
-    assert odo_v[303] == pytest.approx(robot.wheel_radius * np.mean(span) / (4 * T_N), rel=1e-12)
+    r, b = robot.wheel_radius, robot.track_width
+    v_R = r * (enc[300, 0] - enc[299, 0]) / T_N
+    assert odo_v[300] == pytest.approx(0.5 * (v_R + v_R - b * gyro[300]), rel=1e-9, abs=1e-15)
+    assert odo_v[300] == odo_v[301] == odo_v[302] == odo_v[303]
+    assert odo_v[304] == pytest.approx(r * np.mean(enc[304] - enc[303]) / T_N, rel=1e-9, abs=1e-15)
     out = navigation_loop(
         acc,
         gyro,

@@ -1,0 +1,451 @@
+"""Plausibility and consistency checks of every sensor channel, before anything learns from it.
+
+Each T_N sample [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] is checked channel by channel. A
+channel that fails is excluded (flagged with the class of the failure) and replaced by what the other
+sensors say it should read (analytical redundancy), until it is plausible again:
+
+Checks (health codes, 0 = healthy):
+
+1. ``nonfinite``: NaN or inf.
+2. ``saturated``: an analog reading at saturation_fraction of its data-sheet range (gyro 300 deg/s,
+   accelerometers 10 g).
+3. ``stuck``: an analog reading exactly repeated stuck_samples times (the sensors' white noise makes a
+   repeat practically impossible; a real ADC's quantum is stuck_tolerance). An encoder whose count stands
+   still for stuck_samples while the other wheel and the gyro say it turns faster than
+   stuck_min_speed + stuck_speed_fraction |v_other| (v_pred = v_other +- b omega: a wheel held by hand,
+   about which the robot pivots, is not flagged).
+4. ``jump``: a change since the last accepted value beyond what the robot can do in one sample (gyro
+   gyro_max_step, accelerometers accel_max_step); an encoder increment that implies a wheel speed beyond
+   max_wheel_speed or a change of the wheel speed beyond max_wheel_acceleration T_N plus two counts,
+   against both the last used increment and the last raw one (so that a new level is re-acquired).
+5. ``inconsistent``: the two accelerometers' same axes disagree, in a moving average over
+   consistency_samples, by more than accel_consistency (+ per speed) beyond the rotational terms the gyro
+   predicts
+   (S(3)'s two sensors at +-(x, y) differ by 2 (-omega_dot y - omega^2 x, omega_dot x - omega^2 y),
+   omega_dot from the gyro's difference); the one farther, in the same moving average, from the
+   kinematic reference (d v_o/dt for t, v_o omega for n; common-mode slip errors cancel in the
+   comparison) is excluded until the pair's average falls below half the threshold.
+6. ``recovering``: excluded, waiting to agree again with its redundant estimate.
+
+Replacements: an excluded gyro reads the odometric yaw rate (both encoders healthy), else its last
+accepted value carried along by the odometry's increments; an accelerometer axis reads the other
+accelerometer's plus the rotational difference; an encoder advances by v_pred T_N / r (the other wheel
+and the gyro), or its last accepted increment. A stuck encoder's missed travel is added when it is
+detected; the first increment after an exclusion (it spans the gap) is never used.
+
+An excluded analog channel is re-admitted when within its jump bound of its redundant estimate, an
+encoder when its increment agrees with v_pred (or, with no prediction, with its previous increment);
+either after max_exclusion_time if only that test still fails (a persistent new level: the yaw calibration's
+innovation gate judges a gyro bias step from there).
+"""
+
+import dataclasses as dc
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
+"""Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
+NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
+NUM_CHANNELS = 7
+
+
+@dc.dataclass
+class SensorHealthParameters:
+    """Thresholds of the sensor checks (module docstring). Defaults: the data sheets of
+    systems/sensors.py and, for the rates of change, 4-5x the largest change per sample in the fault-free
+    built-in runs (gyro 0.11 rad/s, accelerometers 6.4 m/s^2, wheel speed 0.14 m/s on Tinyphoon's
+    square).
+
+    Args:
+        enabled: check (False: only NaN/inf are replaced, by the last value, as before).
+        gyro_range: data-sheet full scale (rad/s): ADXRS300 300 deg/s.
+        accel_range: data-sheet full scale (m/s^2): ADXL210E 10 g.
+        saturation_fraction: a reading at this fraction of the full scale counts as saturated.
+        stuck_samples: repeats (analog) or still counts (encoder) before "stuck", in [2, 50] (0.1 s).
+        stuck_tolerance: an analog change at most this large is a repeat (a real ADC's quantum).
+        stuck_min_speed, stuck_speed_fraction: an encoder is stuck when it stands still while v_pred
+            exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (m/s, 1).
+        gyro_max_step: largest plausible change of the gyro in one sample (rad/s).
+        accel_max_step: the same for an accelerometer axis (m/s^2).
+        max_wheel_speed: largest plausible circumferential wheel speed (m/s); 1.5 x the motors' no-load
+            speed of the nominal robot if None.
+        max_wheel_acceleration: largest plausible change of a wheel's circumferential speed (m/s^2).
+        accel_consistency, accel_consistency_per_speed: the two accelerometers may disagree, in the
+            moving average over consistency_samples and beyond the rotational terms, by
+            accel_consistency + accel_consistency_per_speed |v_o| (m/s^2; the commotion grows with the
+            speed: the fault-free built-ins peak at 0.65 of it, on the circle).
+        consistency_samples: samples of that average, in [2, 50].
+        max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s).
+    """
+
+    enabled: bool = True
+    gyro_range: float = math.radians(300.0)
+    accel_range: float = 10 * 9.81
+    saturation_fraction: float = 0.99
+    stuck_samples: int = 5
+    stuck_tolerance: float = 0.0
+    stuck_min_speed: float = 0.1
+    stuck_speed_fraction: float = 0.3
+    gyro_max_step: float = 0.5
+    accel_max_step: float = 25.0
+    max_wheel_speed: float | None = None
+    max_wheel_acceleration: float = 150.0
+    accel_consistency: float = 3.0
+    accel_consistency_per_speed: float = 0.5
+    consistency_samples: int = 15
+    max_exclusion_time: float = 1.0
+
+    def __post_init__(self):
+        for name in (
+            "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
+            "max_exclusion_time stuck_min_speed"
+        ).split():
+            _positive(name, getattr(self, name))
+        if self.max_wheel_speed is not None:
+            _positive("max_wheel_speed", self.max_wheel_speed)
+        if not (
+            isinstance(self.saturation_fraction, (int, float)) and 0.5 <= self.saturation_fraction <= 1.0
+        ):
+            raise ValueError(
+                f"saturation_fraction={self.saturation_fraction!r} is out of range: allowed [0.5, 1]"
+            )
+        for name in ("stuck_samples", "consistency_samples"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
+                raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
+        for name in ("stuck_tolerance", "stuck_speed_fraction", "accel_consistency_per_speed"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
+
+
+def _positive(name: str, value) -> None:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not (math.isfinite(value) and value > 0)
+    ):
+        raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf)")
+
+
+@dc.dataclass(frozen=True)
+class HealthGeometry:
+    """What the checks know of the robot and its sensors: nominal values only (data sheet, tape).
+
+    Args:
+        radius_R, radius_L: nominal (or calibrated) rolling radii (m). track_width: b (m).
+        T_N: period (s). encoder_step: rad per count. accelerometer_position: (x, y) of accelerometer 1
+        (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
+    """
+
+    radius_R: float
+    radius_L: float
+    track_width: float
+    T_N: float
+    encoder_step: float
+    accelerometer_position: tuple
+    max_wheel_speed: float
+
+
+# State layout (flat, for a Drake discrete state): per analog channel (5 each) the reference (last
+# accepted or replaced value), the last raw reading, its repeat count, the inconsistency hold and the
+# samples excluded; per encoder (2 each) the last finite raw angle, the output angle, the last used
+# increment, still samples, predicted travel while still and its absolute sum, code, lost, the last
+# raw increment, the samples excluded; then the
+# accelerometer pair window (sum t, sum n, count) and the previous odometric v.
+_REF, _LAST, _REPEAT, _HOLD, _EXCL = (slice(5 * i, 5 * i + 5) for i in range(5))
+_E = 25
+_E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E_EXCL = (
+    slice(_E + 2 * i, _E + 2 * i + 2) for i in range(10)
+)
+_W = _E + 20  # accelerometer pair averages (t, n), unused, previous odometric v, each sensor's average
+# deviation from the kinematic reference (t1, n1, t2, n2)
+STATE_SIZE = _W + 8
+
+
+def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
+    """Nothing read yet (the first finite reading is accepted); wheels rolling at ``initial_speed``."""
+    s = np.zeros(STATE_SIZE)
+    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW):
+        s[part] = np.nan
+    s[_E_INC] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
+    s[_W + 3] = initial_speed
+    return s
+
+
+def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
+    """Check one sample (module docstring).
+
+    Returns:
+        (next state, accepted sample [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L], health codes (7)).
+    """
+    s = np.array(state, float)
+    raw = [float(v) for v in raw]
+    if not p.enabled:  # NaN/inf only: hold the last valid value
+        codes = [0 if math.isfinite(v) else NONFINITE for v in raw]
+        out = list(raw)
+        for c in range(5):
+            if codes[c]:
+                out[c] = s[_REF][c] if math.isfinite(s[_REF][c]) else 0.0
+            s[_REF.start + c] = out[c]
+        return s, out, codes
+    ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
+    codes = [0] * NUM_CHANNELS
+
+    # Analog channels: non-finite, saturated, stuck, jump.
+    ranges = (p.accel_range,) * 4 + (p.gyro_range,)
+    steps = (p.accel_max_step,) * 4 + (p.gyro_max_step,)
+    max_excl = round(p.max_exclusion_time / g.T_N)
+    for c in range(5):
+        x = raw[c]
+        if not math.isfinite(x):
+            codes[c] = NONFINITE
+            continue
+        same = math.isfinite(last[c]) and abs(x - last[c]) <= p.stuck_tolerance
+        repeat[c] = repeat[c] + 1 if same else 0
+        last[c] = x
+        if abs(x) >= p.saturation_fraction * ranges[c]:
+            codes[c] = SATURATED
+        elif repeat[c] >= p.stuck_samples - 1:
+            codes[c] = STUCK
+        elif math.isfinite(ref[c]) and abs(x - ref[c]) > steps[c] and excl[c] < max_excl:
+            codes[c] = RECOVERING if excl[c] > 0 else JUMP
+        elif hold[c] > 0:
+            codes[c] = INCONSISTENT
+    gyro_ok = codes[4] == 0
+
+    # Encoders: raw-to-raw increments; implausible, spanning an exclusion, or still while predicted moving.
+    radii = (g.radius_R, g.radius_L)
+    e_last, e_out, e_inc = s[_E_LAST], s[_E_OUT], s[_E_INC]
+    still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
+    e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
+    inc = [math.nan, math.nan]
+    inc_candidate = [math.nan, math.nan]  # the healthy wheels' raw increments, for re-admission
+    for w in range(2):
+        x = raw[5 + w]
+        if e_code[w] == 0 and lost[w] == 0 and math.isfinite(x) and math.isfinite(e_last[w]):
+            inc_candidate[w] = x - e_last[w]
+    count_speed = 2.0 * g.encoder_step / g.T_N
+    for w in range(2):
+        x = raw[5 + w]
+        if not math.isfinite(x):
+            codes[5 + w] = NONFINITE
+            continue
+        if not math.isfinite(e_last[w]):  # the first reading
+            e_last[w] = x
+            e_out[w] = x
+            continue
+        d, e_last[w] = x - e_last[w], x
+        d_prev, e_raw[w] = e_raw[w], d
+        bound = (p.max_wheel_acceleration * g.T_N / radii[w] + count_speed) * g.T_N
+        if lost[w] > 0:
+            codes[5 + w] = RECOVERING  # this increment spans the exclusion
+        elif abs(d) * radii[w] / g.T_N > g.max_wheel_speed:
+            codes[5 + w] = JUMP
+        elif e_code[w] in (0, STUCK):
+            if abs(d - e_inc[w]) > bound:
+                codes[5 + w] = JUMP
+            else:
+                inc[w] = d
+        else:  # re-admission: agree with the prediction, else (none) with the last raw increment
+            other = inc_candidate[1 - w]
+            if math.isfinite(other) and gyro_ok:
+                v_pred = other * radii[1 - w] / g.T_N + (1.0 if w == 0 else -1.0) * g.track_width * raw[4]
+                ok = abs(d - v_pred * g.T_N / radii[w]) <= bound
+            else:
+                ok = abs(d - d_prev) <= bound
+            if ok or e_excl[w] >= max_excl:
+                inc[w] = d
+            else:
+                codes[5 + w] = RECOVERING
+    predicted = [math.nan, math.nan]  # v_R - v_L = b omega
+    for w in range(2):
+        o = 1 - w
+        if math.isfinite(inc[o]) and gyro_ok:
+            v_pred = inc[o] * radii[o] / g.T_N + (1.0 if w == 0 else -1.0) * g.track_width * raw[4]
+            predicted[w] = v_pred * g.T_N / radii[w]
+    for w in range(2):
+        if inc[w] == 0.0 and e_code[w] == STUCK:
+            codes[5 + w] = STUCK  # still stuck
+        elif inc[w] == 0.0 and math.isfinite(predicted[w]):
+            still[w] += 1
+            pred[w] += predicted[w]
+            pred_abs[w] += abs(predicted[w])
+            o = 1 - w
+            v_other = abs(inc[o]) * radii[o] / g.T_N
+            mean_pred = pred_abs[w] * radii[w] / (still[w] * g.T_N)
+            if (
+                still[w] >= p.stuck_samples
+                and mean_pred > p.stuck_min_speed + p.stuck_speed_fraction * v_other
+            ):
+                codes[5 + w] = STUCK
+                e_out[w] += pred[w] - predicted[w]  # the travel missed before the detection
+        else:
+            still[w] = pred[w] = pred_abs[w] = 0.0
+            if math.isfinite(inc[w]) and e_code[w] == STUCK:
+                codes[5 + w], inc[w] = RECOVERING, math.nan  # the stuck counter resumes with a lump
+
+    # Encoder output: accepted increment, else the predicted one, else the last one.
+    out = list(raw)
+    used = [0.0, 0.0]
+    for w in range(2):
+        if codes[5 + w] == 0 and math.isfinite(inc[w]):
+            used[w] = inc[w]
+        elif math.isfinite(predicted[w]):
+            used[w] = predicted[w]
+        else:
+            used[w] = e_inc[w]
+        if math.isfinite(e_out[w]):
+            e_out[w] += used[w]
+        out[5 + w] = e_out[w]
+        lost[w] = 1.0 if codes[5 + w] in (NONFINITE, JUMP) else 0.0
+        e_code[w], e_inc[w] = codes[5 + w], used[w]
+        e_excl[w] = e_excl[w] + 1.0 if codes[5 + w] else 0.0
+    v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
+    v_o, omega_o = 0.5 * (v_R + v_L), (v_R - v_L) / g.track_width
+    enc_ok = codes[5] == 0 and codes[6] == 0
+
+    # Accelerometer pair: disagreement beyond the rotational terms, a moving average over
+    # consistency_samples (hysteresis: flagged above accel_consistency, cleared below half of it);
+    # the one farther from the kinematic reference is excluded.
+    omega = raw[4] if gyro_ok else omega_o
+    omega_dot = (omega - ref[4]) / g.T_N if math.isfinite(ref[4]) else 0.0
+    px, py = g.accelerometer_position
+    rot = (-2.0 * omega * omega * px, -2.0 * omega * omega * py)  # a_1 - a_2 without omega_dot
+    rot_dot = (-2.0 * omega_dot * py, 2.0 * omega_dot * px)  # averaged only: noisy per sample
+    average, deviation = s[_W : _W + 2], s[_W + 4 : _W + 8]
+    limit = p.accel_consistency + p.accel_consistency_per_speed * abs(v_o)
+    a_kin = ((v_o - s[_W + 3]) / g.T_N, v_o * omega)
+    if all(codes[c] in (0, INCONSISTENT) for c in range(4)):
+        for c in range(4):
+            deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
+        for axis in (0, 1):
+            first, second = axis, axis + 2
+            disagreement = raw[first] - raw[second] - rot[axis] - rot_dot[axis]
+            average[axis] += (disagreement - average[axis]) / p.consistency_samples
+            if abs(average[axis]) > limit and not (hold[first] or hold[second]):
+                bad = first if abs(deviation[first]) > abs(deviation[second]) else second
+                hold[bad] = 1.0
+                codes[bad] = INCONSISTENT
+            elif abs(average[axis]) < 0.5 * limit and (hold[first] or hold[second]):
+                hold[first] = hold[second] = 0.0
+                for c in (first, second):
+                    codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
+    s[_W + 3] = v_o
+
+    # Analog output: the reading, else its redundant estimate (the reference carried along).
+    for c in range(5):
+        if codes[c] == 0:
+            out[c] = ref[c] = raw[c]
+            excl[c] = 0.0
+            continue
+        excl[c] += 1.0
+        if c == 4:
+            value = omega_o if enc_ok else ref[4]
+        elif codes[c ^ 2] == 0:
+            value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * rot[c % 2]
+        else:
+            value = ref[c]
+        out[c] = ref[c] = value if math.isfinite(value) else 0.0
+    return s, out, codes
+
+
+def health_report(t, arrays: dict, channels) -> dict:
+    """Per flagged channel of a run: the first flagged time (s), the flagged samples, and the samples of
+    each class; ``arrays[f"health_{channel}"]`` hold the codes."""
+    report = {}
+    for channel in channels:
+        codes = np.asarray(arrays[f"health_{channel}"])
+        flagged = np.flatnonzero(codes > 0)
+        if len(flagged) == 0:
+            continue
+        report[channel] = {
+            "first_s": float(t[flagged[0]]),
+            "samples": int(len(flagged)),
+            "classes": {
+                name: int(np.sum(codes == k + 1))
+                for k, name in enumerate(HEALTH_CLASSES)
+                if np.any(codes == k + 1)
+            },
+        }
+    return report
+
+
+class SensorHealthMonitor(LeafSystem):
+    """Checks every sensor channel, excludes and replaces the faulty ones (module docstring).
+
+    .. pydrake_system::
+
+        name: SensorHealthMonitor
+        input_ports:
+        - accelerometers
+        - gyro
+        - encoders
+        output_ports:
+        - accelerometers
+        - gyro
+        - encoders
+        - health
+        - inertial_fault
+        - encoder_fault
+
+    - inputs: the samples as read; accelerometers, gyro, encoders (out): the accepted or replaced
+      samples (direct feedthrough).
+    - health: the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
+      k: HEALTH_CLASSES[k - 1]).
+    - inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any encoder channel is excluded (the
+      yaw calibration does not learn from the sample).
+
+    Update every T_N: health_step's state.
+
+    Args:
+        params: SensorHealthParameters. geometry: HealthGeometry. initial_speed: wheels' speed before t=0.
+    """
+
+    def __init__(self, params: SensorHealthParameters, geometry: HealthGeometry, initial_speed: float = 0.0):
+        super().__init__()
+        params.__post_init__()
+        self._p, self._g = params, geometry
+        self._inputs = [
+            self.DeclareVectorInputPort(name, size)
+            for name, size in (("accelerometers", 4), ("gyro", 1), ("encoders", 2))
+        ]
+        self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
+        prereq = {self.xd_ticket()} | {port.ticket() for port in self._inputs}
+        n = STATE_SIZE
+        self._step = self.DeclareVectorOutputPort("step", n + 14, self._calc, prerequisites_of_calc=prereq)
+        for name, cols in (
+            ("accelerometers", slice(n, n + 4)),
+            ("gyro", slice(n + 4, n + 5)),
+            ("encoders", slice(n + 5, n + 7)),
+            ("health", slice(n + 7, n + 14)),
+        ):
+            self.DeclareVectorOutputPort(
+                name,
+                cols.stop - cols.start,
+                lambda c, o, cols=cols: o.SetFromVector(self._step.Eval(c)[cols]),
+                prerequisites_of_calc=prereq,
+            )
+        for name, cols in (
+            ("inertial_fault", slice(n + 7, n + 12)),
+            ("encoder_fault", slice(n + 12, n + 14)),
+        ):
+            self.DeclareVectorOutputPort(
+                name,
+                1,
+                lambda c, o, cols=cols: o.SetFromVector([float(np.any(self._step.Eval(c)[cols] > 0))]),
+                prerequisites_of_calc=prereq,
+            )
+        self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
+
+    def _calc(self, context, output):
+        raw = np.concatenate([port.Eval(context) for port in self._inputs])
+        state, out, codes = health_step(
+            context.get_discrete_state(self._state).get_value(), raw, self._p, self._g
+        )
+        output.SetFromVector(np.concatenate([state, out, codes]))
+
+    def _update(self, context, discrete_state):
+        discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])
