@@ -375,6 +375,26 @@ def test_interpolation_S25():
     np.testing.assert_allclose(interpolate(table, 7.0), [3.0, 6.0])  # clamped at the end
 
 
+def test_trajectory_interpolator_gives_the_point_at_Pi_and_the_speed_only():
+    """S(25) at i = 0 (no horizon: nothing tracks one) on a straight at 1 m/s sampled every 0.02 m:
+    Pi = 2.5 -> x = 0.05 m; u = delta v_ref + k_s (s_ref - s) = 0.8 * 1 + 2 * (0.05 - 0.04) = 0.82 m/s."""
+    from slipnav.scenarios.trajectories import TrajectoryConfig, build_trajectory
+    from slipnav.systems.slip_control import TrajectoryInterpolator
+
+    config = TrajectoryConfig(initial_speed=1.0, segments=[Straight(length=1.0, v_end=1.0)])
+    trajectory = build_trajectory(config, 0.02)
+    block = TrajectoryInterpolator(trajectory, StepSizeParameters())
+    names = [block.get_output_port(i).get_name() for i in range(block.num_output_ports())]
+    assert names == ["reference_pose", "speed"]
+    context = block.CreateDefaultContext()
+    for port, value in (("step_size", 0.8), ("progress", 2.5), ("virtual_target", 0.04)):
+        block.GetInputPort(port).FixValue(context, [value])
+    np.testing.assert_allclose(
+        block.GetOutputPort("reference_pose").Eval(context), [0.05, 0.0, 0.0], atol=1e-12
+    )
+    assert block.GetOutputPort("speed").Eval(context)[0] == pytest.approx(0.82, rel=1e-12)
+
+
 @pytest.mark.parametrize(
     "field, value, message",
     [
