@@ -35,11 +35,13 @@ def _start(a) -> float:
 
 
 def plot_path(a, reference, ax):
-    """Reference (None: none, e.g. a replayed log), true path (where known) and the estimates."""
+    """Reference (None: none, e.g. a replayed log), true path (where known) and the estimates. The truth is
+    a wide pale band drawn first, the estimates thin lines on top: where an estimate is good it runs inside
+    the band, and neither hides the other."""
+    if _has(a, "true_x"):
+        ax.plot(a["true_x"], a["true_y"], "C0", lw=5, alpha=0.35, solid_capstyle="round", label="true")
     if reference is not None:
         ax.plot(reference.x, reference.y, "k--", lw=1, label="reference")
-    if _has(a, "true_x"):
-        ax.plot(a["true_x"], a["true_y"], "C0", lw=1.5, label="true")
     for prefix, label, style in (
         ("est", "fused estimate", "C1"),
         ("odo", "odometry only", "C2"),
@@ -54,10 +56,48 @@ def plot_path(a, reference, ax):
     ax.legend(loc="best", fontsize=8)
 
 
+def loop_kind(a) -> str:
+    """What ran, from the artifact: "open loop (feed-forward)" when there is no follower (V1 all NaN),
+    else "closed loop"."""
+    return "closed loop" if _has(a, "V1") else "open loop (feed-forward)"
+
+
+def retimed_reference(a, reference):
+    """The reference as the closed loop asked for it (None open loop: the nominal-time reference is what
+    was played back).
+
+    Trajectory mode: the point Pi_K that slip control reached (S(24)), played at the step size's pace:
+    v = delta_K v_ref(Pi_K), omega = delta_K omega_ref(Pi_K) (S(25): the velocities expanded or compressed
+    by delta). Path mode: the commanded speed u = (v_R + v_L)/2 (I(24)'s, after the saturator) and the
+    path's yaw rate at it, kappa_r(s) u, at the virtual target s. Returns (v, omega, label).
+    """
+    if _has(a, "progress"):
+        index = np.arange(reference.num_samples)
+        delta = a["step_size"]
+        v = delta * np.interp(a["progress"], index, reference.v)
+        omega = delta * np.interp(a["progress"], index, reference.omega)
+        return v, omega, "reference at $\\Pi_K$, $\\times\\delta_K$"
+    if _has(a, "V1") and _has(a, "virtual_target"):
+        u = 0.5 * (a["cmd_R"] + a["cmd_L"])
+        kappa = np.interp(a["virtual_target"], reference.s, reference.kappa)
+        return u, kappa * u, "commanded $u$ (I(24), saturated), $\\kappa_r(s)\\,u$"
+    return None
+
+
 def plot_speeds(a, reference, axes):
+    """v_t, v_n and omega, true and estimated, against the reference as the run used it
+    (retimed_reference; open loop the nominal-time reference, which is what was played back; in closed
+    loop the nominal-time reference is drawn pale for comparison)."""
     t = a["t"]
+    retimed = retimed_reference(a, reference)
     ax = axes[0]
-    ax.plot(reference.t + _start(a), reference.v, "k--", lw=1, label="reference v")
+    if retimed is None:
+        ax.plot(reference.t + _start(a), reference.v, "k--", lw=1, label="reference v (played back)")
+    else:
+        ax.plot(
+            reference.t + _start(a), reference.v, color="0.7", lw=1, ls="--", label="reference, nominal time"
+        )
+        ax.plot(t, retimed[0], "k--", lw=1, label=retimed[2])
     ax.plot(t, a["true_v_t"], "C0", label="true $v_t$")
     ax.plot(t, a["true_wheel_R"], "C1", lw=0.8, label="wheel R $r\\dot\\theta_R$")
     ax.plot(t, a["true_wheel_L"], "C2", lw=0.8, label="wheel L $r\\dot\\theta_L$")
@@ -75,7 +115,13 @@ def plot_speeds(a, reference, axes):
     ax.set_ylabel("lateral speed (m/s)")
     ax.legend(loc="best", fontsize=7)
     ax = axes[2]
-    ax.plot(reference.t + _start(a), reference.omega, "k--", lw=1, label="reference $\\omega$")
+    if retimed is None:
+        ax.plot(
+            reference.t + _start(a), reference.omega, "k--", lw=1, label="reference $\\omega$ (played back)"
+        )
+    else:
+        ax.plot(reference.t + _start(a), reference.omega, color="0.7", lw=1, ls="--", label="nominal time")
+        ax.plot(t, retimed[1], "k--", lw=1, label=retimed[2])
     ax.plot(t, a["true_omega"], "C0", label="true $\\omega$")
     if _has(a, "est_omega"):
         ax.plot(t, a["est_omega"], "C3", lw=0.8, label="estimate $\\omega$")
@@ -87,14 +133,20 @@ def plot_speeds(a, reference, axes):
 
 
 def plot_slip(a, axes):
+    """Tangential slip as the tyres' slip ratios (1) and as the wheels' circumferential speed minus the
+    body's v_t (m/s), one quantity per axis, and the side-slip angle."""
     t = a["t"]
     ax = axes[0]
     ax.plot(t, a["true_slip_R"], "C1", label="slip ratio R")
     ax.plot(t, a["true_slip_L"], "C2", label="slip ratio L")
-    ax.plot(t, a["true_wheel_R"] - a["true_v_t"], "C1:", lw=0.8, label="$r\\dot\\theta_R - v_t$ (m/s)")
-    ax.set_ylabel("tangential slip")
+    ax.set_ylabel("slip ratio (1)")
     ax.legend(loc="best", fontsize=7)
     ax = axes[1]
+    ax.plot(t, a["true_wheel_R"] - a["true_v_t"], "C1", lw=0.8, label="$r\\dot\\theta_R - v_t$")
+    ax.plot(t, a["true_wheel_L"] - a["true_v_t"], "C2", lw=0.8, label="$r\\dot\\theta_L - v_t$")
+    ax.set_ylabel("slip speed (m/s)")
+    ax.legend(loc="best", fontsize=7)
+    ax = axes[2]
     ax.plot(t, np.degrees(moving_alpha(a)), "C0", label="true $\\alpha$")
     if _has(a, "est_alpha"):
         ax.plot(t, np.degrees(a["est_alpha"]), "C3", lw=0.8, label="estimate $\\alpha$")
@@ -103,6 +155,29 @@ def plot_slip(a, axes):
     ax.legend(loc="best", fontsize=7)
     for ax in axes:
         ax.grid(True, alpha=0.3)
+
+
+def plot_position_error(a, axes):
+    """Distance of each estimate's position from the true one (m) and its heading error (deg) against
+    time: where the final errors of the summary and of ``slipnav accuracy`` come from."""
+    t = a["t"]
+    for prefix, label, color in (
+        ("est", "fused estimate", "C1"),
+        ("odo", "odometry only", "C2"),
+        ("gyro", "Gyrodometry", "C3"),
+    ):
+        if not _has(a, f"{prefix}_x"):
+            continue
+        error = np.hypot(a[f"{prefix}_x"] - a["true_x"], a[f"{prefix}_y"] - a["true_y"])
+        axes[0].plot(t, error, color, lw=1, label=label)
+        heading = np.angle(np.exp(1j * (a[f"{prefix}_phi"] - a["true_phi"])))
+        axes[1].plot(t, np.degrees(heading), color, lw=1, label=label)
+    axes[0].set_ylabel("position error (m)")
+    axes[1].set_ylabel("heading error (deg)")
+    axes[1].set_xlabel("t (s)")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize=7)
 
 
 def slip_spans(t, c1, level: float = 0.5):
@@ -148,23 +223,30 @@ def plot_navigation(a, axes):
 
 
 def plot_control(a, reference, axes):
-    """Step size and progress vs nominal (Seyr Fig. 5) and wheel commands vs V_m (Indiveri Fig. 8-9)."""
+    """Step size and progress vs nominal (Seyr Fig. 5, trajectory mode), V1 of I(14), and wheel commands
+    vs V_m (Indiveri Fig. 8-9); ``axes``: 3 with a step size, else 2."""
     t = a["t"]
     T_C = float(a["T_C"])
     V_m = float(a["V_m"])
-    ax = axes[0]
+    panels = list(axes)
+    axes = list(axes)
     if _has(a, "step_size"):
-        ax.plot(t, a["step_size"], "C0", label="step size $\\delta_K$")
+        ax = axes.pop(0)
+        ax.plot(t, a["step_size"], "C0", label="step size $\\delta_K$ S(22)")
         ax.axhline(1.0, color="k", lw=0.6, ls="--")
+        ax.set_ylabel("step size $\\delta_K$ (1)", color="C0")
         ax2 = ax.twinx()
         K = np.maximum(np.ceil((t - _start(a)) / T_C - 1e-9), 0.0)  # the log holds Pi_K+1 on (t_K, t_K+1]
-        ax2.plot(t, a["progress"] - K, "C1", lw=0.8, label="$\\Pi_K - K$")
-        ax2.set_ylabel("$\\Pi_K - K$ (samples)", color="C1")
-    else:
-        V1 = np.where(np.isfinite(a["V1"]), a["V1"], np.nan)
-        ax.semilogy(t, np.maximum(V1, 1e-9), "C0", label="$V_1$ I(14)")
+        ax2.plot(t, a["progress"] - K, "C1", lw=0.8, label="$\\Pi_K - K$ S(24)")
+        ax2.set_ylabel("$\\Pi_K - K$ (control samples)", color="C1")
+        ax.legend(loc="upper left", fontsize=7)
+        ax2.legend(loc="lower left", fontsize=7)
+    ax = axes.pop(0)
+    V1 = np.where(np.isfinite(a["V1"]), a["V1"], np.nan)
+    ax.semilogy(t, np.maximum(V1, 1e-9), "C0", label="$V_1$ I(14)")
+    ax.set_ylabel("$V_1$ (m$^2$)")
     ax.legend(loc="upper left", fontsize=7)
-    ax = axes[1]
+    ax = axes.pop(0)
     ax.plot(t, a["cmd_R"], "C1", lw=0.8, label="command R")
     ax.plot(t, a["cmd_L"], "C2", lw=0.8, label="command L")
     ax.plot(t, a["true_wheel_R"], "C1:", lw=0.8, label="wheel R")
@@ -173,7 +255,7 @@ def plot_control(a, reference, axes):
     ax.set_ylabel("wheel speed (m/s)")
     ax.set_xlabel("t (s)")
     ax.legend(loc="best", fontsize=7, ncol=2)
-    for ax in axes:
+    for ax in panels:
         ax.grid(True, alpha=0.3)
 
 
@@ -189,11 +271,14 @@ def plot_associated_points(a, reference, ax, every: float = 0.2):
         ax.plot(reference.x[K], reference.y[K], "o", color="0.6", ms=2)
 
 
-def _write_figure(out_dir, name: str, suffix: str, rows: int, size, draw, title: str) -> FilePath:
-    """``out_dir/<name>.<suffix>.png``: ``rows`` stacked axes drawn by ``draw``, titled on the first."""
+def _write_figure(
+    out_dir, name: str, suffix: str, rows: int, size, draw, title: str, kind: str = ""
+) -> FilePath:
+    """``out_dir/<name>.<suffix>.png``: ``rows`` stacked axes drawn by ``draw``, titled "<name> (<kind>):
+    <title>" on the first."""
     fig, axes = plt.subplots(rows, 1, figsize=size, sharex=rows > 1)
     draw(axes)
-    (axes if rows == 1 else axes[0]).set_title(f"{name}: {title}")
+    (axes if rows == 1 else axes[0]).set_title(f"{name}{f' ({kind})' if kind else ''}: {title}")
     path = FilePath(out_dir) / f"{name}.{suffix}.png"
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
@@ -201,38 +286,57 @@ def _write_figure(out_dir, name: str, suffix: str, rows: int, size, draw, title:
 
 
 def write_figures(a, reference, out_dir, name: str) -> list[FilePath]:
-    """<name>.path/.speeds/.navigation/.control/.slip.png (navigation and control when present)."""
+    """<name>.path/.error/.speeds/.navigation/.control/.slip.png (navigation and control when present),
+    each titled with what ran: open or closed loop (loop_kind)."""
     files = []
+    kind = loop_kind(a)
 
-    def figure(suffix, rows, size, draw, title):
-        files.append(_write_figure(out_dir, name, suffix, rows, size, draw, title))
+    def figure(suffix, rows, size, draw, title, detail=""):
+        title += f"\n{detail}" if detail else ""
+        files.append(_write_figure(out_dir, name, suffix, rows, size, draw, title, kind))
 
     def path(ax):
         plot_path(a, reference, ax)
         plot_associated_points(a, reference, ax)
 
-    linked = " (grey: nominal point K linked to Pi_K)" if _has(a, "progress") else ""
-    figure("path", 1, (6, 6), path, "path" + linked)
-    figure("speeds", 3, (9, 8), lambda axes: plot_speeds(a, reference, axes), "speeds")
+    linked = "grey: nominal point K linked to $\\Pi_K$" if _has(a, "progress") else ""
+    figure("path", 1, (6, 6), path, "path", linked)
+    if _has(a, "est_x"):
+        figure(
+            "error",
+            2,
+            (9, 6),
+            lambda axes: plot_position_error(a, axes),
+            "position and heading error of the estimates",
+        )
+    if _has(a, "progress"):
+        retimed = "black dashed: the reference where slip control was ($\\Pi_K$), at its pace $\\delta_K$"
+    elif _has(a, "V1"):
+        retimed = "black dashed: the commanded speed u and the path's yaw rate at it"
+    else:
+        retimed = "black dashed: the reference played back"
+    figure("speeds", 3, (9, 8), lambda axes: plot_speeds(a, reference, axes), "speeds", retimed)
     if _has(a, "est_v_t"):
         figure(
             "navigation",
             5,
             (9, 11),
             lambda axes: plot_navigation(a, axes),
-            "navigation estimates vs truth (grey: detected tangential slip)",
+            "navigation estimates vs truth",
+            "grey: detected tangential slip",
         )
-    if _has(a, "V1") or _has(a, "step_size"):
-        figure("control", 2, (9, 6), lambda axes: plot_control(a, reference, axes), "control")
-    figure("slip", 2, (9, 6), lambda axes: plot_slip(a, axes), "slip")
+    if _has(a, "V1"):
+        rows = 3 if _has(a, "step_size") else 2
+        figure("control", rows, (9, 3 * rows), lambda axes: plot_control(a, reference, axes), "control")
+    figure("slip", 3, (9, 8), lambda axes: plot_slip(a, axes), "slip")
     return files
 
 
 def write_replay_figures(a, out_dir, name: str) -> list[FilePath]:
-    """<name>.path.png and <name>.navigation.png of a replayed sensor log (no reference; the truth where
-    the log has it)."""
+    """<name>.path.png, <name>.navigation.png and, where the log has the truth, <name>.error.png of a
+    replayed sensor log (no reference, no controller: navigation only)."""
     files = []
-    for suffix, rows, size, draw, title in (
+    figures = [
         ("path", 1, (6, 6), lambda ax: plot_path(a, None, ax), "replayed path"),
         (
             "navigation",
@@ -241,6 +345,11 @@ def write_replay_figures(a, out_dir, name: str) -> list[FilePath]:
             lambda axes: plot_navigation(a, axes),
             "navigation estimates" + (" vs truth" if _has(a, "true_v_t") else "") + " (grey: detected slip)",
         ),
-    ):
+    ]
+    if _has(a, "true_x"):
+        figures.append(
+            ("error", 2, (9, 6), lambda axes: plot_position_error(a, axes), "replayed estimates minus truth")
+        )
+    for suffix, rows, size, draw, title in figures:
         files.append(_write_figure(out_dir, name, suffix, rows, size, draw, title))
     return files

@@ -3,6 +3,10 @@
 Prints, per scenario, the mean and worst figures of scenarios.metrics.navigation_figures against the
 navigation targets (fused error <= 1 % of path length and <= 0.3 x odometry-only, side-slip RMS <= 0.5 deg
 where |alpha| > 1 deg, tangential slip detected, C1 < 0.75, within 2 T_C). Goals, not tests.
+
+The side-slip figure is judged only on seeds where |alpha| > 1 deg lasted at least
+scenarios.metrics.MIN_SIDE_SLIP_UPDATES T_C updates, and always printed with the number of samples it
+rests on; a scenario with no such seed (the square) gets "not enough samples" and no verdict.
 """
 
 import math
@@ -11,7 +15,7 @@ import time
 
 import numpy as np
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, navigation_figures
+from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, MIN_SIDE_SLIP_UPDATES, navigation_figures
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.sweep import session
 
@@ -24,9 +28,6 @@ def summarise(name: str, figures: list, wall: float, stream=None) -> None:
     def col(key):
         return np.array([f[key] for f in figures], dtype=float)
 
-    def worst(values):
-        return np.nanmax(values) if np.isfinite(values).any() else math.nan
-
     pct, ratio, alpha = col("fused_error_pct"), col("fused_over_odometry"), col("alpha_rms_deg")
     episodes, detected = col("slip_episodes").sum(), col("slip_detected").sum()
     latency = col("max_latency_T_C")
@@ -38,26 +39,60 @@ def summarise(name: str, figures: list, wall: float, stream=None) -> None:
         f"  final errors (m)       fused {col('fused_error_m').mean():.4f}  odometry "
         f"{col('odometry_error_m').mean():.4f}  Gyrodometry {col('gyrodometry_error_m').mean():.4f}",
     ]
-    if np.isfinite(alpha).any():
-        at_updates = col("alpha_rms_at_updates_deg")
-        lines.append(
-            f"  side-slip RMS error    mean {np.nanmean(alpha):.2f} deg  worst {np.nanmax(alpha):.2f} deg"
-            " (goal <= 0.5 deg where |alpha| > 1 deg)"
-        )
-        lines.append(
-            f"{'':25}at the T_C updates (no hold): mean {np.nanmean(at_updates):.2f} deg  worst "
-            f"{worst(at_updates):.2f} deg"
-        )
+    lines += side_slip_lines(
+        alpha, col("alpha_rms_at_updates_deg"), col("alpha_samples"), col("alpha_updates")
+    )
     if episodes:
         lines.append(
             f"  tangential slip        {int(detected)}/{int(episodes)} episodes detected (C1 < "
-            f"{DETECTION_C1_LEVEL}), worst latency {worst(latency):.1f} T_C (goal <= 2 T_C)"
+            f"{DETECTION_C1_LEVEL}), worst latency {_worst(latency):.1f} T_C (goal <= 2 T_C)"
         )
         lines.append(
             f"{'':25}{int(col('slip_detected_c1_half').sum())}/{int(episodes)} with C1 < 0.5 (two "
-            f"batches), worst latency {worst(col('max_latency_c1_half_T_C')):.1f} T_C"
+            f"batches), worst latency {_worst(col('max_latency_c1_half_T_C')):.1f} T_C"
         )
     print("\n".join(lines), file=stream)
+
+
+def side_slip_lines(alpha, at_updates, samples, updates) -> list[str]:
+    """The side-slip RMS lines: mean and worst over the seeds whose |alpha| > 1 deg lasted at least
+    MIN_SIDE_SLIP_UPDATES T_C updates, with the samples they rest on; "not enough samples" and no verdict
+    when no seed has that many (the square, peaking at ~1 deg)."""
+    if not np.isfinite(alpha).any():
+        return ["  side-slip RMS error    no sample with |alpha| > 1 deg on any seed: nothing to judge"]
+    rests = (
+        f"rests on {_span(samples)} T_N samples ({_span(updates)} T_C updates) with |alpha| > 1 deg per seed"
+    )
+    enough = updates >= MIN_SIDE_SLIP_UPDATES
+    if not enough.any():
+        return [
+            f"  side-slip RMS error    not enough samples, no verdict on the goal (<= 0.5 deg): fewer than "
+            f"{MIN_SIDE_SLIP_UPDATES} T_C updates with |alpha| > 1 deg on every seed",
+            f"{'':25}{rests}; what there is: mean {np.nanmean(alpha):.2f} deg (at the T_C updates "
+            f"{_nanmean(at_updates):.2f} deg)",
+        ]
+    seeds = f"{int(enough.sum())}/{len(enough)} seeds with >= {MIN_SIDE_SLIP_UPDATES} updates"
+    alpha, at_updates = alpha[enough], at_updates[enough]
+    return [
+        f"  side-slip RMS error    mean {np.nanmean(alpha):.2f} deg  worst {np.nanmax(alpha):.2f} deg"
+        " (goal <= 0.5 deg where |alpha| > 1 deg)",
+        f"{'':25}at the T_C updates (no hold): mean {_nanmean(at_updates):.2f} deg  worst "
+        f"{_worst(at_updates):.2f} deg",
+        f"{'':25}{rests}; {seeds}",
+    ]
+
+
+def _span(values) -> str:
+    lo, hi = int(np.min(values)), int(np.max(values))
+    return f"{lo}" if lo == hi else f"{lo}-{hi}"
+
+
+def _nanmean(values) -> float:
+    return float(np.nanmean(values)) if np.isfinite(values).any() else math.nan
+
+
+def _worst(values) -> float:
+    return float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
 
 
 def run_seed(job: dict) -> dict:

@@ -10,6 +10,11 @@ follows the trajectory's geometric path (Indiveri's law), with speed
 the reference speed expanded by the step size (S(25): "the progression of velocities ... is expanded or
 compressed according to delta") plus a correction of the arc-length lag of the virtual target s behind
 the interpolated reference point. delta < 1 slows the robot along the same path; delta > 1 catches up.
+
+S(25) is evaluated at i = 0 only: the reference pose at Pi_K. Seyr feeds the points i = 0 .. H - 1 (a
+prediction horizon) to the predictive tracker of their reference [9]; Indiveri's follower needs only the
+path and the point at Pi_K, so the horizon output (``reference_horizon``), which nothing read, was removed
+(issue 19).
 """
 
 import dataclasses as dc
@@ -147,7 +152,8 @@ class StepSizeController(LeafSystem):
 
 
 class TrajectoryInterpolator(LeafSystem):
-    """Reference horizon S(25) at Pi_K + i delta_K, i = 0..horizon-1, and the follower's speed command.
+    """Reference pose S(25) at Pi_K (i = 0; no horizon: there is no predictive tracker) and the follower's
+    speed command.
 
     .. pydrake_system::
 
@@ -158,29 +164,25 @@ class TrajectoryInterpolator(LeafSystem):
         - virtual_target
         output_ports:
         - reference_pose
-        - reference_horizon
         - speed
 
     - step_size, progress: delta_K and Pi_K from the StepSizeController (read at t_K, i.e. the values
       set at the previous control instant: delta_K-1 and Pi_K).
     - virtual_target: the follower's s.
-    - reference_pose: [x, y, phi] at Pi (direct feedthrough); reference_horizon: (horizon x 3) poses.
+    - reference_pose: [x, y, phi] at Pi (direct feedthrough).
     - speed: u = delta v_ref(Pi) + k_s (s_ref(Pi) - s), zero once the trajectory's end is reached.
 
     Args:
         trajectory: scenarios.trajectories.Trajectory (sampled at T_C). params: StepSizeParameters.
-        horizon: number of reference points.
     """
 
-    def __init__(self, trajectory, params: StepSizeParameters, horizon: int = 10):
+    def __init__(self, trajectory, params: StepSizeParameters):
         super().__init__()
-        if not (isinstance(horizon, int) and horizon >= 1):
-            raise ValueError(f"horizon={horizon!r} is out of range: allowed 1, 2, ...")
         self._table = np.column_stack(
             [trajectory.x, trajectory.y, trajectory.phi, trajectory.v, trajectory.s]
         )
         self._end = float(len(self._table) - 1)
-        self._k_s, self._H = params.k_s, horizon
+        self._k_s = params.k_s
         self._delta = self.DeclareVectorInputPort("step_size", 1)
         self._progress = self.DeclareVectorInputPort("progress", 1)
         self._s = self.DeclareVectorInputPort("virtual_target", 1)
@@ -190,21 +192,10 @@ class TrajectoryInterpolator(LeafSystem):
             lambda c, o: o.SetFromVector(interpolate(self._table, self._pi(c))[0:3]),
             prerequisites_of_calc={self._progress.ticket()},
         )
-        self.DeclareVectorOutputPort(
-            "reference_horizon",
-            3 * horizon,
-            self._calc_horizon,
-            prerequisites_of_calc={self._progress.ticket(), self._delta.ticket()},
-        )
         self.DeclareVectorOutputPort("speed", 1, self._calc_speed)
 
     def _pi(self, context):
         return self._progress.Eval(context)[0]
-
-    def _calc_horizon(self, context, output):
-        pi, delta = self._pi(context), self._delta.Eval(context)[0]
-        rows = [interpolate(self._table, pi + i * delta)[0:3] for i in range(self._H)]
-        output.SetFromVector(np.concatenate(rows))
 
     def _calc_speed(self, context, output):
         pi = self._pi(context)

@@ -63,7 +63,7 @@ def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, c
     assert SUMMARY_KEYS <= set(summary)
     assert summary["seed"] == 3 and summary["scenario"] == name
     assert all(v is not None for v in summary["final_position_error_m"].values())
-    for fig in ("path", "speeds", "slip", "navigation", "control"):
+    for fig in ("path", "error", "speeds", "slip", "navigation", "control"):
         assert (tmp_path / f"{name}-seed3.{fig}.png").stat().st_size > 10_000
 
 

@@ -14,6 +14,7 @@ from slipnav.scenarios.trajectories import Arc, PathConfig, Straight, build_path
 from slipnav.systems.path_follower import (
     LyapunovPathFollower,
     PathFollowerParameters,
+    WheelSpeedSaturator,
     approach_angle,
     bounded_speed,
     check_path_curvature,
@@ -228,6 +229,125 @@ def test_path_curvature_beyond_I7_is_rejected():
         PathFollowerParameters(k3=2.0)
 
 
+def follow_on_a_unicycle(path, pose0, robot, duration):
+    """The real follower and saturator (I(24), bounded law) at T_C = 20 ms around a kinematic unicycle
+    I(8)-(10), the speed u of I(24) also the u of I(15)-(16) as in the paper. Per follower update: s, u,
+    (s1, y1, theta), the unsaturated commands [v_R, v_L] and s_dot ((s_next - s) / T_C)."""
+    from pydrake.systems.primitives import LogVectorOutput
+
+    T_C = 0.02
+    b = DiagramBuilder()
+    gains = PathFollowerParameters()
+    follower = b.AddSystem(LyapunovPathFollower(gains, path, robot.track_width, T_C))
+    saturator = b.AddSystem(
+        WheelSpeedSaturator(path, robot.wheel_speed_limit, robot.track_width, gains.epsilon)
+    )
+    plant = b.AddSystem(KinematicUnicycle(robot.track_width, pose0))
+    b.Connect(plant.get_output_port(0), follower.GetInputPort("estimated_pose"))
+    for name in ("speed", "estimated_speed"):
+        b.Connect(saturator.GetOutputPort("speed"), follower.GetInputPort(name))
+    for name in ("lyapunov_value", "virtual_target", "wheel_speed_command"):
+        b.Connect(follower.GetOutputPort(name), saturator.GetInputPort(name))
+    b.Connect(saturator.GetOutputPort("saturated_command"), plant.GetInputPort("wheel_speed_command"))
+    logs = {
+        name: LogVectorOutput(port, b, T_C)
+        for name, port in (
+            ("s", follower.GetOutputPort("virtual_target")),
+            ("u", saturator.GetOutputPort("speed")),
+            ("errors", follower.GetOutputPort("frenet_errors")),
+            ("command", follower.GetOutputPort("wheel_speed_command")),
+        )
+    }
+    sim = Simulator(b.Build())
+    plant.GetMyMutableContextFromRoot(sim.get_mutable_context()).SetContinuousState(pose0)
+    sim.AdvanceTo(duration)
+    d = {name: log.FindLog(sim.get_context()).data() for name, log in logs.items()}
+    # Row k holds the state after the update at t_(k-1): that update read s and u of row k - 1.
+    s, u = d["s"][0, :-1], d["u"][0, :-1]
+    return s, u, d["errors"][:, 1:], d["command"][:, 1:], np.diff(d["s"][0]) / T_C
+
+
+@pytest.mark.parametrize(
+    "name, kappa_max, lateral, heading",
+    [("circle", 1 / 2.0, 0.5, 0.3), ("long_path", 1 / 2.5, 0.0, 0.0), ("long_path", 1 / 2.5, 0.5, 0.3)],
+)
+def test_closed_loop_curvature_term_T_stays_within_the_I20_I22_bound(name, kappa_max, lateral, heading):
+    """Indiveri I(20)-(22): the closed-loop curvature kappa_cl = (kappa_r s_dot + theta_dot)/u of the
+    commands I(18)-(19) (I(5): (v_R - v_L) / (b (v_R + v_L))) splits as kappa_r cos(theta) + T, with
+
+        T = (kappa_r k1 s1 + delta_dot - k2 (theta - delta)
+             - gamma y1 u (sin theta - sin delta)/(theta - delta)) / u,
+
+    and the design must keep |T| <= 1/b - kappa_r,max so that |kappa_cl| <= 1/b (both wheels forward,
+    I(6)). Kurt3D: b = 0.2 m, so 1/b = 5 1/m; the circle's radius 2 m and the long path's tightest
+    2.5 m (the YAML files) give bounds 4.5 and 4.6 1/m. Checked on the built-in paths from their start,
+    and 0.5 m left of their start, heading 0.3 rad off (on the circle's path exactly, a unicycle has
+    no error at all). delta = -k3 tanh(y1) with y1 to the left, the module's sign; delta_dot =
+    -k3 (1 - tanh^2 y1) dy1/dt, dy1/dt = I(12). Measured max |T|: long path from its start 0.04 1/m
+    (the straight-to-arc joints), circle and long path from the offset 1.14 1/m (1 m off and 2.5 rad:
+    4.51, at the bound)."""
+    from slipnav.scenarios.runner import follower_path
+
+    scenario = load_scenario(name)
+    robot, path = scenario.robot_parameters(), follower_path(scenario)
+    half = 0.5 * robot.track_width
+    assert half == 0.2 and path.max_abs_curvature == pytest.approx(kappa_max, rel=1e-9)
+    x0, y0, phi0 = path.pose(0.0)
+    pose0 = (x0 - lateral * math.sin(phi0), y0 + lateral * math.cos(phi0), phi0 + heading)
+    s, u, (s1, y1, theta), (v_R, v_L), s_dot = follow_on_a_unicycle(path, pose0, robot, 24.0)
+    on_path = s + s_dot * 0.02 < path.length - 1e-9  # the follower clips s_dot at the end, then stops
+    s, u, s1, y1, theta, v_R, v_L, s_dot = (x[on_path] for x in (s, u, s1, y1, theta, v_R, v_L, s_dot))
+    assert np.all(u >= 0.5 * robot.wheel_speed_limit - 1e-12)  # I(24): u in [V_m/2, V_m], the premise
+    g = PathFollowerParameters()
+    kappa = np.interp(s, path.s, path.kappa)
+    delta = -g.k3 * np.tanh(y1)
+    y1_dot = -kappa * s_dot * s1 + u * np.sin(theta)  # I(12)
+    delta_dot = -g.k3 * (1.0 - np.tanh(y1) ** 2) * y1_dot
+    e = theta - delta
+    sinc = np.where(np.abs(e) > 1e-9, (np.sin(theta) - np.sin(delta)) / np.where(e == 0, 1, e), np.cos(delta))
+    T = (kappa * g.k1 * s1 + delta_dot - g.k2 * e - g.gamma * y1 * u * sinc) / u  # I(22)
+    kappa_cl = (v_R - v_L) / (half * (v_R + v_L))  # I(5) of the commands I(18)-(19)
+    np.testing.assert_allclose(kappa_cl, kappa * np.cos(theta) + T, atol=1e-9)  # I(20) = I(21)
+    bound = 1.0 / half - kappa_max
+    assert np.max(np.abs(T)) <= bound, (np.max(np.abs(T)), bound)
+    assert np.max(np.abs(kappa_cl)) <= 1.0 / half
+    assert np.min(np.minimum(v_R, v_L)) >= 0.0  # I(6): both wheels forward
+
+
+@pytest.mark.parametrize("name, kappa_max", [("circle", 1 / 2.0), ("long_path", 1 / 2.5)])
+def test_T_of_I21_stays_within_the_I22_bound_on_the_real_robot(name, kappa_max, monkeypatch):
+    """The same bound on the whole closed loop (Kurt3D's dynamics, tyres, navigation estimate, standing
+    start), where I(15)-(16) read the estimated speed, so T is taken as I(21) defines it: T = kappa_cl -
+    kappa_r cos(theta), kappa_cl = (v_R - v_L) / (b (v_R + v_L)) of each follower update's commands (I(5),
+    I(20); the saturator keeps their ratio). Bound 1/b - kappa_r,max = 4.5 (circle), 4.6 (long path);
+    measured max |T| 0.91 and 0.26 1/m (seed 0)."""
+    from slipnav.scenarios import runner
+
+    frenet = {}
+    collect = runner.collect_arrays
+
+    def spy(loggers, context, robot):
+        frenet["data"] = loggers["frenet_errors"].FindLog(context).data()
+        return collect(loggers, context, robot)
+
+    monkeypatch.setattr(runner, "collect_arrays", spy)
+    scenario = load_scenario(name)
+    result = run_scenario(scenario)
+    a, path = result.arrays, runner.follower_path(scenario)
+    half = 0.5 * float(a["track_width"])
+    # The update at t_K reads row k (s before it) and shows its errors and commands on row k + 1.
+    n = round(float(a["T_C"]) / float(a["T_N"]))
+    k = np.arange(round(float(a["start_time"]) / float(a["T_N"])), len(a["t"]) - 1, n)
+    k = k[a["virtual_target"][k] < path.length]
+    theta = frenet["data"][2, k + 1]
+    v_R, v_L = a["cmd_R"][k + 1], a["cmd_L"][k + 1]
+    kappa_cl = (v_R - v_L) / (half * (v_R + v_L))
+    T = kappa_cl - np.interp(a["virtual_target"][k], path.s, path.kappa) * np.cos(theta)
+    assert len(k) > 200
+    assert np.max(np.abs(T)) <= 1.0 / half - kappa_max, np.max(np.abs(T))
+    assert np.max(np.abs(kappa_cl)) <= 1.0 / half  # I(6): the wheels never turn backwards
+
+
 # --- Seyr S(22)-(25) ------------------------------------------------------------------------------------
 
 
@@ -253,6 +373,26 @@ def test_interpolation_S25():
     np.testing.assert_allclose(interpolate(table, 0.25), [0.25, 0.5])
     np.testing.assert_allclose(interpolate(table, 1.5), [2.0, 4.0])
     np.testing.assert_allclose(interpolate(table, 7.0), [3.0, 6.0])  # clamped at the end
+
+
+def test_trajectory_interpolator_gives_the_point_at_Pi_and_the_speed_only():
+    """S(25) at i = 0 (no horizon: nothing tracks one) on a straight at 1 m/s sampled every 0.02 m:
+    Pi = 2.5 -> x = 0.05 m; u = delta v_ref + k_s (s_ref - s) = 0.8 * 1 + 2 * (0.05 - 0.04) = 0.82 m/s."""
+    from slipnav.scenarios.trajectories import TrajectoryConfig, build_trajectory
+    from slipnav.systems.slip_control import TrajectoryInterpolator
+
+    config = TrajectoryConfig(initial_speed=1.0, segments=[Straight(length=1.0, v_end=1.0)])
+    trajectory = build_trajectory(config, 0.02)
+    block = TrajectoryInterpolator(trajectory, StepSizeParameters())
+    names = [block.get_output_port(i).get_name() for i in range(block.num_output_ports())]
+    assert names == ["reference_pose", "speed"]
+    context = block.CreateDefaultContext()
+    for port, value in (("step_size", 0.8), ("progress", 2.5), ("virtual_target", 0.04)):
+        block.GetInputPort(port).FixValue(context, [value])
+    np.testing.assert_allclose(
+        block.GetOutputPort("reference_pose").Eval(context), [0.05, 0.0, 0.0], atol=1e-12
+    )
+    assert block.GetOutputPort("speed").Eval(context)[0] == pytest.approx(0.82, rel=1e-12)
 
 
 @pytest.mark.parametrize(

@@ -10,8 +10,10 @@ from slipnav.scenarios.metrics import (
     final_position_error,
     side_slip_rms_error,
     side_slip_rms_error_at_updates,
+    side_slip_sample_counts,
     slip_episodes,
 )
+from slipnav.studies.accuracy import side_slip_lines
 
 
 def synthetic(n=1000, T_N=0.002):
@@ -77,10 +79,39 @@ def test_side_slip_error_at_the_updates_leaves_out_the_hold():
     assert math.isnan(side_slip_rms_error_at_updates(a))
 
 
+def test_side_slip_figure_reports_the_samples_it_rests_on():
+    """|alpha| > 1 deg on rows 95..124 (30 T_N samples) holds the updates at rows 100, 110, 120 (3 of
+    T_C = 10 T_N); a slow row (0.1 m/s, below MOVING_SPEED) inside does not count."""
+    a = synthetic(400)
+    a["true_alpha"] = np.zeros(400)
+    a["true_alpha"][95:125] = math.radians(2.0)
+    a["true_v_t"][96] = 0.1
+    assert side_slip_sample_counts(a) == (29, 3)
+    assert side_slip_sample_counts(a, threshold_deg=3.0) == (0, 0)
+
+
+def test_accuracy_says_not_enough_samples_below_the_minimum():
+    """The square's case: 0-7 samples, 0-1 updates on every seed -> no verdict, the counts printed; one seed
+    with 27 updates -> judged on that seed alone."""
+    nan = math.nan
+    alpha, at_updates = np.array([0.09, nan, 0.14]), np.array([nan, nan, 0.12])
+    few = side_slip_lines(alpha, at_updates, np.array([3.0, 0.0, 7.0]), np.array([0.0, 0.0, 1.0]))
+    text = "\n".join(few)
+    assert "not enough samples" in text and "no verdict" in text
+    assert "0-7 T_N samples (0-1 T_C updates)" in text and "fewer than 10 T_C updates" in text
+    assert "mean 0.12 deg" in text  # (0.09 + 0.14) / 2, shown as what there is, not as a result
+    enough = side_slip_lines(alpha, at_updates, np.array([3.0, 0.0, 270.0]), np.array([0.0, 0.0, 27.0]))
+    assert "mean 0.14 deg  worst 0.14 deg" in enough[0] and "not enough" not in "\n".join(enough)
+    assert "0-270 T_N samples (0-27 T_C updates)" in enough[2] and "1/3 seeds with >= 10 updates" in enough[2]
+    none = side_slip_lines(np.full(2, nan), np.full(2, nan), np.zeros(2), np.zeros(2))
+    assert none == ["  side-slip RMS error    no sample with |alpha| > 1 deg on any seed: nothing to judge"]
+
+
 def test_accuracy_command_smoke(capsys, tmp_path):
     argv = ["accuracy", "square", "--seeds", "1", "--duration", "2.0", "--workers", "0"]
     assert main([*argv, "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "fused final error" in out and "tangential slip" in out
+    assert "side-slip RMS error" in out  # square: peak |alpha| ~ 1 deg, never a bare "goal met"
     assert main(["accuracy", "--seeds", "0"]) == 2
     assert "--seeds=0" in capsys.readouterr().err

@@ -174,6 +174,7 @@ def test_replaying_a_runs_log_reproduces_its_navigation_bit_for_bit(corner_run, 
     ran = json.loads((corner_run / "corner-seed0-tolerances.summary.json").read_text())
     assert summary["final_position_error_m"] == ran["final_position_error_m"]
     assert (corner_run / "corner-seed0-tolerances-replay.path.png").is_file()
+    assert (corner_run / "corner-seed0-tolerances-replay.error.png").is_file()  # the log has the truth
 
 
 def test_replay_of_a_kurt3d_run_with_its_own_navigation_tuning(tmp_path):
