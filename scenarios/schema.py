@@ -17,6 +17,7 @@ from pathlib import Path as FilePath
 
 from slipnav.scenarios.config import Scenario
 from slipnav.scenarios.trajectories import Arc, CosineTurn, Pause, SpotTurn, Straight
+from slipnav.systems.faults import FaultEvent
 from slipnav.systems.plant import ROBOTS, robot_parameters
 from slipnav.systems.sensors import default_sensor_parameters
 
@@ -152,6 +153,10 @@ def generated_section() -> str:
             "### Segments (`trajectory.segments`, `path.segments`)",
             "",
             _table(segment_rows()),
+            "",
+            "### Sensor faults (`faults`, a list; systems/faults.py)",
+            "",
+            _table(key_rows(FaultEvent, "faults[i].")),
             "",
             "### `robot_overrides`, `sensor_overrides` (defaults per reference robot)",
             "",

@@ -37,8 +37,8 @@ class FaultEvent:
     """One timed sensor fault (module docstring).
 
     Args:
-        kind: one of SENSOR_FAULT_KINDS.
-        channel: one of SENSOR_CHANNELS.
+        kind: nan, inf, dropout, stuck (encoders), bias, scale, spike or saturation.
+        channel: accel1_t, accel1_n, accel2_t, accel2_n, gyro, encoder_R or encoder_L.
         start: first time the navigation reads the faulty channel (s), in [0, 3600].
         duration: how long (s), in (0, 3600]; unused by ``spike``.
         value: the bias (rad/s, m/s^2, encoder counts), relative scale change (> -1), spike or

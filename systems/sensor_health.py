@@ -222,6 +222,7 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
     e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
     inc = [math.nan, math.nan]
+    first = [False, False]
     inc_candidate = [math.nan, math.nan]  # the healthy wheels' raw increments, for re-admission
     for w in range(2):
         x = raw[5 + w]
@@ -233,9 +234,10 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
         if not math.isfinite(x):
             codes[5 + w] = NONFINITE
             continue
-        if not math.isfinite(e_last[w]):  # the first reading
+        if not math.isfinite(e_last[w]):  # the first reading: the output starts there
             e_last[w] = x
             e_out[w] = x
+            first[w] = True
             continue
         d, e_last[w] = x - e_last[w], x
         d_prev, e_raw[w] = e_raw[w], d
@@ -291,7 +293,9 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     out = list(raw)
     used = [0.0, 0.0]
     for w in range(2):
-        if codes[5 + w] == 0 and math.isfinite(inc[w]):
+        if first[w]:
+            used[w] = 0.0
+        elif codes[5 + w] == 0 and math.isfinite(inc[w]):
             used[w] = inc[w]
         elif math.isfinite(predicted[w]):
             used[w] = predicted[w]
@@ -301,7 +305,8 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             e_out[w] += used[w]
         out[5 + w] = e_out[w]
         lost[w] = 1.0 if codes[5 + w] in (NONFINITE, JUMP) else 0.0
-        e_code[w], e_inc[w] = codes[5 + w], used[w]
+        e_code[w] = codes[5 + w]
+        e_inc[w] = e_inc[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         e_excl[w] = e_excl[w] + 1.0 if codes[5 + w] else 0.0
     v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
     v_o, omega_o = 0.5 * (v_R + v_L), (v_R - v_L) / g.track_width

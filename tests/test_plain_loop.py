@@ -1,5 +1,7 @@
 """The whole closed-loop diagram equals the plain sequential loop over the same pure functions."""
 
+import dataclasses as dc
+
 import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
@@ -10,20 +12,30 @@ from slipnav.scenarios.plain_loop import (
     run_scenario_plain_loop,
 )
 from slipnav.scenarios.runner import closed_loop_settings, run_scenario
+from slipnav.systems.faults import FaultEvent
+
+SENSOR_FAULTS = [
+    FaultEvent("dropout", "gyro", 1.4, 0.1),
+    FaultEvent("spike", "encoder_L", 1.5, 0.5, 1000.0),
+    FaultEvent("scale", "encoder_R", 1.6, 0.1, 1.0),
+    FaultEvent("bias", "accel2_n", 1.7, 0.2, 5.0),
+    FaultEvent("nan", "accel1_t", 1.8, 0.05),
+]
 
 
 @pytest.mark.parametrize(
-    "name, duration, overrides",
+    "name, duration, overrides, changes",
     [
-        ("corner", 3.0, {}),  # 1 s standstill; trajectory mode, slip control acting (delta < 1)
-        ("square", 2.0, {"slip_control": False}),
-        ("circle", 2.0, {"speed_law": "bounded"}),  # Kurt3D, max_speed mode, I(24)
+        ("corner", 3.0, {}, {}),  # 1 s standstill; trajectory mode, slip control acting (delta < 1)
+        ("square", 2.0, {"slip_control": False}, {}),
+        ("circle", 2.0, {"speed_law": "bounded"}, {}),  # Kurt3D, max_speed mode, I(24)
+        ("corner", 2.2, {}, {"faults": SENSOR_FAULTS}),  # injected, flagged, replaced
     ],
 )
-def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides):
+def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, changes):
     """Every signal, every sample: plant, sensors, navigation and control (<= 1e-12). This proves the
     multi-rate wiring of the whole loop (no stray delay at any port) and the plant's discrete timing."""
-    scenario = load_scenario(name)
+    scenario = dc.replace(load_scenario(name), **changes)
     seed = 7
     result = run_scenario(scenario, seed=seed, duration=duration, **overrides)
     a = result.arrays
@@ -46,9 +58,14 @@ def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides):
         np.testing.assert_allclose(plain[key][finite], artifact[finite], rtol=0, atol=1e-12, err_msg=key)
         compared += 1
     assert compared >= 40
-    if name == "corner":
+    if name == "corner" and not changes:
         assert np.min(a["step_size"]) < 1.0  # the slip-control branch was exercised
     assert np.ptp(a["true_x"]) > 0.5  # and the robot really drove
+    if changes:
+        flagged = {
+            key: set(np.unique(a[key])) for key in ("health_gyro", "health_encoder_L", "health_accel2_n")
+        }
+        assert flagged == {"health_gyro": {0, 3}, "health_encoder_L": {0, 4, 6}, "health_accel2_n": {0, 5}}
 
 
 def test_plain_loop_rejects_bad_inputs():
