@@ -41,12 +41,13 @@ from slipnav.systems.navigation import (
     LOOP_KEYS,
     NavigationInitialState,
     NavigationParameters,
+    health_geometry,
     navigation_loop,
 )
 from slipnav.systems.odometry import odometry, odometry_step
 from slipnav.systems.pose import pose_step
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_check import check_sample
+from slipnav.systems.sensor_health import SensorHealthParameters, health_initial_state, health_step
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 
@@ -485,11 +486,18 @@ def test_gyrodometry_through_encoder_quantisation():
     assert finals[0.0][3] / T_N == pytest.approx(rotation + bias, rel=0.05)  # the curve taken for drift
 
 
-def test_sensor_check_holds_and_flags():
-    sample, fault = check_sample([1.0, np.nan, 2.0, np.inf, -np.inf], np.array([9.0, 8.0, 7.0, 6.0, 5.0]))
-    np.testing.assert_array_equal(sample, [1.0, 8.0, 2.0, 6.0, 5.0])
-    assert fault == 1.0
-    assert check_sample([1.0, 2.0, 3.0, 4.0, 5.0], np.zeros(5))[1] == 0.0
+def test_sensor_checks_off_hold_and_flag_non_finite_samples_only():
+    """navigation.health.enabled = False: the paper's guard only, NaN/inf held at the last value."""
+    off = SensorHealthParameters(enabled=False)
+    geometry = health_geometry(NavigationParameters(), 0.015, 0.068, T_N)
+    state = health_initial_state(geometry)
+    state, out, codes = health_step(state, [9.0, 8.0, 7.0, 6.0, 5.0, 0.0, 0.0], off, geometry)
+    assert out == [9.0, 8.0, 7.0, 6.0, 5.0, 0.0, 0.0] and codes == [0] * 7
+    state, out, codes = health_step(state, [1.0, np.nan, 2.0, np.inf, -np.inf, 0.1, np.nan], off, geometry)
+    assert out[0:5] == [1.0, 8.0, 2.0, 6.0, 5.0] and out[5] == 0.1 and np.isnan(out[6])
+    assert codes == [0, 1, 0, 1, 1, 0, 1]
+    state, out, codes = health_step(state, [99.0, 1.0, 2.0, 3.0, 50.0, 10.0, 0.0], off, geometry)
+    assert codes == [0] * 7 and out[0] == 99.0  # no plausibility check
 
 
 # --- the diagram ------------------------------------------------------------------------------------------
