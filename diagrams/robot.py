@@ -10,7 +10,13 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import RandomSource
 from slipnav.systems.checks import require_seed
-from slipnav.systems.faults import SensorFaultInjector, check_fault_events
+from slipnav.systems.faults import (
+    PlantDisturbance,
+    SensorFaultInjector,
+    check_fault_events,
+    has_plant_events,
+    has_sensor_faults,
+)
 from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
 from slipnav.systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
 
@@ -41,8 +47,9 @@ def add_robot_with_sensors(
     and vibration draws come from the RandomSource, whose state the caller must seed with
     ``diagram.SetRandomContext(context, RandomGenerator(seed))`` (see ``make_simulator``).
     ``plant_time_step`` > 0 makes the plant discrete, updated with the sensors every T_N; 0: continuous.
-    ``faults``: FaultEvents (systems/faults.py); with any, a SensorFaultInjector sits after the sensors and
-    ``readings`` is it.
+    ``faults``: FaultEvents (systems/faults.py); with sensor faults a SensorFaultInjector sits after the
+    sensors and ``readings`` is it; with plant perturbations a PlantDisturbance feeds the plant's
+    ``disturbance`` input.
     """
     faults = check_fault_events(faults)
     plant = builder.AddSystem(
@@ -58,8 +65,12 @@ def add_robot_with_sensors(
     builder.Connect(plant.GetOutputPort("state"), sensors.GetInputPort("plant_state"))
     builder.Connect(plant.GetOutputPort("body_acceleration"), sensors.GetInputPort("body_acceleration"))
     builder.Connect(noise.get_output_port(0), sensors.GetInputPort("noise"))
+    if has_plant_events(faults):
+        disturbance = builder.AddSystem(PlantDisturbance(faults, T_N))
+        disturbance.set_name("Plant perturbations")
+        builder.Connect(disturbance.get_output_port(0), plant.GetInputPort("disturbance"))
     readings = sensors
-    if faults:
+    if has_sensor_faults(faults):
         readings = builder.AddSystem(SensorFaultInjector(faults, T_N, sensor_params.encoder_step))
         readings.set_name("Sensor faults")
         for name in ("accelerometers", "gyro", "encoders"):

@@ -17,7 +17,13 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, RandomSource
 from slipnav.diagrams.closed_loop import ControlSettings
-from slipnav.systems.faults import apply_sensor_faults, check_fault_events
+from slipnav.systems.faults import (
+    apply_sensor_faults,
+    check_fault_events,
+    has_plant_events,
+    has_sensor_faults,
+    plant_disturbance,
+)
 from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
 from slipnav.systems.path_follower import (
     bounded_speed,
@@ -26,6 +32,7 @@ from slipnav.systems.path_follower import (
     saturate_wheel_speeds,
 )
 from slipnav.systems.plant import (
+    NO_DISTURBANCE,
     RobotParameters,
     motor_current,
     plant_advance,
@@ -135,10 +142,11 @@ def run_plain_loop(
     clock = time.perf_counter
     spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
     faults = check_fault_events(faults)
+    perturbed, faulty = has_plant_events(faults), has_sensor_faults(faults)
     held = previous = None
     for k in range(num_steps):
         t0 = clock()
-        if faults:  # SensorFaultInjector: what the navigation reads at t_k
+        if faulty:  # SensorFaultInjector: what the navigation reads at t_k
             raw = [*meas_acc, meas_gyro, *meas_enc]
             held = (
                 raw if held is None else [r if math.isnan(h) else h for r, h in zip(raw, held, strict=True)]
@@ -183,7 +191,10 @@ def run_plain_loop(
         meas_gyro = float(gyro[0])
         t3 = clock()
         spent["sensors"] += t3 - t2
-        x, loop, acc = plant_advance(x, loop, command, k * plant_steps, plant_steps, plant_time_step, world)
+        disturbance = plant_disturbance(k * T_N, faults, T_N) if perturbed else NO_DISTURBANCE
+        x, loop, acc = plant_advance(
+            x, loop, command, k * plant_steps, plant_steps, plant_time_step, world, disturbance
+        )
         spent["plant"] += clock() - t3
     if timings is not None:
         timings.update(spent)

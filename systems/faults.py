@@ -18,6 +18,17 @@ kind           the channel reads
 
 Channels: ``accel1_t accel1_n accel2_t accel2_n gyro encoder_R encoder_L`` (the order of the sample
 vector [accelerometers (4), gyro, encoders (2)]). Several events may overlap; they apply in list order.
+
+Perturbations of the plant (Indiveri et al. Fig. 5), on ``wheel_R``, ``wheel_L`` or the ``body``, act on
+the simulated robot through its ``disturbance`` input (systems/plant.py):
+
+=================  ======================================================================================
+``wheel_lifted``   the wheel loses ground contact: no tyre force (it spins freely on its motor)
+``wheel_held``     a hand stops the wheel (a brake of time constant plant.HOLD_TIME_CONSTANT)
+``wheel_pushed``   a hand turns the wheel with ``value`` N m more torque
+``body_push``      a push of ``value`` N on the body, along its heading (``body_t``) or to its left
+                   (``body_n``)
+=================  ======================================================================================
 """
 
 import dataclasses as dc
@@ -25,24 +36,32 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.plant import NO_DISTURBANCE
 
 SENSOR_CHANNELS = ("accel1_t", "accel1_n", "accel2_t", "accel2_n", "gyro", "encoder_R", "encoder_L")
 ENCODER_CHANNELS = ("encoder_R", "encoder_L")
 SENSOR_FAULT_KINDS = ("nan", "inf", "dropout", "stuck", "bias", "scale", "spike", "saturation")
+PLANT_EVENT_KINDS = ("wheel_lifted", "wheel_held", "wheel_pushed", "body_push")
+WHEEL_CHANNELS = ("wheel_R", "wheel_L")
+BODY_CHANNELS = ("body_t", "body_n")
+
 MAX_FAULT_TIME = 3600.0
 
 
 @dc.dataclass
 class FaultEvent:
-    """One timed sensor fault (module docstring).
+    """One timed sensor fault or plant perturbation (module docstring).
 
     Args:
-        kind: nan, inf, dropout, stuck (encoders), bias, scale, spike or saturation.
-        channel: accel1_t, accel1_n, accel2_t, accel2_n, gyro, encoder_R or encoder_L.
+        kind: a sensor fault: nan, inf, dropout, stuck (encoders), bias, scale, spike or saturation; a
+            perturbation: wheel_lifted, wheel_held, wheel_pushed or body_push.
+        channel: a sensor: accel1_t, accel1_n, accel2_t, accel2_n, gyro, encoder_R or encoder_L; a wheel
+            (wheel_R, wheel_L) or the body (body_t, body_n) for a perturbation.
         start: first time the navigation reads the faulty channel (s), in [0, 3600].
         duration: how long (s), in (0, 3600]; unused by ``spike``.
         value: the bias (rad/s, m/s^2, encoder counts), relative scale change (> -1), spike or
-            saturation level (> 0); unused by nan, inf, dropout and stuck.
+            saturation level (> 0), the hand's torque (N m) or the push (N); unused by nan, inf,
+            dropout, stuck, wheel_lifted and wheel_held.
     """
 
     kind: str = "nan"
@@ -52,10 +71,17 @@ class FaultEvent:
     value: float = 0.0
 
     def __post_init__(self):
-        if self.kind not in SENSOR_FAULT_KINDS:
-            raise ValueError(f"kind={self.kind!r} is unknown: allowed {list(SENSOR_FAULT_KINDS)}")
-        if self.channel not in SENSOR_CHANNELS:
-            raise ValueError(f"channel={self.channel!r} is unknown: allowed {list(SENSOR_CHANNELS)}")
+        kinds = SENSOR_FAULT_KINDS + PLANT_EVENT_KINDS
+        if self.kind not in kinds:
+            raise ValueError(f"kind={self.kind!r} is unknown: allowed {list(kinds)}")
+        if self.kind in PLANT_EVENT_KINDS:
+            allowed = BODY_CHANNELS if self.kind == "body_push" else WHEEL_CHANNELS
+        else:
+            allowed = SENSOR_CHANNELS
+        if self.channel not in allowed:
+            raise ValueError(
+                f"channel={self.channel!r} is unknown for kind {self.kind!r}: allowed {list(allowed)}"
+            )
         if self.kind == "stuck" and self.channel not in ENCODER_CHANNELS:
             raise ValueError(
                 f"channel={self.channel!r} cannot be 'stuck': allowed {list(ENCODER_CHANNELS)} "
@@ -69,6 +95,10 @@ class FaultEvent:
             _require("value", self.value, 0.0, math.inf, closed_low=False)
         else:
             _require("value", self.value, -math.inf, math.inf, closed_low=True)
+
+    @property
+    def is_sensor_fault(self) -> bool:
+        return self.kind in SENSOR_FAULT_KINDS
 
     @property
     def index(self) -> int:
@@ -113,7 +143,7 @@ def apply_sensor_faults(t: float, raw, held, previous_raw, events, T_N: float, e
     """
     out = [float(v) for v in raw]
     for e in events:
-        if not e.active(t, T_N):
+        if not e.is_sensor_fault or not e.active(t, T_N):
             continue
         i = e.index
         counts = encoder_step if i >= 5 else 1.0
@@ -195,4 +225,58 @@ class SensorFaultInjector(LeafSystem):
         discrete_state.set_value(self._held, self._sample.Eval(context))
         discrete_state.set_value(
             self._previous, np.concatenate([port.Eval(context) for port in self._inputs])
+        )
+
+
+def plant_disturbance(t: float, events, T_N: float) -> tuple:
+    """The plant's disturbance input at t (NO_DISTURBANCE's layout) from the active perturbations."""
+    d = list(NO_DISTURBANCE)
+    for e in events:
+        if e.is_sensor_fault or not e.active(t, T_N):
+            continue
+        if e.kind == "body_push":
+            d[6 + BODY_CHANNELS.index(e.channel)] += e.value
+            continue
+        w = WHEEL_CHANNELS.index(e.channel)
+        if e.kind == "wheel_lifted":
+            d[w] = 0.0
+        elif e.kind == "wheel_held":
+            d[2 + w] = 1.0
+        else:
+            d[4 + w] += e.value
+    return tuple(d)
+
+
+def has_plant_events(events) -> bool:
+    return any(not e.is_sensor_fault for e in events)
+
+
+def has_sensor_faults(events) -> bool:
+    return any(e.is_sensor_fault for e in events)
+
+
+class PlantDisturbance(LeafSystem):
+    """The plant perturbations as the plant's disturbance input (module docstring; plant_disturbance).
+
+    .. pydrake_system::
+
+        name: PlantDisturbance
+        output_ports:
+        - disturbance
+
+    - disturbance: [contact_R, contact_L, held_R, held_L, torque_R, torque_L, force_t, force_n] at the
+      context's time (NO_DISTURBANCE when nothing acts).
+
+    Args:
+        events: FaultEvents (the sensor faults among them are ignored). T_N: period (s).
+    """
+
+    def __init__(self, events, T_N: float):
+        super().__init__()
+        self._events, self._T_N = check_fault_events(events), T_N
+        self.DeclareVectorOutputPort(
+            "disturbance",
+            len(NO_DISTURBANCE),
+            lambda c, o: o.SetFromVector(plant_disturbance(c.get_time(), self._events, self._T_N)),
+            prerequisites_of_calc={self.time_ticket()},
         )

@@ -334,8 +334,17 @@ def motor_current(voltage: float, wheel_rate: float, p: RobotParameters) -> floa
     return min(max(current, -p.motor_current_limit), p.motor_current_limit)
 
 
-def contact_forces(state, p: RobotParameters):
-    """Tyre and shoe forces on the body at ``state`` (PlantState order).
+NO_DISTURBANCE = (1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+"""The disturbance input when nothing acts: [contact_R, contact_L, held_R, held_L, torque_R, torque_L,
+force_t, force_n] (systems/faults.py's perturbations: a wheel lifted (contact 0), held by a hand, pushed
+with a torque (N m); a push on the body (N, body axes))."""
+HOLD_TIME_CONSTANT = 0.001
+"""A hand holds a wheel against every torque on it: w_dot = -w / HOLD_TIME_CONSTANT (s) while held."""
+
+
+def contact_forces(state, p: RobotParameters, disturbance=NO_DISTURBANCE):
+    """Tyre and shoe forces on the body at ``state`` (PlantState order), a lifted wheel's tyre force
+    zero, plus a push on the body (``disturbance``, NO_DISTURBANCE's layout).
 
     Returns:
         ((a_t, a_n, omega_dot) absolute body accelerations, (F_x, dF_x/d(r w)) of the right tyre, the
@@ -345,10 +354,11 @@ def contact_forces(state, p: RobotParameters):
     half = 0.5 * p.track_width
     n_wheel = p.wheel_normal_load
     # Wheels at (0, -half) right and (0, +half) left.
-    fx_R, fy_R, kx_R = tyre_force_and_stiffness(v_t + omega * half, v_n, p.radius_R * w_R, n_wheel, p)
-    fx_L, fy_L, kx_L = tyre_force_and_stiffness(v_t - omega * half, v_n, p.radius_L * w_L, n_wheel, p)
-    f_x = fx_R + fx_L
-    f_y = fy_R + fy_L
+    n_R, n_L = n_wheel * disturbance[0], n_wheel * disturbance[1]
+    fx_R, fy_R, kx_R = tyre_force_and_stiffness(v_t + omega * half, v_n, p.radius_R * w_R, n_R, p)
+    fx_L, fy_L, kx_L = tyre_force_and_stiffness(v_t - omega * half, v_n, p.radius_L * w_L, n_L, p)
+    f_x = fx_R + fx_L + disturbance[6]
+    f_y = fy_R + fy_L + disturbance[7]
     moment = half * (fx_R - fx_L)
     if p.shoe_friction > 0.0 or p.shoe_viscous_drag > 0.0:
         n_shoe = p.shoe_normal_load
@@ -361,22 +371,27 @@ def contact_forces(state, p: RobotParameters):
     return accelerations, (fx_R, kx_R), (fx_L, kx_L)
 
 
-def plant_derivatives(state, currents, p: RobotParameters):
+def plant_derivatives(state, currents, p: RobotParameters, disturbance=NO_DISTURBANCE):
     """Time derivative of the continuous plant state.
 
     Args:
         state: sequence in PlantState order.
         currents: (i_R, i_L) motor currents (A); zeros model motors switched off (open circuit).
+        disturbance: perturbations (NO_DISTURBANCE's layout).
 
     Returns:
         (xdot as a list in PlantState order, (a_t, a_n, omega_dot) absolute body accelerations)
     """
     x, y, phi, v_t, v_n, omega, _, _, w_R, w_L = state
-    (a_t, a_n, omega_dot), (fx_R, _), (fx_L, _) = contact_forces(state, p)
+    (a_t, a_n, omega_dot), (fx_R, _), (fx_L, _) = contact_forces(state, p, disturbance)
     i_R, i_L = currents
     k = p.motor_constant
-    w_R_dot = (k * i_R - p.radius_R * fx_R - p.bearing_drag * w_R) / p.wheel_inertia
-    w_L_dot = (k * i_L - p.radius_L * fx_L - p.bearing_drag * w_L) / p.wheel_inertia
+    w_R_dot = (k * i_R - p.radius_R * fx_R - p.bearing_drag * w_R + disturbance[4]) / p.wheel_inertia
+    w_L_dot = (k * i_L - p.radius_L * fx_L - p.bearing_drag * w_L + disturbance[5]) / p.wheel_inertia
+    if disturbance[2]:
+        w_R_dot = -w_R / HOLD_TIME_CONSTANT
+    if disturbance[3]:
+        w_L_dot = -w_L / HOLD_TIME_CONSTANT
     c, s = math.cos(phi), math.sin(phi)
     xdot = [
         v_t * c - v_n * s,
@@ -393,7 +408,7 @@ def plant_derivatives(state, currents, p: RobotParameters):
     return xdot, (a_t, a_n, omega_dot)
 
 
-def plant_substep(state, voltages, h: float, p: RobotParameters):
+def plant_substep(state, voltages, h: float, p: RobotParameters, disturbance=NO_DISTURBANCE):
     """One semi-implicit Euler step of length h of the plant ODE (plant_derivatives) at fixed voltages.
 
     The wheel speeds take an exponential-Euler step in their own stiff slip mode: with the damping
@@ -402,18 +417,25 @@ def plant_substep(state, voltages, h: float, p: RobotParameters):
     mode reaches D ~ 4000 1/s at low speed). The body velocities step explicitly; positions and wheel
     angles use the new velocities (symplectic Euler) and the pose the mid-step heading. This mirrors the
     implicit treatment of stiff contact in Drake's discrete MultibodyPlant, reduced to a diagonal part.
+    A held wheel (disturbance) decays exactly as w_dot = -w / HOLD_TIME_CONSTANT.
     Returns (state+, (a_t, a_n, omega_dot) at state).
     """
     x, y, phi, v_t, v_n, omega, th_R, th_L, w_R, w_L = state
-    (a_t, a_n, omega_dot), (fx_R, kx_R), (fx_L, kx_L) = contact_forces(state, p)
+    (a_t, a_n, omega_dot), (fx_R, kx_R), (fx_L, kx_L) = contact_forces(state, p, disturbance)
     k, J, R_m, b = p.motor_constant, p.wheel_inertia, p.motor_resistance, p.bearing_drag
     w_new = []
-    wheels = ((w_R, fx_R, kx_R, voltages[0], p.radius_R), (w_L, fx_L, kx_L, voltages[1], p.radius_L))
-    for w, fx, kx, volts, r in wheels:
+    wheels = (
+        (w_R, fx_R, kx_R, voltages[0], p.radius_R, disturbance[2], disturbance[4]),
+        (w_L, fx_L, kx_L, voltages[1], p.radius_L, disturbance[3], disturbance[5]),
+    )
+    for w, fx, kx, volts, r, held, torque in wheels:
         current = (volts - k * w) / R_m
         limited = abs(current) > p.motor_current_limit
         current = min(max(current, -p.motor_current_limit), p.motor_current_limit)
-        w_dot = (k * current - r * fx - b * w) / J
+        if held:
+            w_new.append(w * math.exp(-h / HOLD_TIME_CONSTANT))
+            continue
+        w_dot = (k * current - r * fx - b * w + torque) / J
         damping = (r * r * max(kx, 0.0) + b + (0.0 if limited else k * k / R_m)) / J
         gain = -math.expm1(-h * damping) / damping if damping * h > 1e-12 else h
         w_new.append(w + gain * w_dot)
@@ -480,8 +502,18 @@ def substeps_per(period: float, time_step: float, name: str) -> int:
     return n
 
 
-def plant_advance(state, loop_state, command, step_index: int, num_steps: int, time_step: float, p):
-    """Advance the discrete plant by ``num_steps`` semi-implicit steps of ``time_step`` (plant_substep).
+def plant_advance(
+    state,
+    loop_state,
+    command,
+    step_index: int,
+    num_steps: int,
+    time_step: float,
+    p,
+    disturbance=NO_DISTURBANCE,
+):
+    """Advance the discrete plant by ``num_steps`` semi-implicit steps of ``time_step`` (plant_substep),
+    the ``disturbance`` held over them.
 
     The PI speed loop samples (speed_loop_update) whenever the global step index ``step_index + i`` is a
     multiple of speed_loop_period / time_step, from the wheel rates at that instant, and its voltage
@@ -495,9 +527,9 @@ def plant_advance(state, loop_state, command, step_index: int, num_steps: int, t
     for i in range(num_steps):
         if (step_index + i) % per_loop == 0:
             loop_state = speed_loop_update(loop_state, command, (state[8], state[9]), p)
-        state, _ = plant_substep(state, (loop_state[2], loop_state[3]), time_step, p)
+        state, _ = plant_substep(state, (loop_state[2], loop_state[3]), time_step, p, disturbance)
     currents = (motor_current(loop_state[2], state[8], p), motor_current(loop_state[3], state[9], p))
-    _, acceleration = plant_derivatives(state, currents, p)
+    _, acceleration = plant_derivatives(state, currents, p, disturbance)
     return list(state), list(loop_state), list(acceleration)
 
 
@@ -521,6 +553,7 @@ class DifferentialDrivePlant(LeafSystem):
         name: DifferentialDrivePlant
         input_ports:
         - wheel_speed_command
+        - disturbance
         output_ports:
         - state
         - body_acceleration
@@ -529,6 +562,7 @@ class DifferentialDrivePlant(LeafSystem):
         - tyre_slip
 
     - wheel_speed_command: commanded circumferential wheel speeds [v_R, v_L] (m/s).
+    - disturbance: perturbations in NO_DISTURBANCE's layout (optional: unconnected, nothing acts).
     - state: PlantState [x, y, phi, v_t, v_n, omega, theta_R, theta_L, w_R, w_L].
     - body_acceleration: true absolute body-frame accelerations [a_t, a_n, omega_dot] (m/s^2, rad/s^2).
     - wheel_angles: [theta_R, theta_L] (rad), for the encoders.
@@ -573,6 +607,7 @@ class DifferentialDrivePlant(LeafSystem):
         x0[3] = initial_speed
         x0[8], x0[9] = initial_speed / params.radius_R, initial_speed / params.radius_L
         self._command_port = self.DeclareVectorInputPort("wheel_speed_command", 2)
+        self._disturbance_port = self.DeclareVectorInputPort("disturbance", len(NO_DISTURBANCE))
         if time_step > 0.0:
             self._declare_discrete(x0, time_step, update_period)
         else:
@@ -596,7 +631,10 @@ class DifferentialDrivePlant(LeafSystem):
         self._state_ticket = self.xc_ticket()
         self.DeclareVectorOutputPort("state", 10, self._calc_state, prerequisites_of_calc={self.xc_ticket()})
         self.DeclareVectorOutputPort(
-            "body_acceleration", 3, self._calc_acceleration, prerequisites_of_calc={self.all_state_ticket()}
+            "body_acceleration",
+            3,
+            self._calc_acceleration,
+            prerequisites_of_calc={self.all_state_ticket(), self._disturbance_port.ticket()},
         )
 
     def _declare_discrete(self, x0, time_step, update_period):
@@ -629,6 +667,10 @@ class DifferentialDrivePlant(LeafSystem):
             return context.get_discrete_state(self._x).get_value()
         return context.get_continuous_state_vector().CopyToVector()
 
+    def _disturbance(self, context):
+        port = self._disturbance_port
+        return port.Eval(context) if port.HasValue(context) else NO_DISTURBANCE
+
     def _currents(self, context, x):
         loop = context.get_discrete_state(self._loop).get_value()
         p = self._params
@@ -638,7 +680,7 @@ class DifferentialDrivePlant(LeafSystem):
         if self._time_step > 0.0:
             return
         x = context.get_continuous_state_vector().CopyToVector()
-        xdot, _ = plant_derivatives(x, self._currents(context, x), self._params)
+        xdot, _ = plant_derivatives(x, self._currents(context, x), self._params, self._disturbance(context))
         derivatives.get_mutable_vector().SetFromVector(xdot)
 
     def _update_speed_loop(self, context, discrete_state):
@@ -657,6 +699,7 @@ class DifferentialDrivePlant(LeafSystem):
             self._steps_per_update,
             self._time_step,
             self._params,
+            self._disturbance(context),
         )
         discrete_state.set_value(self._x, state)
         discrete_state.set_value(self._loop, loop)
@@ -667,7 +710,7 @@ class DifferentialDrivePlant(LeafSystem):
 
     def _calc_acceleration(self, context, output: BasicVector):
         x = context.get_continuous_state_vector().CopyToVector()
-        _, acc = plant_derivatives(x, self._currents(context, x), self._params)
+        _, acc = plant_derivatives(x, self._currents(context, x), self._params, self._disturbance(context))
         output.SetFromVector(acc)
 
     def _calc_wheel_angles(self, context, output: BasicVector):

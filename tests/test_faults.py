@@ -10,7 +10,8 @@ from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.faults import fault_cases, fault_onset, print_report
-from slipnav.systems.faults import FaultEvent, apply_sensor_faults
+from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
+from slipnav.systems.plant import contact_forces, plant_derivatives, plant_substep, tinyphoon
 from slipnav.systems.sensor_health import (
     INCONSISTENT,
     JUMP,
@@ -275,3 +276,52 @@ def test_fault_cases_and_the_report_line():
     out = io.StringIO()
     print_report(rows, [{"false_flags": 0}], 1.0, out)
     assert out.getvalue().splitlines()[-1] == "faults detected=3/3 worst_error_ratio=1.500"
+
+
+# -- plant perturbations -----------------------------------------------------------------------------
+
+
+def test_plant_perturbations_act_as_their_physics_says():
+    """A lifted wheel transmits no tyre force, a hand's torque adds tau/J to the wheel's acceleration, a
+    push F/m to the body's, and a held wheel stops with the hand's time constant."""
+    p = tinyphoon()
+    state = [0.0, 0.0, 0.0, 1.0, 0.05, 0.5, 0.0, 0.0, 1.1 / p.wheel_radius, 0.9 / p.wheel_radius]
+    currents = (0.3, 0.2)
+    base, acc = plant_derivatives(state, currents, p)
+    lifted = plant_disturbance(1.0, [FaultEvent("wheel_lifted", "wheel_R", 0.5, 1.0)], T_N)
+    assert lifted == (0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    (_, _, _), (fx_R, _), (fx_L, _) = contact_forces(state, p, lifted)
+    assert fx_R == 0.0 and fx_L == contact_forces(state, p)[2][0]
+    xdot, _ = plant_derivatives(state, currents, p, lifted)
+    assert xdot[8] == pytest.approx((p.motor_constant * 0.3 - p.bearing_drag * state[8]) / p.wheel_inertia)
+    pushed = plant_disturbance(1.0, [FaultEvent("wheel_pushed", "wheel_L", 0.5, 1.0, 0.002)], T_N)
+    xdot, _ = plant_derivatives(state, currents, p, pushed)
+    assert xdot[9] - base[9] == pytest.approx(0.002 / p.wheel_inertia, rel=1e-9)
+    push = plant_disturbance(1.0, [FaultEvent("body_push", "body_n", 0.5, 1.0, 2.0)], T_N)
+    _, acc_pushed = plant_derivatives(state, currents, p, push)
+    assert acc_pushed[1] - acc[1] == pytest.approx(2.0 / p.mass, rel=1e-9) and acc_pushed[0] == acc[0]
+    held = plant_disturbance(1.0, [FaultEvent("wheel_held", "wheel_R", 0.5, 1.0)], T_N)
+    x = list(state)
+    for _ in range(20):  # 10 ms = 10 time constants
+        x, _ = plant_substep(x, (1.0, 1.0), 5e-4, p, held)
+    assert x[8] == pytest.approx(state[8] * math.exp(-10.0), rel=1e-9) and x[9] > 0.5 * state[9]
+
+
+def test_closed_loop_wheel_held_by_hand_is_followed():
+    """Square, the right wheel held for 0.3 s while driving: the robot pivots about it with the left tyre
+    slipping, so the held wheel's standstill disagrees with v_L - b omega_gyro and its encoder is
+    excluded (replaced by that estimate); the heading stays within 2 deg, the fused error below both
+    baselines', and the robot completes (Indiveri Fig. 5's hand-stopped wheel)."""
+    scenario = load_scenario("square")
+    event = FaultEvent("wheel_held", "wheel_R", 2.0, 0.3)
+    result = run_scenario(scenario, faults=[event])
+    a = result.arrays
+    during = (a["t"] > 2.05) & (a["t"] < 2.3)
+    assert np.max(np.abs(a["true_wheel_R"][during])) < 0.05  # held
+    assert np.min(np.abs(a["true_omega"][during])) > 0.5  # pivoting
+    assert not a["health_gyro"].any() and not a["health_encoder_L"].any()
+    heading = np.abs(np.unwrap(a["est_phi"]) - np.unwrap(a["true_phi"]))
+    assert np.max(heading) < math.radians(2.0)
+    fused = final_position_error(a, "est")
+    assert fused < min(final_position_error(a, "odo"), final_position_error(a, "gyro"))
+    assert result.summary["completed"]

@@ -14,12 +14,16 @@ from slipnav.scenarios.plain_loop import (
 from slipnav.scenarios.runner import closed_loop_settings, run_scenario
 from slipnav.systems.faults import FaultEvent
 
-SENSOR_FAULTS = [
+FAULT_EVENTS = [
     FaultEvent("dropout", "gyro", 1.4, 0.1),
     FaultEvent("spike", "encoder_L", 1.5, 0.5, 1000.0),
     FaultEvent("scale", "encoder_R", 1.6, 0.1, 1.0),
     FaultEvent("bias", "accel2_n", 1.7, 0.2, 5.0),
     FaultEvent("nan", "accel1_t", 1.8, 0.05),
+    FaultEvent("wheel_held", "wheel_R", 1.9, 0.1),
+    FaultEvent("wheel_pushed", "wheel_L", 1.95, 0.1, 0.001),
+    FaultEvent("body_push", "body_n", 2.0, 0.1, 1.0),
+    FaultEvent("wheel_lifted", "wheel_L", 2.1, 0.05),
 ]
 
 
@@ -29,7 +33,8 @@ SENSOR_FAULTS = [
         ("corner", 3.0, {}, {}),  # 1 s standstill; trajectory mode, slip control acting (delta < 1)
         ("square", 2.0, {"slip_control": False}, {}),
         ("circle", 2.0, {"speed_law": "bounded"}, {}),  # Kurt3D, max_speed mode, I(24)
-        ("corner", 2.2, {}, {"faults": SENSOR_FAULTS}),  # injected, flagged, replaced
+        ("corner", 2.2, {}, {"faults": FAULT_EVENTS}),  # injected, flagged, replaced; the held and
+        # lifted wheels spin the robot beyond the gyro's range (saturated, flagged)
     ],
 )
 def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, changes):
@@ -65,7 +70,11 @@ def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, change
         flagged = {
             key: set(np.unique(a[key])) for key in ("health_gyro", "health_encoder_L", "health_accel2_n")
         }
-        assert flagged == {"health_gyro": {0, 3}, "health_encoder_L": {0, 4, 6}, "health_accel2_n": {0, 5}}
+        assert flagged == {
+            "health_gyro": {0, 2, 3, 6},
+            "health_encoder_L": {0, 4, 6},
+            "health_accel2_n": {0, 5},
+        }
 
 
 def test_plain_loop_rejects_bad_inputs():
