@@ -1,5 +1,6 @@
 """The sensor log (scenarios/sensor_log.py), slipnav replay and the model file (scenarios/model.py)."""
 
+import dataclasses as dc
 import json
 import math
 
@@ -18,6 +19,7 @@ from slipnav.scenarios.sensor_log import (
     sensor_log_text,
     write_sensor_log,
 )
+from slipnav.systems.faults import FaultEvent
 
 COMPARED = [
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed",
@@ -219,3 +221,22 @@ def test_model_file_errors_name_the_key(tmp_path, capsys, corner_run):
     bad.write_text("robot: tinyphoon\nsensor_overrides: {encoder_counts_per_revolution: 512}\n")
     assert main(["replay", str(log), "--model", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "encoder_counts_per_revolution" in capsys.readouterr().err
+
+
+def test_a_runs_injected_faults_are_in_its_log_and_replay_the_same(tmp_path):
+    """The log holds what the navigation read, faults included: the replay flags and excludes the same
+    samples and reproduces the run's navigation bit for bit."""
+    faults = [
+        FaultEvent("dropout", "gyro", 1.5, 0.1),
+        FaultEvent("spike", "encoder_R", 1.6, 0.5, 1000.0),
+        FaultEvent("nan", "accel2_t", 1.7, 0.02),
+    ]
+    result = run_scenario(dc.replace(load_scenario("corner"), faults=faults), duration=2.0)
+    from slipnav.scenarios.runner import write_artifacts
+
+    write_artifacts(result, tmp_path, figures=False)
+    replayed = replay_file(tmp_path / "corner-seed0.sensors.csv")
+    for key in COMPARED + ["health_gyro", "health_encoder_R", "health_accel2_t"]:
+        np.testing.assert_array_equal(replayed.arrays[key], result.arrays[key], err_msg=key)
+    assert result.arrays["health_gyro"].any() and result.arrays["health_encoder_R"].any()
+    assert replayed.summary["sensor_faults"] == result.summary["sensor_faults"] > 0
