@@ -3,8 +3,9 @@ control) -> wheel-speed saturator -> plant. The controller acts on the navigatio
 
 import dataclasses as dc
 
+import numpy as np
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer
+from pydrake.systems.primitives import MatrixGain
 from slipnav.diagrams.navigation import add_navigation
 from slipnav.diagrams.open_loop import LoggedDiagram, add_loggers, check_robot_inputs, robot_ports
 from slipnav.diagrams.robot import add_robot_with_sensors
@@ -31,6 +32,10 @@ class ControlSettings:
         start_time: the controller's first update (s, a multiple of T_C): until then the commands are
             zero, the robot stands and the navigation learns the gyro's bias (the scenario's
             ``standstill_time``).
+        localisation: the pose and speed the follower reads (Indiveri et al. Fig. 6): ``fused`` (the
+            navigation's estimate, default), ``odometry`` (odometry-only dead reckoning), ``gyrodometry``
+            (Indiveri's Algorithm 1; speed from the odometry) or ``truth`` (the plant's state: an
+            oracle for comparison). Slip control reads the navigation's C1 and side slip throughout.
     """
 
     mode: str
@@ -41,8 +46,10 @@ class ControlSettings:
     slip_control: bool = True
     speed_law: str = "bounded"
     start_time: float = 0.0
+    localisation: str = "fused"
 
 
+LOCALISATION_SOURCES = ("fused", "odometry", "gyrodometry", "truth")
 CONTROL_OUTPUTS = ("wheel_speed_command", "V1", "virtual_target", "frenet_errors", "reference_pose")
 TRAJECTORY_OUTPUTS = ("step_size", "progress")
 
@@ -55,7 +62,7 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
         name: control
         input_ports:
         - estimated_pose
-        - mixed_estimate
+        - estimated_speed
         - C1
         - side_slip_angle
         output_ports:
@@ -90,11 +97,8 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
         )
     )
     saturator.set_name("Wheel-speed saturator")
-    speed = b.AddSystem(Demultiplexer([1, 4]))
-    speed.set_name("Estimated speed")
     b.ExportInput(follower.GetInputPort("estimated_pose"), "estimated_pose")
-    b.ExportInput(speed.get_input_port(0), "mixed_estimate")
-    b.Connect(speed.get_output_port(0), follower.GetInputPort("estimated_speed"))
+    b.ExportInput(follower.GetInputPort("estimated_speed"), "estimated_speed")
     b.Connect(follower.GetOutputPort("lyapunov_value"), saturator.GetInputPort("lyapunov_value"))
     b.Connect(follower.GetOutputPort("virtual_target"), saturator.GetInputPort("virtual_target"))
     b.Connect(follower.GetOutputPort("wheel_speed_command"), saturator.GetInputPort("wheel_speed_command"))
@@ -124,6 +128,29 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
     diagram = b.Build()
     diagram.set_name("control")
     return diagram
+
+
+def localisation_ports(builder, source: str, nav, plant):
+    """(pose port [x, y, phi], speed port [v_t]) of the localisation ``source``
+    (ControlSettings.localisation); the speed picked out of a wider port by a MatrixGain."""
+    if source == "fused":
+        speed = builder.AddSystem(MatrixGain(np.eye(1, 5)))
+        speed.set_name("Estimated speed")
+        builder.Connect(nav.GetOutputPort("mixed_estimate"), speed.get_input_port())
+        return nav.GetOutputPort("pose"), speed.get_output_port()
+    if source == "truth":
+        pose = builder.AddSystem(MatrixGain(np.eye(3, 10)))
+        pose.set_name("True pose")
+        builder.Connect(plant.GetOutputPort("state"), pose.get_input_port())
+        speed = builder.AddSystem(MatrixGain(np.eye(1, 10, 3)))
+        speed.set_name("True speed")
+        builder.Connect(plant.GetOutputPort("state"), speed.get_input_port())
+        return pose.get_output_port(), speed.get_output_port()
+    speed = builder.AddSystem(MatrixGain(np.eye(1, 4)))
+    speed.set_name("Odometric speed")
+    builder.Connect(nav.GetOutputPort("odometry"), speed.get_input_port())
+    pose = "odometry_pose" if source == "odometry" else "gyrodometry_pose"
+    return nav.GetOutputPort(pose), speed.get_output_port()
 
 
 def build_closed_loop_diagram(
@@ -164,6 +191,10 @@ def build_closed_loop_diagram(
         raise ValueError(
             f"control.trajectory must be a Trajectory in trajectory mode, got {control.trajectory!r}"
         )
+    if control.localisation not in LOCALISATION_SOURCES:
+        raise ValueError(
+            f"control.localisation={control.localisation!r} is unknown: allowed {list(LOCALISATION_SOURCES)}"
+        )
     if control.start_time > 0.0 and initial_speed != 0.0:
         raise ValueError(
             f"control.start_time={control.start_time!r} needs a robot at rest: initial_speed="
@@ -185,8 +216,9 @@ def build_closed_loop_diagram(
         builder, handles.readings, navigation, rates, robot, initial_speed, initial_pose, nominal_sensors
     )
     ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
-    builder.Connect(nav.GetOutputPort("pose"), ctrl.GetInputPort("estimated_pose"))
-    builder.Connect(nav.GetOutputPort("mixed_estimate"), ctrl.GetInputPort("mixed_estimate"))
+    pose, speed = localisation_ports(builder, control.localisation, nav, handles.plant)
+    builder.Connect(pose, ctrl.GetInputPort("estimated_pose"))
+    builder.Connect(speed, ctrl.GetInputPort("estimated_speed"))
     if control.mode == "trajectory":
         builder.Connect(nav.GetOutputPort("C1"), ctrl.GetInputPort("C1"))
         builder.Connect(nav.GetOutputPort("side_slip_angle"), ctrl.GetInputPort("side_slip_angle"))

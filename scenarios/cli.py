@@ -3,6 +3,7 @@
     slipnav list
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
                          [--speed-law bounded|constant] [--open-loop] [--tolerances]
+                         [--localisation fused|odometry|gyrodometry|truth]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [ENGINE]
@@ -82,6 +83,12 @@ def _parser() -> argparse.ArgumentParser:
         "--tolerances",
         action="store_true",
         help="draw the simulated robot from the tolerance preset (scenarios/tolerances.py) by the seed",
+    )
+    run.add_argument(
+        "--localisation",
+        choices=("fused", "odometry", "gyrodometry", "truth"),
+        default=None,
+        help="what the path follower localises by (default: the scenario's, fused)",
     )
     dia = sub.add_parser("diagram", help="write a block diagram (graphviz)")
     dia.add_argument("name", help="navigation, control or closed_loop")
@@ -272,6 +279,7 @@ def _command(args) -> int:
     )
     check_run_options(scenario, **options)
     options["tolerances"] = args.tolerances  # every mistake before the simulation starts
+    options["localisation"] = args.localisation
     check_output_directory(args.out)
     result = run_scenario(scenario, **options)
     try:

@@ -14,6 +14,7 @@ from pathlib import Path as FilePath
 
 import yaml
 from pydrake.common.yaml import yaml_load_typed
+from slipnav.diagrams.closed_loop import LOCALISATION_SOURCES
 from slipnav.scenarios.tolerances import (
     TOLERANCE_PRESET,
     PlantTruth,
@@ -79,6 +80,8 @@ class Scenario:
         slip_control: step-size controller tuning (StepSizeParameters), trajectory mode.
         slip_control_enabled: False keeps the step size at 1.
         speed_law: ``bounded`` (Indiveri I(24)) or ``constant`` (u = V_m/2), max_speed mode.
+        localisation: what the follower localises by (Indiveri et al. Fig. 6): ``fused`` (the
+            navigation's estimate), ``odometry``, ``gyrodometry`` or ``truth`` (an oracle).
         navigation: tuning of the navigation blocks (NavigationParameters: ekf, mixing, sideslip,
             gyrodometry, yaw_calibration, health), e.g. ``navigation: {mixing: {b1: 0.05}}``.
         faults: timed sensor faults between the sensors and the navigation (systems/faults.py
@@ -110,6 +113,7 @@ class Scenario:
     slip_control: StepSizeParameters = dc.field(default_factory=StepSizeParameters)
     slip_control_enabled: bool = True
     speed_law: str = "bounded"
+    localisation: str = "fused"
     faults: list[FaultEvent] = dc.field(default_factory=list)
 
     # -- derived, validated objects -----------------------------------------------------------------
@@ -164,6 +168,10 @@ class Scenario:
         _wrap(self.slip_control.__post_init__)
         if self.controller not in CONTROLLERS:
             raise ScenarioError(f"controller={self.controller!r} is unknown: allowed {list(CONTROLLERS)}")
+        if self.localisation not in LOCALISATION_SOURCES:
+            raise ScenarioError(
+                f"localisation={self.localisation!r} is unknown: allowed {list(LOCALISATION_SOURCES)}"
+            )
         if self.speed_law not in SPEED_LAWS:
             raise ScenarioError(f"speed_law={self.speed_law!r} is unknown: allowed {list(SPEED_LAWS)}")
         if self.mode not in MODES:

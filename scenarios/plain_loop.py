@@ -137,6 +137,7 @@ def run_plain_loop(
         table = np.column_stack([tr.x, tr.y, tr.phi, tr.v, tr.s])
         table_end = float(len(table) - 1)
     delta, progress = 1.0, 0.0
+    localised = localisation_reader(control.localisation)
 
     out = np.empty((num_steps, len(PLAIN_LOOP_KEYS)))
     clock = time.perf_counter
@@ -183,7 +184,7 @@ def run_plain_loop(
                 u = bounded_speed(
                     follower[3], path.curvature(s), p.wheel_speed_limit, half, control.follower.epsilon
                 )
-            pose_k, v_t_k = nav_row[0:3], nav_row[3]
+            pose_k, v_t_k = localised(nav_row, x)
             follower = follower_step(s, pose_k, u, path, control.follower, half, T_C, v_t_k)
         t2 = clock()
         spent["control"] += t2 - t1
@@ -199,6 +200,16 @@ def run_plain_loop(
     if timings is not None:
         timings.update(spent)
     return {key: out[:, i].copy() for i, key in enumerate(PLAIN_LOOP_KEYS)}
+
+
+def localisation_reader(source: str):
+    """(nav_row, plant state) -> (pose, v_t) the follower reads (ControlSettings.localisation)."""
+    if source == "truth":
+        return lambda row, x: (x[0:3], x[3])
+    prefix = {"fused": "est", "odometry": "odo", "gyrodometry": "gyro"}[source]
+    first = LOOP_KEYS.index(f"{prefix}_x")
+    speed = LOOP_KEYS.index("est_v_t" if source == "fused" else "odo_v_t")
+    return lambda row, x: (row[first : first + 3], row[speed])
 
 
 def diagram_noise(seed: int, T_N: float, num_steps: int) -> np.ndarray:

@@ -130,6 +130,7 @@ def closed_loop_settings(scenario: Scenario, slip_control: bool, speed_law: str)
         slip_control=slip_control,
         speed_law=speed_law,
         start_time=start,
+        localisation=scenario.localisation,
     )
     return control, initial_speed, nominal + start
 
@@ -208,6 +209,7 @@ def run_scenario(
     open_loop: bool | None = None,
     tolerances: bool = False,
     faults=None,
+    localisation: str | None = None,
 ):
     """Simulate ``scenario`` and collect the run artifact.
 
@@ -218,9 +220,12 @@ def run_scenario(
     scalars, the summary's ``plant``). A closed-loop run ends when the controller has finished its
     trajectory (progress Pi at its end) or path (virtual target at its end) plus ``settle_time``, or at
     the duration limit (default: three times the nominal time). Completion is then judged on the true
-    pose (judge_completion): ``summary["completed"]``.
+    pose (judge_completion): ``summary["completed"]``. ``faults``: FaultEvents replacing the scenario's
+    ``faults``; ``localisation``: what the follower localises by (--localisation); None keeps them.
     """
     check_run_options(scenario, seed, duration, slip_control, speed_law, open_loop)
+    if localisation is not None:
+        scenario = dc.replace(scenario, localisation=localisation).validate()
     seed = scenario.seed if seed is None else int(seed)
     speed_law = scenario.speed_law if speed_law is None else speed_law
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
@@ -324,6 +329,7 @@ def run_scenario(
         "controller": "open-loop feed-forward" if open_loop else "closed loop",
         "slip_control": bool(slip_control) if scenario.mode == "trajectory" and not open_loop else None,
         "speed_law": speed_law if scenario.mode == "max_speed" and not open_loop else None,
+        "localisation": None if open_loop else scenario.localisation,
         "sensor_faults": int(np.nansum(arrays["fault"])),
         "sensor_health": health_report(arrays["t"], arrays, SENSOR_CHANNELS),
         "faults": [dc.asdict(event) for event in faults],
@@ -578,7 +584,8 @@ def collect_navigation(a: dict, data) -> None:
 
 def artifact_stem(result: RunResult) -> str:
     """File stem of a run's artifacts: ``<scenario>-seed<N>`` plus the switches that changed what ran,
-    ``-open-loop``, ``-no-slip-control``, ``-speed-law-constant``, ``-tolerances`` (README: Run artifacts)."""
+    ``-open-loop``, ``-no-slip-control``, ``-speed-law-constant``, ``-tolerances``, ``-localised-by-<source>``
+    (README: Run artifacts)."""
     s = result.summary
     stem = f"{s['scenario'] or 'scenario'}-seed{s['seed']}"
     if s["controller"] != "closed loop":
@@ -589,6 +596,8 @@ def artifact_stem(result: RunResult) -> str:
         stem += "-speed-law-constant"
     if s.get("tolerances"):
         stem += "-tolerances"
+    if s.get("localisation") not in (None, "fused"):
+        stem += f"-localised-by-{s['localisation']}"
     return stem
 
 

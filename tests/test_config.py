@@ -123,3 +123,10 @@ def test_readme_example_scenario_loads_and_builds():
     reference, _ = reference_for(scenario)
     assert reference.length == pytest.approx(1.0 + 1.0 + 0.5 * math.pi / 4 + 1.0 + 0.5)
     assert follower_path(scenario).length == pytest.approx(reference.length)
+
+
+def test_unknown_localisation_names_the_key_and_the_sources():
+    base = "trajectory: {segments: [!Straight {length: 1.0, v_end: 1.0}]}\n"
+    assert scenario_from_yaml(base + "localisation: gyrodometry\n").localisation == "gyrodometry"
+    with pytest.raises(ScenarioError, match=r"localisation='gps' is unknown: allowed \['fused', 'odometry'"):
+        scenario_from_yaml(base + "localisation: gps\n")

@@ -454,3 +454,20 @@ def test_long_path_bounded_speed_law_is_faster_and_respects_V_m():
     ratio = bounded.summary["completion_time_s"] / constant.summary["completion_time_s"]
     assert ratio <= 0.55  # the paper: "about 50 %"; measured 0.53 (README)
     assert np.max(bounded.arrays["cmd_R"]) == pytest.approx(V_m)  # really drives at the bound
+
+
+def test_the_follower_localises_by_the_selected_source():
+    """Indiveri et al. Fig. 6: localised by the truth the robot misses the corner's end by the follower's
+    own lag (~1.2 cm); by odometry-only it ends where the odometry believes the end is, so the true
+    miss is the odometry's final error (6.7 cm) within that lag."""
+    from slipnav.scenarios.config import load_scenario
+    from slipnav.scenarios.runner import run_scenario
+
+    scenario = load_scenario("corner")
+    truth = run_scenario(scenario, localisation="truth").summary
+    odometry = run_scenario(scenario, localisation="odometry")
+    assert truth["localisation"] == "truth" and truth["end_distance_m"] < 0.02
+    s = odometry.summary
+    assert s["localisation"] == "odometry"
+    assert abs(s["end_distance_m"] - s["final_position_error_m"]["odometry"]) < truth["end_distance_m"]
+    assert s["end_distance_m"] > 3 * truth["end_distance_m"]

@@ -35,6 +35,9 @@ FAULT_EVENTS = [
         ("circle", 2.0, {"speed_law": "bounded"}, {}),  # Kurt3D, max_speed mode, I(24)
         ("corner", 2.2, {}, {"faults": FAULT_EVENTS}),  # injected, flagged, replaced; the held and
         # lifted wheels spin the robot beyond the gyro's range (saturated, flagged)
+        ("square", 2.0, {}, {"localisation": "odometry"}),  # the follower on odometry-only
+        ("circle", 2.0, {}, {"localisation": "gyrodometry"}),
+        ("corner", 2.0, {}, {"localisation": "truth"}),  # on the plant's state
     ],
 )
 def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, changes):
@@ -66,7 +69,7 @@ def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, change
     if name == "corner" and not changes:
         assert np.min(a["step_size"]) < 1.0  # the slip-control branch was exercised
     assert np.ptp(a["true_x"]) > 0.5  # and the robot really drove
-    if changes:
+    if "faults" in changes:
         flagged = {
             key: set(np.unique(a[key])) for key in ("health_gyro", "health_encoder_L", "health_accel2_n")
         }
