@@ -162,13 +162,13 @@ def test_gyro_bias_step_is_a_jump_excluded_until_it_ends():
 
 
 def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
-    """accel2_t reads +5 m/s^2: the pair's moving average (15 samples) passes 3 + 0.5 v = 3.5 m/s^2
-    after about 15 ln(5 / 1.5) = 18 samples; the kinematic reference (dv/dt = 0) tells accel 2."""
+    """accel2_t reads +5 m/s^2: the pair's moving average (15 samples) passes 1 + 1 v = 2 m/s^2 after
+    about 15 ln(5 / 3) = 8 samples; the kinematic reference (dv/dt = 0) tells accel 2."""
     rows = stream(400, 1.0, 0.0)
     rows[100:300, 2] += 5.0
     out, codes = check(rows)
     flagged = np.flatnonzero(codes[:, 2])
-    assert 100 + 10 <= flagged[0] <= 100 + 25 and codes[flagged[0], 2] == INCONSISTENT
+    assert 100 + 6 <= flagged[0] <= 100 + 10 and codes[flagged[0], 2] == INCONSISTENT
     assert not codes[:, 0].any()  # accel 1 is never blamed
     assert np.all(codes[flagged[0] : 300, 2] == INCONSISTENT)
     # Replaced by accel 1 less the rotational difference a_t1 - a_t2 = -2 omega^2 x (gyro's omega).
