@@ -158,7 +158,7 @@ class HealthGeometry:
 # raw increment, the samples excluded; then the
 # accelerometer pair window (sum t, sum n, count) and the previous odometric v.
 _REF, _LAST, _REPEAT, _HOLD, _EXCL = (slice(5 * i, 5 * i + 5) for i in range(5))
-_E = 25
+_E = 25  # encoder slots; _E_OUT holds the output angle less the last finite raw reading
 _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E_EXCL = (
     slice(_E + 2 * i, _E + 2 * i + 2) for i in range(10)
 )
@@ -223,6 +223,8 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     e_last, e_out, e_inc = s[_E_LAST], s[_E_OUT], s[_E_INC]
     still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
     e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
+    previous_out = [e_last[w] + e_out[w] for w in range(2)]  # e_out: the output less the last raw
+    missed = [0.0, 0.0]
     inc = [math.nan, math.nan]
     first = [False, False]
     inc_candidate = [math.nan, math.nan]  # the healthy wheels' raw increments, for re-admission
@@ -238,7 +240,7 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             continue
         if not math.isfinite(e_last[w]):  # the first reading: the output starts there
             e_last[w] = x
-            e_out[w] = x
+            e_out[w] = 0.0
             first[w] = True
             continue
         d, e_last[w] = x - e_last[w], x
@@ -285,7 +287,7 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
                 and mean_pred > p.stuck_min_speed + p.stuck_speed_fraction * v_other
             ):
                 codes[5 + w] = STUCK
-                e_out[w] += pred[w] - predicted[w]  # the travel missed before the detection
+                missed[w] = pred[w] - predicted[w]  # the travel missed before the detection
         else:
             still[w] = pred[w] = pred_abs[w] = 0.0
             if math.isfinite(inc[w]) and e_code[w] == STUCK:
@@ -303,9 +305,13 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             used[w] = predicted[w]
         else:
             used[w] = e_inc[w]
-        if math.isfinite(e_out[w]):
-            e_out[w] += used[w]
-        out[5 + w] = e_out[w]
+        if first[w] or (codes[5 + w] == 0 and used[w] == inc[w]):
+            out[5 + w] = e_last[w] + e_out[w]  # the reading itself, less its offset from replacements
+        elif math.isfinite(previous_out[w]):
+            out[5 + w] = previous_out[w] + used[w] + missed[w]
+            e_out[w] = out[5 + w] - e_last[w]
+        else:
+            out[5 + w] = math.nan
         lost[w] = 1.0 if codes[5 + w] in (NONFINITE, JUMP) else 0.0
         e_code[w] = codes[5 + w]
         e_inc[w] = e_inc[w] if first[w] else used[w]  # the first keeps the initial speed's increment
