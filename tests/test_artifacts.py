@@ -106,7 +106,7 @@ def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, mo
     if where == "npz":
         monkeypatch.setattr(runner.np, "savez", interrupt)
     elif where == "sensors":
-        monkeypatch.setattr(runner, "sensor_log_text", interrupt)
+        monkeypatch.setattr(runner, "sensor_log_chunks", interrupt)
     elif where == "figures":
         real = plots.write_figures
 
