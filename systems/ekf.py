@@ -208,7 +208,8 @@ def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters) -> np.ndar
 
 
 class InertialEkf(LeafSystem):
-    """Prediction S(2), Jacobian S(5), covariance S(6), update S(8) and Joseph covariance S(9) at T_N.
+    """Prediction S(2), Jacobian S(5), covariance S(6), update S(8) and Joseph covariance S(9) at T_N, with
+    the mixing S(15), S(17) as pseudo-measurements in P (ekf_mixing_covariance).
 
     .. pydrake_system::
 
