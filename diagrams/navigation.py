@@ -142,6 +142,7 @@ def build_navigation_diagram(
     b.Connect(c23.GetOutputPort("C2_C3"), mixer.GetInputPort("C2_C3"))
     b.Connect(ekf.GetOutputPort("estimate"), mixer.GetInputPort("previous_estimate"))
     b.Connect(mixer.GetOutputPort("mixed_estimate"), ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
+    b.Connect(mixer.GetOutputPort("mixing_gain"), ekf.GetInputPort("mixing_gain"))  # the mixing in P
     b.Connect(mixer.GetOutputPort("body_velocity"), sideslip.GetInputPort("body_velocity"))
     b.Connect(mixer.GetOutputPort("body_velocity"), pose.GetInputPort("body_velocity"))
     b.Connect(odometry.GetOutputPort("body_velocity"), odo_pose.GetInputPort("body_velocity"))

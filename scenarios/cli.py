@@ -295,6 +295,9 @@ def _command(args) -> int:
         f"(real-time factor {s['realtime_factor']:.1f}); peak |alpha| "
         f"{s['peak_abs_true_alpha_deg']:.1f} deg, peak |slip ratio| {s['peak_abs_slip_ratio']:.2f}"
     )
+    if s["aborted"]:  # the artifact is written, up to the stop; the run itself failed
+        print(f"slipnav: error: {s['scenario']} stopped early: {s['aborted']}", file=sys.stderr)
+        return 3
     if not s["completed"]:
         print(
             f"slipnav: warning: {s['scenario']} did not complete: the robot never came within "

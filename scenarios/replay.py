@@ -125,7 +125,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         d = logs[key].data()
         if d.shape[1] != n:
             raise RuntimeError(f"logger {key} has {d.shape[1]} samples, the log has {n} rows")
-        return d
+        return d.copy()  # Drake's log lives only as long as the context
 
     a = {"t": log.t.copy()}
     collect_navigation(a, data)

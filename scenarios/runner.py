@@ -28,7 +28,7 @@ from slipnav.scenarios.config import MAX_DURATION, Scenario, ScenarioError, chec
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.metrics import moving_alpha
 from slipnav.scenarios.model import RobotModel, model_text
-from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays, sensor_log_text
+from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.scenarios.trajectories import (
     Path,
@@ -285,24 +285,29 @@ def run_scenario(
     limit = end_time(scenario, nominal if open_loop else 3.0 * nominal + scenario.settle_time, duration)
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     context = simulator.get_context()
+    drain = LogDrain(built.loggers, context, int(math.ceil(limit / rates.T_N)) + 2)
+    health = NavigationHealth(built.diagram, context)
     wall_start = time.perf_counter()
     controller_done = None  # when the controller finished its reference (not where the robot is)
-    done = None if open_loop else _completion_check(built, context, scenario.mode, reference, path)
+    done = None if open_loop else _completion_check(drain, scenario.mode, reference, path)
     with deferred_interrupt() as pending:
         t = 0.0
         while t < limit - 1e-12:
             t = min(t + 0.1, limit)
             simulator.AdvanceTo(t)
+            new = drain.drain()
             pending.raise_if_interrupted()
+            if health.check(drain, new) is not None:
+                break  # the estimate is lost: stop here, say why (summary "aborted", exit status 3)
             if done is not None and controller_done is None:
-                controller_done = done()
+                controller_done = done(new)
                 if controller_done is not None and duration is None and scenario.duration is None:
                     limit = min(limit, controller_done + scenario.settle_time)
-    if open_loop and nominal <= limit:
+    if open_loop and nominal <= limit and health.aborted is None:
         controller_done = nominal
     wall = time.perf_counter() - wall_start
 
-    arrays = collect_arrays(built.loggers, context, plant)
+    arrays = collect_arrays(drain.loggers(), context, plant, copy=False)
     record = plant_record(plant, sensor_params)
     n = len(arrays["t"])
     for key in SERIES_KEYS:
@@ -359,6 +364,10 @@ def run_scenario(
         "min_step_size": float(np.nanmin(arrays["step_size"]))
         if np.isfinite(arrays["step_size"]).any()
         else None,
+        "aborted": health.aborted,
+        "covariance_min_eigenvalue": health.min_eigenvalue,
+        "covariance_max_eigenvalue": health.max_eigenvalue,
+        "covariance_max_asymmetry": health.max_asymmetry,
         "wall_time_s": wall,
         # Simulated time over the wall time of the simulation alone (slipnav bench reports the same).
         "realtime_factor": float(arrays["t"][-1] / wall) if wall > 0 else None,
@@ -408,20 +417,139 @@ def belief_model(scenario: Scenario) -> RobotModel:
     )
 
 
-def _completion_check(built, context, mode, reference, path):
-    """A function returning the completion time once the reference is finished, else None."""
+def _completion_check(drain: LogDrain, mode, reference, path):
+    """A function of the newly drained samples (a slice) returning the completion time once the reference
+    is finished, else None."""
     if mode == "trajectory":
-        logger, end = built.loggers["progress"], reference.num_samples - 1
+        name, end = "progress", reference.num_samples - 1
     else:
-        logger, end = built.loggers["virtual_target"], path.length - 1e-9
+        name, end = "virtual_target", path.length - 1e-9
 
-    def done():
-        log = logger.FindLog(context)
-        values = log.data()[0]
+    def done(new: slice):
+        values = drain.signal(name)[0, new]
         hits = np.flatnonzero(values >= end)
-        return float(log.sample_times()[hits[0]]) if len(hits) else None
+        return float(drain.t[new][hits[0]]) if len(hits) else None
 
     return done
+
+
+class LogDrain:
+    """Moves the samples of a diagram's shared log (open_loop.add_loggers: one VectorLogSink) into
+    preallocated arrays after every simulator step and clears the sink, so that a run's memory is one
+    float64 per logged channel and sample (Drake's log would double its capacity as it grows, and
+    collect_arrays copy it). ``loggers()`` gives SignalLog look-alikes over the drained samples.
+
+    Args:
+        loggers: the LoggedDiagram's loggers (SignalLog, all on one sink). context: the root context.
+        capacity: the number of samples expected (grown by half if exceeded).
+    """
+
+    def __init__(self, loggers: dict, context, capacity: int):
+        self._signals = loggers
+        self._sink = next(iter(loggers.values())).sink
+        self._context = context
+        rows = max(signal.rows.stop for signal in loggers.values())
+        self.buffer, self._t, self.n = np.empty((rows, capacity)), np.empty(capacity), 0
+
+    @property
+    def t(self) -> np.ndarray:
+        return self._t[: self.n]
+
+    def signal(self, name: str) -> np.ndarray:
+        """The drained rows of one signal (a view: rows x samples)."""
+        return self.buffer[self._signals[name].rows, : self.n]
+
+    def drain(self) -> slice:
+        """Take the sink's new samples; returns their slice in the drained arrays."""
+        log = self._sink.FindMutableLog(self._context)
+        m = log.num_samples()
+        if self.n + m > self._t.size:
+            grown = max(self.n + m, self._t.size + self._t.size // 2)
+            buffer, times = np.empty((self.buffer.shape[0], grown)), np.empty(grown)
+            buffer[:, : self.n], times[: self.n] = self.buffer[:, : self.n], self._t[: self.n]
+            self.buffer, self._t = buffer, times
+        self.buffer[:, self.n : self.n + m] = log.data()
+        self._t[self.n : self.n + m] = log.sample_times()
+        log.Clear()
+        self.n += m
+        return slice(self.n - m, self.n)
+
+    def loggers(self) -> dict:
+        """SignalLog look-alikes (``FindLog(context).data()``, ``.sample_times()``) over the drained
+        samples, for collect_arrays (views, no copies)."""
+        return {name: _DrainedSignal(self, name) for name in self._signals}
+
+
+class _DrainedSignal:
+    def __init__(self, drain: LogDrain, name: str):
+        self._drain, self._name = drain, name
+
+    def FindLog(self, context):  # noqa: N802 (the VectorLogSink API)
+        return _DrainedRows(self._drain.signal(self._name), self._drain.t)
+
+
+class _DrainedRows:
+    def __init__(self, data, times):
+        self._data, self._times = data, times
+
+    def data(self):
+        return self._data
+
+    def sample_times(self):
+        return self._times
+
+    def num_samples(self):
+        return len(self._times)
+
+
+class NavigationHealth:
+    """Checks the navigation after every simulator step: the logged estimate (fused pose, mixed estimate)
+    of the new samples and the EKF covariance P (the navigation's ``covariance`` output) must be finite;
+    records the extreme eigenvalues of P and its largest asymmetry |P - P^T| over the run (P as the steps
+    end, every 0.1 s). ``aborted``: None, or why the run was stopped (the first non-finite value)."""
+
+    ESTIMATE_SIGNALS = ("nav_pose", "nav_mixed_estimate")
+
+    def __init__(self, diagram, context):
+        self.aborted = None
+        self.min_eigenvalue = self.max_eigenvalue = self.max_asymmetry = None
+        try:
+            nav = diagram.GetSubsystemByName("navigation")
+        except RuntimeError:
+            self._port = None  # no navigation in this diagram
+            return
+        self._port, self._context = nav.GetOutputPort("covariance"), nav.GetMyContextFromRoot(context)
+
+    def check(self, drain: LogDrain, new: slice) -> str | None:
+        """Check the samples ``new`` and the current P; returns (and keeps) the reason to stop, else
+        None."""
+        if self._port is None or self.aborted is not None:
+            return self.aborted
+        for name in self.ESTIMATE_SIGNALS:
+            rows = drain.signal(name)[:, new]
+            bad = np.argwhere(~np.isfinite(rows))
+            if len(bad):
+                row, k = bad[0]
+                self.aborted = (
+                    f"the navigation estimate became non-finite at t = {drain.t[new][k]:.3f} s "
+                    f"({name} row {row} = {rows[row, k]})"
+                )
+                return self.aborted
+        P = self._port.Eval(self._context).reshape(5, 5)
+        if not np.all(np.isfinite(P)):
+            t = drain.t[new][-1] if new.stop > new.start else math.nan
+            self.aborted = f"the EKF covariance P became non-finite by t = {t:.3f} s"
+            return self.aborted
+        eigenvalues = np.linalg.eigvalsh(0.5 * (P + P.T))
+        asymmetry = float(np.max(np.abs(P - P.T)))
+        self.min_eigenvalue = _extreme(min, self.min_eigenvalue, float(eigenvalues[0]))
+        self.max_eigenvalue = _extreme(max, self.max_eigenvalue, float(eigenvalues[-1]))
+        self.max_asymmetry = _extreme(max, self.max_asymmetry, asymmetry)
+        return None
+
+
+def _extreme(pick, current, value):
+    return value if current is None else pick(current, value)
 
 
 def path_projection(x, y, path_x, path_y, block: int = 256, margin: float = 0.2):
@@ -506,9 +634,11 @@ def final_position_errors(arrays) -> dict:
     return out
 
 
-def collect_arrays(loggers, context, robot: RobotParameters) -> dict:
+def collect_arrays(loggers, context, robot: RobotParameters, copy: bool = True) -> dict:
     """Artifact arrays from the loggers of a diagram (every logger publishes on the T_N grid). The wheel
-    speeds, angles and tyre slips are computed from the logged plant state (systems.plant.tyre_slip)."""
+    speeds, angles and tyre slips are computed from the logged plant state (systems.plant.tyre_slip).
+    ``copy=False``: the arrays are views of the loggers' data where they can be (LogDrain's own arrays;
+    a Drake log's data lives only as long as its context)."""
     logs = {name: logger.FindLog(context) for name, logger in loggers.items()}
     t = logs["state"].sample_times()
     n = len(t)
@@ -517,26 +647,28 @@ def collect_arrays(loggers, context, robot: RobotParameters) -> dict:
         d = logs[name].data()
         if d.shape[1] != n:
             raise RuntimeError(f"logger {name} has {d.shape[1]} samples, state has {n}")
-        return d
+        return d.copy() if copy else d  # the artifact's rows are views of this block
 
     x = data("state")
-    a = {"t": t.copy()}
+    a = {"t": t.copy() if copy else t}
     for i, key in enumerate(["true_x", "true_y", "true_phi", "true_v_t", "true_v_n", "true_omega"]):
-        a[key] = x[i].copy()
+        a[key] = x[i]
     a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
     a["true_wheel_R"], a["true_wheel_L"] = robot.radius_R * x[8], robot.radius_L * x[9]
-    a["true_theta_R"], a["true_theta_L"] = x[6].copy(), x[7].copy()
-    slip = np.array([tyre_slip(column, robot) for column in x.T]).reshape(-1, 4)
-    a["true_slip_R"], a["true_slip_L"] = slip[:, 0].copy(), slip[:, 1].copy()
+    a["true_theta_R"], a["true_theta_L"] = x[6], x[7]
+    slip = np.empty((n, 4))
+    for k in range(n):  # row by row: no list of n Python lists
+        slip[k] = tyre_slip(x[:, k], robot)
+    a["true_slip_R"], a["true_slip_L"] = slip[:, 0], slip[:, 1]
     acc = data("accelerometers")
     for i, key in enumerate(["meas_a_t1", "meas_a_n1", "meas_a_t2", "meas_a_n2"]):
-        a[key] = acc[i].copy()
-    a["meas_gyro"] = data("gyro")[0].copy()
+        a[key] = acc[i]
+    a["meas_gyro"] = data("gyro")[0]
     enc = data("encoders")
-    a["meas_enc_R"], a["meas_enc_L"] = enc[0].copy(), enc[1].copy()
-    a["true_gyro_bias"] = data("gyro_bias")[0].copy()
+    a["meas_enc_R"], a["meas_enc_L"] = enc[0], enc[1]
+    a["true_gyro_bias"] = data("gyro_bias")[0]
     cmd = data("command")
-    a["cmd_R"], a["cmd_L"] = cmd[0].copy(), cmd[1].copy()
+    a["cmd_R"], a["cmd_L"] = cmd[0], cmd[1]
     for key, name in (
         ("V1", "V1"),
         ("step_size", "step_size"),
@@ -544,42 +676,39 @@ def collect_arrays(loggers, context, robot: RobotParameters) -> dict:
         ("virtual_target", "virtual_target"),
     ):
         if name in logs:
-            a[key] = data(name)[0].copy()
+            a[key] = data(name)[0]
     ref = data("reference_pose")
-    a["ref_x"], a["ref_y"], a["ref_phi"] = ref[0].copy(), ref[1].copy(), ref[2].copy()
+    a["ref_x"], a["ref_y"], a["ref_phi"] = ref[0], ref[1], ref[2]
     if "nav_pose" in logs:
         collect_navigation(a, data)
     return a
 
 
 def collect_navigation(a: dict, data) -> None:
-    """The navigation keys of the artifact from the navigation diagram's loggers."""
+    """The navigation keys of the artifact from the navigation diagram's loggers (``data(name)``: the
+    logger's rows x samples; the keys are views of its rows)."""
     for prefix, name in (("est", "nav_pose"), ("odo", "nav_odometry_pose"), ("gyro", "nav_gyrodometry_pose")):
         pose = data(name)
-        a[f"{prefix}_x"], a[f"{prefix}_y"], a[f"{prefix}_phi"] = (
-            pose[0].copy(),
-            pose[1].copy(),
-            pose[2].copy(),
-        )
+        a[f"{prefix}_x"], a[f"{prefix}_y"], a[f"{prefix}_phi"] = pose[0], pose[1], pose[2]
     mixed = data("nav_mixed_estimate")
     for i, key in enumerate(["est_v_t", "est_v_n", "est_omega", "est_a_t", "est_a_n"]):
-        a[key] = mixed[i].copy()
-    a["est_alpha"] = data("nav_side_slip_angle")[0].copy()
-    a["est_track_speed"] = data("nav_track_speed")[0].copy()
-    a["C1"] = data("nav_C1")[0].copy()
+        a[key] = mixed[i]
+    a["est_alpha"] = data("nav_side_slip_angle")[0]
+    a["est_track_speed"] = data("nav_track_speed")[0]
+    a["C1"] = data("nav_C1")[0]
     c23 = data("nav_C2_C3")
-    a["C2"], a["C3"] = c23[0].copy(), c23[1].copy()
-    a["delta_v"] = data("nav_delta_v")[0].copy()
+    a["C2"], a["C3"] = c23[0], c23[1]
+    a["delta_v"] = data("nav_delta_v")[0]
     odo = data("nav_odometry")
-    a["odo_v_t"], a["odo_omega"] = odo[0].copy(), odo[1].copy()
+    a["odo_v_t"], a["odo_omega"] = odo[0], odo[1]
     a["fault"] = np.maximum(data("nav_inertial_fault")[0], data("nav_encoder_fault")[0])
-    a["est_gyro_bias"] = data("nav_gyro_bias")[0].copy()
-    a["est_gyro_bias_std"] = data("nav_yaw_calibration")[2].copy()
+    a["est_gyro_bias"] = data("nav_gyro_bias")[0]
     health = data("nav_health")
     for i, channel in enumerate(SENSOR_CHANNELS):
-        a[f"health_{channel}"] = health[i].copy()
+        a[f"health_{channel}"] = health[i]
     calibration = data("nav_yaw_calibration")
-    a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1].copy(), calibration[3].copy()
+    a["est_gyro_bias_std"] = calibration[2]
+    a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1], calibration[3]
 
 
 def artifact_stem(result: RunResult) -> str:
@@ -599,6 +728,21 @@ def artifact_stem(result: RunResult) -> str:
     if s.get("localisation") not in (None, "fused"):
         stem += f"-localised-by-{s['localisation']}"
     return stem
+
+
+FIGURE_SAMPLES = 150_000
+"""Most samples a figure plots (300 s at T_N = 2 ms); a longer run's figures plot every k-th sample."""
+
+
+def figure_arrays(arrays: dict, limit: int = FIGURE_SAMPLES) -> dict:
+    """The arrays the figures plot: every sample up to ``limit`` samples, else every k-th sample with
+    k = ceil(samples / limit) (matplotlib would otherwise hold millions of points per line for an
+    hour's run; the npz keeps every sample)."""
+    n = len(arrays["t"])
+    stride = -(-n // limit)
+    if stride == 1:
+        return arrays
+    return {key: v[::stride] if np.ndim(v) == 1 and len(v) == n else v for key, v in arrays.items()}
 
 
 def check_output_directory(out_dir) -> FilePath:
@@ -637,12 +781,13 @@ def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[Fi
         staged = [staging / f"{stem}.npz"]
         if result.sensor_log is not None:
             staged.append(staging / f"{stem}.sensors.csv")
-            staged[-1].write_text(sensor_log_text(result.sensor_log))
+            with open(staged[-1], "w") as handle:  # in pieces: a long run's text never whole in memory
+                handle.writelines(sensor_log_chunks(result.sensor_log))
         if result.model is not None:
             staged.append(staging / f"{stem}.model.yaml")
             staged[-1].write_text(model_text(result.model))
         if figures:
-            staged += write_figures(result.arrays, result.reference, staging, stem)
+            staged += write_figures(figure_arrays(result.arrays), result.reference, staging, stem)
         return _publish(staging, staged, stem, result.summary, out)
     finally:
         shutil.rmtree(staging, ignore_errors=True)

@@ -327,8 +327,9 @@ def _format_count(value: float) -> str:
     return str(int(value)) if math.isfinite(value) else repr(float(value))
 
 
-def sensor_log_text(log: SensorLog) -> str:
-    """The CSV text of ``log``: metadata comments, header, rows (floats by repr: exact round trip)."""
+def sensor_log_chunks(log: SensorLog, rows: int = 10000):
+    """The CSV text of ``log`` in pieces: metadata comments and header, then ``rows`` rows at a time
+    (floats by repr: exact round trip), so that a long log is written without its whole text in memory."""
     names = [c for c in ALL_COLUMNS if c in log.columns]
     out = [
         f"# slipnav sensor log, format {FORMAT_VERSION}; one row per T_N sample, SI units "
@@ -345,11 +346,20 @@ def sensor_log_text(log: SensorLog) -> str:
             value = _format(value)
         out.append(f"# {key}: {value}")
     out.append(",".join(names))
+    yield "\n".join(out) + "\n"
     cols = [log.columns[c] for c in names]
     formats = [_format_count if c in ENCODER_COLUMNS else _format for c in names]
-    for k in range(len(log)):
-        out.append(",".join(f(col[k]) for f, col in zip(formats, cols, strict=True)))
-    return "\n".join(out) + "\n"
+    for start in range(0, len(log), rows):
+        lines = (
+            ",".join(f(col[k]) for f, col in zip(formats, cols, strict=True))
+            for k in range(start, min(start + rows, len(log)))
+        )
+        yield "\n".join(lines) + "\n"
+
+
+def sensor_log_text(log: SensorLog) -> str:
+    """The CSV text of ``log``: metadata comments, header, rows (floats by repr: exact round trip)."""
+    return "".join(sensor_log_chunks(log))
 
 
 def write_sensor_log(log: SensorLog, path) -> FilePath:
@@ -358,7 +368,7 @@ def write_sensor_log(log: SensorLog, path) -> FilePath:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.partial-")
     try:
         with os.fdopen(fd, "w", newline="") as handle:
-            handle.write(sensor_log_text(log))
+            handle.writelines(sensor_log_chunks(log))
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

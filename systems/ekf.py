@@ -4,8 +4,18 @@ State x = [v_t, v_n, omega, a_t, a_n] (EkfState), measurement y = [omega_gyro, m
 The filter's state is overwritten after every sample by the mixed estimate (Fig. 3), so the block takes
 the mixer's output as the next state instead of its own update.
 
-The velocities are not measured (S(3)); their variance therefore grows, and under sustained rotation it
-grows geometrically, because the forward-Euler rotation of S(2) has |eigenvalue| sqrt(1 + (omega T_N)^2).
+The velocities are not measured by S(3). Left to S(6) and S(9) alone their variance grows without bound,
+geometrically under sustained rotation (the forward-Euler rotation of S(2) has |eigenvalue|
+sqrt(1 + (omega T_N)^2): 1e300 after ~860 s of spinning at 20 rad/s, then NaN). But the filter continues
+from the mixed estimate (Fig. 3), and the mixing laws are linear updates of ^I v_t and ^I v_n by quantities
+from outside the filter: S(15) v_t = ^I v_t + C1 (^O v_t - ^I v_t) and S(17) v_n = ^I v_n + w_n (m - ^I v_n),
+Kalman updates with the fixed gains C1 and w_n by the pseudo-measurements ^O v_t (odometry) and m (the
+tyre model; zero in the paper). ekf_mixing_covariance carries them into P (Joseph form, valid for any
+gain), applied to the part of the velocities' covariance that the measured states do not explain (the
+Schur complement), which is the part that grows; the velocity-vs-measured cross-covariances, the only
+part of P the gain S(7) reads, stay the inertial filter's, so S(7)-(8) and every estimate are unchanged.
+ekf_bound_velocity_variance caps what may still grow (a long slide at the friction limit with the wheels
+slipping, C1 = w_n = 0) at a documented limit.
 The measured block (omega, a_t, a_n) and the gain S(7) stay at their steady values (tests/test_navigation).
 """
 
@@ -35,14 +45,29 @@ class EkfParameters:
       are integrated, not driven), yaw-rate change (20 rad/s^2 * T_N)^2 = 1.6e-3, acceleration change
       (100 m/s^3 * T_N)^2 = 0.04.
     - P0: initial covariance.
+    - R_mixing: variances of the mixer's pseudo-measurements of v_t and v_n (ekf_mixing_covariance):
+      odometric v_t, the two wheels' 2 ms speeds quantised in r 2 pi / (6144 T_N) = 7.7 mm/s steps,
+      (7.7e-3)^2 / 6 / 2 = 5e-6 (Tinyphoon; Kurt3D's 61 mm/s steps: 3e-4); the tyre model's side-slip
+      velocity, 1e-4 ((1 cm/s)^2, the side slip of a hard turn held to the tyre curve, MixingParameters).
+    - velocity_variance_limit: largest variance of v_t and v_n given the measured states (m^2/s^2)
+      (ekf_bound_velocity_variance): 1, a 1 m/s standard deviation, beyond which a velocity estimate
+      carries no information; reached only when neither odometry nor the tyre model has weighed in for a
+      long time (minutes of sliding at the friction limit with the wheels slipping).
     """
 
     Q: list[float] = dc.field(default_factory=lambda: [1e-8, 1e-8, 1.6e-3, 0.04, 0.04])
     R: list[float] = dc.field(default_factory=lambda: [0.014**2, 0.047, 0.047])
     P0: list[float] = dc.field(default_factory=lambda: [1e-4, 1e-4, 1e-3, 1.0, 1.0])
+    R_mixing: list[float] = dc.field(default_factory=lambda: [5e-6, 1e-4])
+    velocity_variance_limit: float = 1.0
 
     def __post_init__(self):
-        for name, size in (("Q", 5), ("R", 3), ("P0", 5)):
+        limit = self.velocity_variance_limit
+        if isinstance(limit, bool) or not (isinstance(limit, (int, float)) and 0.0 < limit < math.inf):
+            raise ValueError(
+                f"ekf.velocity_variance_limit={limit!r} is out of range: allowed (0, inf) m^2/s^2"
+            )
+        for name, size in (("Q", 5), ("R", 3), ("P0", 5), ("R_mixing", 2)):
             values = getattr(self, name)
             if len(values) != size:
                 raise ValueError(f"ekf.{name} must list {size} diagonal entries, got {len(values)}")
@@ -101,8 +126,90 @@ def ekf_joseph(P_prior, L, R) -> np.ndarray:
     return 0.5 * (P + P.T)
 
 
+def _velocity_split(P):
+    """(B P_mm B^T, S): the velocity block P_vv = B P_mm B^T + S split into the part explained by the
+    measured states' errors (B = P_vm P_mm^-1, v: v_t, v_n; m: omega, a_t, a_n) and the Schur complement S,
+    the velocities' covariance given the measured states."""
+    P_vm = P[0:2, 2:5]
+    explained = P_vm @ np.linalg.inv(P[2:5, 2:5]) @ P_vm.T
+    return explained, P[0:2, 0:2] - explained
+
+
+def _with_velocity_block(P, explained, S) -> np.ndarray:
+    P = P.copy()
+    block = explained + S
+    P[0:2, 0:2] = 0.5 * (block + block.T)
+    return P
+
+
+def ekf_mixing_covariance(P, gain, R_mixing) -> np.ndarray:
+    """The mixing S(15), S(17) as pseudo-measurement updates of P (after S(9)).
+
+    S(15) is v_t = ^I v_t + C1 (^O v_t - ^I v_t): an update of v_t by the measurement ^O v_t (variance
+    R_t = R_mixing[0]) with the fixed gain C1. S(17) is, to first order in T_N (v_n,k-1 = ^I v_n),
+    v_n = ^I v_n + w_n (m - ^I v_n), w_n = 1 - C2 q2 - (1 - C2) q_I (mixing.mixing_gain): an update by the
+    tyre model's m (R_n = R_mixing[1]; m = 0 in the paper) with the gain w_n. With W = diag(C1, w_n), the
+    Joseph form (valid for any gain) of these updates is applied to the velocities' covariance given the
+    measured states, S = P_vv - P_vm P_mm^-1 P_mv (_velocity_split):
+
+        S <- (I - W) S (I - W) + W diag(R_t, R_n) W,    P_vv = P_vm P_mm^-1 P_mv + S,
+
+    P_vm and P_mm untouched: they are what S(7) reads (L = P C^T (C P C^T + R)^-1 takes P_vm and P_mm
+    only), the inertial filter's integration of the measured accelerations, and S(6)-(9) never feed P_vv
+    back into them, so the filter's gains and estimates stay exactly the paper's. P stays symmetric
+    positive definite (S is positive definite, and so is P_mm). Without rotation and cross-covariance,
+    P_tt <- (1 - C1)^2 P_tt + C1^2 R_t.
+
+    Args:
+        P: 5 x 5 covariance after S(9). gain: [C1, w_n]. R_mixing: [R_t, R_n].
+    """
+    explained, S = _velocity_split(P)
+    return _with_velocity_block(P, explained, _mixing_update(S, gain, R_mixing))
+
+
+def _mixing_update(S, gain, R_mixing):
+    """(I - W) S (I - W) + W diag(R_mixing) W, W = diag(gain) (2 x 2)."""
+    a_t, a_n = 1.0 - gain[0], 1.0 - gain[1]
+    cross = a_t * a_n * S[0, 1]
+    return np.array(
+        [
+            [a_t * a_t * S[0, 0] + gain[0] * gain[0] * R_mixing[0], cross],
+            [cross, a_n * a_n * S[1, 1] + gain[1] * gain[1] * R_mixing[1]],
+        ]
+    )
+
+
+def _bound(S, limit: float):
+    """D S D, D = diag(min(1, sqrt(limit / S_ii))) (2 x 2)."""
+    s_t, s_n = float(S[0, 0]), float(S[1, 1])
+    if s_t <= limit and s_n <= limit:
+        return S
+    d = np.array([min(1.0, math.sqrt(limit / s)) for s in (s_t, s_n)])
+    return S * np.outer(d, d)
+
+
+def ekf_bound_velocity_variance(P, limit: float) -> np.ndarray:
+    """Caps the variances of v_t and v_n given the measured states (S of ekf_mixing_covariance) at
+    ``limit``: S <- D S D with D = diag(min(1, sqrt(limit / S_ii))), a congruence that keeps S positive
+    definite and the correlation of v_t and v_n as it was (EkfParameters.velocity_variance_limit); P_vm
+    and P_mm, and so the gain S(7), untouched."""
+    explained, S = _velocity_split(P)
+    return _with_velocity_block(P, explained, _bound(S, limit))
+
+
+def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters) -> np.ndarray:
+    """P_k: S(9) (R: the 3 x 3 measurement covariance of ``params``), then the mixing S(15), S(17)
+    (ekf_mixing_covariance), then the velocity limit (ekf_bound_velocity_variance). ``gain``: [C1, w_n]
+    of this sample's mixing (mixing.mixing_gain)."""
+    P = ekf_joseph(P_prior, L, R)
+    explained, S = _velocity_split(P)
+    S = _bound(_mixing_update(S, gain, params.R_mixing), params.velocity_variance_limit)
+    return _with_velocity_block(P, explained, S)
+
+
 class InertialEkf(LeafSystem):
-    """Prediction S(2), Jacobian S(5), covariance S(6), update S(8) and Joseph covariance S(9) at T_N.
+    """Prediction S(2), Jacobian S(5), covariance S(6), update S(8) and Joseph covariance S(9) at T_N, with
+    the mixing S(15), S(17) as pseudo-measurements in P (ekf_mixing_covariance).
 
     .. pydrake_system::
 
@@ -112,6 +219,7 @@ class InertialEkf(LeafSystem):
         - gyro
         - kalman_gain
         - mixed_estimate
+        - mixing_gain
         output_ports:
         - inertial_estimate
         - prior_covariance
@@ -121,13 +229,16 @@ class InertialEkf(LeafSystem):
     - accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega]: the (checked) sensor sample of this step.
     - kalman_gain: L_K (5 x 3, row-major) from the KalmanGain block, S(7).
     - mixed_estimate: the mixer's S(15)-(17) estimate of this step; it becomes the filter state (Fig. 3).
+    - mixing_gain: [C1, w_n], the weights of odometry in S(15) and of the tyre model in S(17) this step
+      (VelocityMixer); P sees the mixing through them (ekf_mixing_covariance).
     - inertial_estimate: ^I x_k = S(8) applied to the prediction S(2) of the state (direct feedthrough of
       the sensor sample and the gain).
     - prior_covariance: P_{k|k-1}, S(6), from the state (for the gain block).
     - estimate: the state x_{k-1} (the previous mixed estimate; the mixer reads v_n,k-1 from it for S(17)).
     - covariance: P_{k-1}.
 
-    Update every T_N (offset 0): x <- mixed_estimate, P <- S(9)(P_{k|k-1}, L_K).
+    Update every T_N (offset 0): x <- mixed_estimate, P <- ekf_covariance_update: S(9)(P_{k|k-1}, L_K),
+    then the mixing's pseudo-measurements, then the velocity variance limit.
 
     Args:
         params: EkfParameters.
@@ -138,12 +249,13 @@ class InertialEkf(LeafSystem):
     def __init__(self, params: EkfParameters, T_N: float, x0=None):
         super().__init__()
         self._Q, self._R, P0 = params.matrices()
-        self._T_N = T_N
+        self._params, self._T_N = params, T_N
         x0 = np.zeros(5) if x0 is None else np.asarray(x0, float)
         self._accel_port = self.DeclareVectorInputPort("accelerometers", 4)
         self._gyro_port = self.DeclareVectorInputPort("gyro", 1)
         self._gain_port = self.DeclareVectorInputPort("kalman_gain", 15)
         self._mixed_port = self.DeclareVectorInputPort("mixed_estimate", 5)
+        self._mixing_gain_port = self.DeclareVectorInputPort("mixing_gain", 2)
         self._x = self.DeclareDiscreteState(x0)
         self._P = self.DeclareDiscreteState(P0.ravel())
         self._inertial_port = self.DeclareVectorOutputPort(
@@ -179,7 +291,10 @@ class InertialEkf(LeafSystem):
         P_prior = self._prior_port.Eval(context).reshape(5, 5)
         L = self._gain_port.Eval(context).reshape(5, 3)
         discrete_state.set_value(self._x, self._mixed_port.Eval(context))
-        discrete_state.set_value(self._P, ekf_joseph(P_prior, L, self._R).ravel())
+        gain = self._mixing_gain_port.Eval(context)
+        discrete_state.set_value(
+            self._P, ekf_covariance_update(P_prior, L, self._R, gain, self._params).ravel()
+        )
 
 
 class KalmanGain(LeafSystem):

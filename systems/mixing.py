@@ -259,6 +259,35 @@ def side_slip_from_accelerations(v_t: float, wheel_speed: float, a_t: float, a_n
     return -reference * sigma * a_n / math.hypot(a_x, a_n), utilisation
 
 
+def inertial_relaxation(utilisation: float, p: MixingParameters) -> float:
+    """q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2) of S(17)'s inertial branch (mix), u capped at 1."""
+    return 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - min(utilisation, 1.0) ** 2)
+
+
+def mixing_utilisation(v_t: float, omega: float, a_t: float, a_n: float, p: MixingParameters) -> float:
+    """The tyres' utilisation u that sets q_I in mix, from the mixed v_t, omega and ^I a_t, ^I a_n:
+    |a| / a_peak of tyre_force_per_mass (side_slip_from_accelerations), else tyre_utilisation."""
+    if not p.side_slip_from_accelerations:
+        return tyre_utilisation(v_t, omega, p)
+    if math.isinf(p.tyre_peak_acceleration):
+        return 0.0
+    a_x, a_n = tyre_force_per_mass(v_t, a_t, a_n, p)
+    return math.hypot(a_x, a_n) / p.tyre_peak_acceleration
+
+
+def mixing_gain(mixed, c1: float, c2: float, p: MixingParameters) -> np.ndarray:
+    """[w_t, w_n]: how much the mixed estimate ``mixed`` (mix's output) took from outside the EKF.
+
+    S(15): w_t = C1, the weight of odometry in v_t. S(17): v_n = C2 q2 v_n,k-1 + (1 - C2) q_I ^I v_n +
+    (the tyre model's terms); with v_n,k-1 = ^I v_n to first order in T_N, w_n = 1 - C2 q2 - (1 - C2) q_I
+    is the weight of the tyre model (the paper's S(17): w_n = C2 (1 - q2), relaxation towards zero).
+    The EKF's covariance takes the mixing as updates with these gains (ekf.ekf_mixing_covariance).
+    """
+    utilisation = mixing_utilisation(mixed[0], mixed[2], mixed[3], mixed[4], p)
+    q_inertial = inertial_relaxation(utilisation, p)
+    return np.array([c1, 1.0 - c2 * p.q2 - (1.0 - c2) * q_inertial])
+
+
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
     """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n].
 
@@ -282,7 +311,7 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
         target, utilisation = side_slip_from_accelerations(v_t, odo[0], inertial[3], inertial[4], p)
     else:
         target, utilisation = model, tyre_utilisation(v_t, omega, p)
-    q_inertial = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - min(utilisation, 1.0) ** 2)
+    q_inertial = inertial_relaxation(utilisation, p)
     return np.array(
         [
             v_t,
@@ -402,11 +431,13 @@ class VelocityMixer(LeafSystem):
         output_ports:
         - mixed_estimate
         - body_velocity
+        - mixing_gain
 
     - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 and the tyre
       model's previous value in S(17).
     - mixed_estimate: [v_t, v_n, omega, ^I a_t, ^I a_n] (direct feedthrough).
     - body_velocity: [v_t, v_n, omega] for pose integration and the side-slip angle.
+    - mixing_gain: [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P.
     """
 
     def __init__(self, params: MixingParameters):
@@ -421,6 +452,12 @@ class VelocityMixer(LeafSystem):
         self.DeclareVectorOutputPort(
             "body_velocity", 3, lambda c, o: o.SetFromVector(self._mixed.Eval(c)[0:3])
         )
+        self.DeclareVectorOutputPort("mixing_gain", 2, self._calc_gain)
+
+    def _calc_gain(self, context, output):
+        c2 = self._c23.Eval(context)[0]
+        c1 = self._c1.Eval(context)[0]
+        output.SetFromVector(mixing_gain(self._mixed.Eval(context), c1, c2, self._p))
 
     def _calc(self, context, output):
         c2, c3 = self._c23.Eval(context)

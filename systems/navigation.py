@@ -13,9 +13,10 @@ Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K
 3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry (C3 of the residual's
    PT1 up to sample k);
 4. mixing S(15)-(17) with the C1 in force -> mixed estimate (the navigation output of sample k);
-5. updates: EKF state <- mixed estimate, P <- S(9); pose S(21); odometry-only and Gyrodometry poses (the
-   raw gyro and the raw odometry); the calibration from the raw gyro, the raw odometry and the C1 in
-   force (its Kalman update at each batch's end); the C3 residual;
+5. updates: EKF state <- mixed estimate, P <- S(9) and the mixing as pseudo-measurements
+   (ekf_covariance_update with the mixed estimate's mixing_gain); pose S(21); odometry-only and
+   Gyrodometry poses (the raw gyro and the raw odometry); the calibration from the raw gyro, the raw
+   odometry and the C1 in force (its Kalman update at each batch's end); the C3 residual;
    at control instants also C1 S(12) from this batch's dv and the batches' leaky sum, L S(7) from
    P_{k|k-1}, S(18)-(20) from the mixed estimate, and the detector's reset. C1, L and alpha computed
    at t_K act from sample k+1 on.
@@ -27,8 +28,8 @@ import dataclasses as dc
 import numpy as np
 from slipnav.systems.ekf import (
     EkfParameters,
+    ekf_covariance_update,
     ekf_gain,
-    ekf_joseph,
     ekf_measurement,
     ekf_predict,
     ekf_prior_covariance,
@@ -44,6 +45,7 @@ from slipnav.systems.mixing import (
     mixing_c1,
     mixing_c2,
     mixing_c3,
+    mixing_gain,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.pose import pose_step
@@ -216,7 +218,8 @@ class NavigationLoop:
             *codes,
         )
         self.x = mixed
-        self.P = ekf_joseph(P_prior, self.L, self.R)
+        gain = mixing_gain(mixed, self.c1, c2, mp)
+        self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)
         self.gyro_state = gyrodometry_step(

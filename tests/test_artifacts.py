@@ -106,7 +106,7 @@ def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, mo
     if where == "npz":
         monkeypatch.setattr(runner.np, "savez", interrupt)
     elif where == "sensors":
-        monkeypatch.setattr(runner, "sensor_log_text", interrupt)
+        monkeypatch.setattr(runner, "sensor_log_chunks", interrupt)
     elif where == "figures":
         real = plots.write_figures
 
@@ -120,3 +120,73 @@ def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, mo
     assert _run(tmp_path) == 130
     assert capsys.readouterr().err == "slipnav: interrupted\n"
     assert {p.name: p.read_text() for p in tmp_path.iterdir()} == previous  # staging folder removed too
+
+
+def test_a_run_whose_estimate_becomes_non_finite_stops_with_status_3(tmp_path, monkeypatch, capsys):
+    """The mixer's v_t turned NaN from sample 1000 (t = 2 s) on: the run stops at the next 0.1 s check,
+    writes its artifact up to there, says why in the summary and on stderr, and exits with status 3."""
+    from slipnav.systems import mixing
+
+    real, calls = mixing.mix, [0]
+
+    def broken(*args, **kwargs):
+        calls[0] += 1
+        out = real(*args, **kwargs)
+        if calls[0] > 1000:
+            out[0] = math.nan
+        return out
+
+    monkeypatch.setattr(mixing, "mix", broken)  # what VelocityMixer calls
+    assert main(["run", "corner", "--out", str(tmp_path), "--no-figures"]) == 3
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: error: corner stopped early: the navigation estimate became non-finite")
+    summary = json.loads((tmp_path / "corner-seed0.summary.json").read_text())
+    assert summary["aborted"].startswith("the navigation estimate became non-finite at t = 2.000 s")
+    assert summary["duration_s"] == pytest.approx(2.0) and summary["completed"] is False
+    arrays = np.load(tmp_path / "corner-seed0.npz")
+    assert len(arrays["t"]) == 1001 and np.isnan(arrays["est_v_t"][-1])
+    assert np.all(np.isfinite(arrays["est_v_t"][:-1]))
+
+
+def test_a_run_records_the_covariance_health_and_its_arrays_are_views_of_one_buffer():
+    """P symmetric positive definite over a run (summary); the artifact rows share the drained buffer
+    (no copies) and equal what the loggers logged on the T_N grid."""
+    result = runner.run_scenario(load_scenario("corner"), duration=1.5)
+    s, a = result.summary, result.arrays
+    assert s["aborted"] is None
+    assert 0.0 < s["covariance_min_eigenvalue"] < s["covariance_max_eigenvalue"] < 1.0
+    assert s["covariance_max_asymmetry"] == 0.0
+    buffer = a["true_x"].base
+    assert buffer is not None and buffer.ndim == 2
+    assert all(a[key].base is buffer for key in ("est_x", "meas_gyro", "cmd_R", "C1", "progress"))
+    np.testing.assert_allclose(a["t"], np.arange(751) * 0.002, atol=1e-12)
+
+
+def test_figures_of_a_long_run_plot_every_kth_sample():
+    n = 2 * runner.FIGURE_SAMPLES + 1
+    arrays = {"t": np.arange(n) * 0.002, "est_x": np.arange(n, dtype=float), "T_N": np.array(0.002)}
+    shown = runner.figure_arrays(arrays)
+    assert len(shown["t"]) == math.ceil(n / 3) and shown["est_x"][1] == 3.0 and shown["T_N"] == 0.002
+    short = {key: value[: runner.FIGURE_SAMPLES] if value.ndim else value for key, value in arrays.items()}
+    assert runner.figure_arrays(short) is short
+
+
+def test_path_projection_memory_is_bounded_on_a_60_lap_square():
+    """A 60-lap 1 m square (48 000 vertices) and 400 000 track points: the search's working memory
+    stays a few MB beyond its two outputs (a dense search would need 400 000 x 48 000 x 8 B = 154 GB)."""
+    import tracemalloc
+
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.0, 0.0]])
+    u = np.linspace(0.0, 1.0, 201)[:-1, None]
+    lap = np.vstack([a + u * (b - a) for a, b in zip(corners[:-1], corners[1:], strict=True)])
+    path = np.vstack([lap] * 60 + [corners[:1]])
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    along = np.linspace(0.0, s[-1], 400_000)
+    x, y = np.interp(along, s, path[:, 0]) + 0.003, np.interp(along, s, path[:, 1])
+    tracemalloc.start()
+    distance, progress = path_projection(x, y, path[:, 0], path[:, 1])
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak - distance.nbytes - progress.nbytes < 5e6
+    np.testing.assert_allclose(progress[-1], 240.0, rtol=1e-12)  # 60 laps of 4 m, matched lap by lap
+    assert np.all(np.diff(progress) > -1e-9) and np.max(distance) < 0.0031

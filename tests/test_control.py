@@ -326,9 +326,9 @@ def test_T_of_I21_stays_within_the_I22_bound_on_the_real_robot(name, kappa_max, 
     frenet = {}
     collect = runner.collect_arrays
 
-    def spy(loggers, context, robot):
-        frenet["data"] = loggers["frenet_errors"].FindLog(context).data()
-        return collect(loggers, context, robot)
+    def spy(loggers, context, robot, **options):
+        frenet["data"] = loggers["frenet_errors"].FindLog(context).data().copy()
+        return collect(loggers, context, robot, **options)
 
     monkeypatch.setattr(runner, "collect_arrays", spy)
     scenario = load_scenario(name)

@@ -13,11 +13,15 @@ from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.ekf import (
     MEASUREMENT_MATRIX,
     EkfParameters,
+    ekf_bound_velocity_variance,
+    ekf_covariance_update,
     ekf_gain,
     ekf_jacobian,
     ekf_joseph,
     ekf_measurement,
+    ekf_mixing_covariance,
     ekf_predict,
+    ekf_prior_covariance,
     ekf_update,
 )
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
@@ -34,6 +38,7 @@ from slipnav.systems.mixing import (
     mixing_c1,
     mixing_c2,
     mixing_c3,
+    mixing_gain,
     side_slip_from_accelerations,
     tyre_utilisation,
 )
@@ -531,8 +536,8 @@ def test_covariance_stays_symmetric_positive_definite_over_ten_minutes():
     """10 simulated minutes of hard driving (speed to 3 m/s, yaw rate to 5 rad/s) through the same pure
     functions as the diagram: P stays symmetric positive definite; the measured block (omega, a_t, a_n)
     and the gain S(7) stay at their steady values. The velocity block is not measured (S(3)) and its
-    variance grows (the forward-Euler rotation of S(2) has |eigenvalue| = sqrt(1 + (omega T_N)^2) > 1);
-    the mixed estimate that overwrites the state (Fig. 3) keeps the estimate itself bounded."""
+    variance would grow (the forward-Euler rotation of S(2) has |eigenvalue| = sqrt(1 + (omega T_N)^2) > 1)
+    but the mixing's pseudo-measurements (ekf_mixing_covariance) hold it at the odometry's level."""
     N = int(600.0 / T_N)
     t = np.arange(N) * T_N
     v = 1.5 + 1.5 * np.sin(2 * np.pi * t / 7.0)
@@ -555,12 +560,100 @@ def test_covariance_stays_symmetric_positive_definite_over_ten_minutes():
     measured = np.array([np.diag(p)[2:] for p in P])
     np.testing.assert_allclose(measured[-1], measured[len(P) // 2], rtol=1e-6)  # steady
     assert np.all(measured[-1] < [1e-3, 0.1, 0.1])
+    assert np.max(P[:, 0, 0]) < 1e-3 and np.max(P[:, 1, 1]) < 1e-3  # (0.03 m/s)^2: odometry-level
     _, R, _ = NavigationParameters().ekf.matrices()
     gains = np.array([ekf_gain(p, R) for p in P[len(P) // 10 :]])
     assert np.max(np.abs(gains)) < 1.0 and np.ptp(gains, axis=0).max() < 1e-3
     assert np.sqrt(np.mean((out["est_v_t"] - v) ** 2)) < 0.02
     for key in LOOP_KEYS:
         assert np.all(np.isfinite(out[key])), key
+
+
+def test_mixing_as_pseudo_measurement_of_the_velocities_in_P():
+    """S(15), S(17) in P (ekf_mixing_covariance): by hand, the Joseph form of the fixed-gain update on the
+    velocities' covariance given the measured states; P_vm, P_mm (what the gain S(7) reads) untouched."""
+    R_t, R_n = 5e-6, 1e-4
+    # No cross-covariance: P_tt <- (1 - C1)^2 P_tt + C1^2 R_t, P_tn <- (1 - C1)(1 - w_n) P_tn.
+    P = np.diag([0.04, 0.09, 1e-3, 0.5, 0.5])
+    P[0, 1] = P[1, 0] = 0.01
+    out = ekf_mixing_covariance(P, [0.8, 0.1], [R_t, R_n])
+    assert out[0, 0] == pytest.approx(0.2**2 * 0.04 + 0.8**2 * R_t, rel=1e-14)
+    assert out[1, 1] == pytest.approx(0.9**2 * 0.09 + 0.1**2 * R_n, rel=1e-14)
+    assert out[0, 1] == out[1, 0] == pytest.approx(0.2 * 0.9 * 0.01, rel=1e-14)
+    np.testing.assert_array_equal(out[2:, :], P[2:, :])
+    # With cross-covariance: the explained part P_vm P_mm^-1 P_mv stays, the rest is updated.
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((5, 5))
+    P = A @ A.T + 0.1 * np.eye(5)
+    out = ekf_mixing_covariance(P, [1.0, 0.0], [R_t, R_n])  # C1 = 1: v_t is odometry's, given m
+    np.testing.assert_array_equal(out[:, 2:], P[:, 2:])
+    explained = P[0:2, 2:] @ np.linalg.inv(P[2:, 2:]) @ P[2:, 0:2]
+    assert out[0, 0] == pytest.approx(explained[0, 0] + R_t, rel=1e-12)
+    assert out[0, 1] == pytest.approx(explained[0, 1], rel=1e-12)
+    assert out[1, 1] == pytest.approx(P[1, 1], rel=1e-12)
+    assert np.all(np.linalg.eigvalsh(out) > 0.0)
+    # The limit: the variance given the measured states capped, its correlation kept, PD.
+    big = P.copy()
+    big[0:2, 0:2] += np.array([[400.0, 30.0], [30.0, 9.0]])
+    capped = ekf_bound_velocity_variance(big, 1.0)
+    S = capped[0:2, 0:2] - explained
+    assert S[0, 0] == pytest.approx(1.0, rel=1e-9) and S[1, 1] <= 1.0 + 1e-9
+    S_big = big[0:2, 0:2] - explained
+    corr = S_big[0, 1] / math.sqrt(S_big[0, 0] * S_big[1, 1])
+    assert S[0, 1] / math.sqrt(S[0, 0] * S[1, 1]) == pytest.approx(corr, rel=1e-9)
+    np.testing.assert_array_equal(capped[:, 2:], big[:, 2:])
+    assert np.all(np.linalg.eigvalsh(capped) > 0.0)
+    # The weights: w_t = C1; the paper's S(17) (no tyre curve, q2_inertial = 1): w_n = C2 (1 - q2).
+    paper = MixingParameters(tyre_peak_acceleration=math.inf, q2_inertial=1.0)
+    gain = mixing_gain([1.0, 0.0, 2.0, 0.5, 3.0], 0.7, 0.4, paper)
+    np.testing.assert_allclose(gain, [0.7, 0.4 * (1.0 - paper.q2)], rtol=1e-14)
+    # Ours below the friction limit, |a| = 0 (no drag, no force): q_I = q2_inertial.
+    still = MixingParameters(drag_acceleration=0.0, drag_per_speed=0.0)
+    gain = mixing_gain([0.0, 0.0, 0.0, 0.0, 0.0], 1.0, 0.25, still)
+    assert gain[1] == pytest.approx(1.0 - 0.25 * still.q2 - 0.75 * still.q2_inertial, rel=1e-14)
+
+
+def test_covariance_stays_bounded_in_a_long_fast_spin():
+    """The long-run check, scaled to the suite: 90 s of spinning on the spot at 20 rad/s, in which S(6)
+    and S(9) alone grow the velocities' variance by (1 + (omega T_N)^2)^N = e^72 (NaN after ~860 s). With
+    the mixing in P, P is steady from 30 s on, v_t's variance is odometry's, C1^2 R_t / (1 - (1 - C1)^2)
+    to 2 %, and P stays symmetric positive definite."""
+    N, omega = int(90.0 / T_N), 20.0
+    rng = np.random.default_rng(11)
+    # The accelerometers at +-(0.02, 0.015) m read the centripetal -omega^2 r (the sensor checks compare
+    # the pair with it); the gyro reads beyond its 300 deg/s and is replaced by the odometric yaw rate.
+    centripetal = -(omega**2) * np.array([0.02, 0.015, -0.02, -0.015])
+    acc = centripetal + 0.06 * rng.standard_normal((N, 4))
+    gyro = omega + 0.014 * rng.standard_normal(N)
+    step = 2 * np.pi / 6144
+    turns = np.cumsum(np.full(N, 0.034 * omega / 0.015 * T_N))
+    enc = np.floor(np.column_stack([turns, -turns]) / step) * step
+    params = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
+    out = navigation_loop(acc, gyro, enc, params, 0.015, 0.068, T_N, 0.02)
+    P = out["P"][::250]
+    np.testing.assert_array_equal(P, np.transpose(P, (0, 2, 1)))
+    assert np.all(np.linalg.eigvalsh(P) > 0.0)
+    late = P[len(P) // 3 :]
+    variances = late[:, [0, 1], [0, 1]]
+    np.testing.assert_allclose(variances, np.broadcast_to(variances[-1], variances.shape), rtol=0.02)
+    c1 = out["C1"][-1]
+    assert c1 > 0.99
+    R_t = params.ekf.R_mixing[0]
+    assert P[-1, 0, 0] == pytest.approx(c1**2 * R_t / (1.0 - (1.0 - c1) ** 2), rel=0.02)
+    assert P[-1, 1, 1] < 1e-4
+    # S(6) and S(9) alone, same gains and states: the velocity block grows as the rotation predicts.
+    bare = out["P"][0]
+    x = np.array([0.0, 0.0, omega, 0.0, 0.0])
+    Q, R, _ = params.ekf.matrices()
+    L = ekf_gain(bare, R)
+    for _ in range(5000):
+        bare = ekf_joseph(ekf_prior_covariance(bare, x, Q, T_N), L, R)
+    growth = (1.0 + (omega * T_N) ** 2) ** 5000  # e^8 in 10 s; the additive terms only add to it
+    assert np.trace(bare[0:2, 0:2]) > growth * np.trace(out["P"][0][0:2, 0:2]) > 0.5
+    fixed = out["P"][0]
+    for _ in range(5000):
+        fixed = ekf_covariance_update(ekf_prior_covariance(fixed, x, Q, T_N), L, R, [c1, 0.01], params.ekf)
+    assert np.trace(fixed[0:2, 0:2]) < 1e-4
 
 
 def test_nan_and_inf_samples_are_detected_held_and_flagged():
@@ -613,5 +706,7 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
     )
     np.testing.assert_allclose(out["est_x"], logs["pose"][0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(out["est_v_t"], logs["mixed_estimate"][0], rtol=0, atol=1e-12)
+    # P with the mixing's pseudo-measurements: the diagram's EKF equals the loop's (P_k-1 at t_k).
+    np.testing.assert_allclose(out["P"].reshape(len(gyro), 25).T, logs["covariance"], rtol=0, atol=1e-12)
     # The fused estimate barely notices: final position within 1 mm of the clean run's.
     assert abs(logs["pose"][0][-1] - a["est_x"][-1]) < 1e-3
