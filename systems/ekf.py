@@ -204,7 +204,23 @@ def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters) -> np.ndar
     P = ekf_joseph(P_prior, L, R)
     explained, S = _velocity_split(P)
     S = _bound(_mixing_update(S, gain, params.R_mixing), params.velocity_variance_limit)
-    return _with_velocity_block(P, explained, S)
+    return _with_velocity_block(*_bound_cross_covariance(P, explained, S, params.velocity_variance_limit))
+
+
+def _bound_cross_covariance(P, explained, S, limit: float):
+    """(P, explained, S) with the velocities' cross-covariance with the measured states P_vm scaled by
+    c = min_i sqrt((limit - S_ii) / E_ii) where the whole variance E_ii + S_ii (E = P_vm P_mm^-1 P_mv)
+    exceeds ``limit``. P_vm grows as S(5)'s rotation when the odometry is not trusted for long in a fast
+    spin (C1 = 0: no pseudo-measurement). The Schur complement stays S, so P stays positive definite;
+    inactive below the limit (every built-in run: the gains S(7) are the paper's there)."""
+    excess = [explained[i, i] + S[i, i] > limit and explained[i, i] > 0.0 for i in (0, 1)]
+    if not any(excess):
+        return P, explained, S
+    c = min(math.sqrt(max(limit - S[i, i], 0.0) / explained[i, i]) for i in (0, 1) if excess[i])
+    P = P.copy()
+    P[0:2, 2:5] *= c
+    P[2:5, 0:2] *= c
+    return P, explained * (c * c), S
 
 
 class InertialEkf(LeafSystem):

@@ -710,3 +710,25 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
     np.testing.assert_allclose(out["P"].reshape(len(gyro), 25).T, logs["covariance"], rtol=0, atol=1e-12)
     # The fused estimate barely notices: final position within 1 mm of the clean run's.
     assert abs(logs["pose"][0][-1] - a["est_x"][-1]) < 1e-3
+
+
+def test_covariance_stays_bounded_when_the_odometry_is_not_trusted_in_a_spin():
+    """90 s at 20 rad/s with accelerometers that read no centripetal acceleration: the pair check
+    blames one, the slip detector sees the odometry disagree and C1 falls to 0, so S(15) no longer
+    measures v_t. The velocities' cross-covariance with the measured states would grow as S(5)'s rotation
+    (1 + (omega T_N)^2)^(N/2) = e^36; it is scaled so that their variance stays within
+    ekf.velocity_variance_limit, and P stays positive definite."""
+    N, omega = int(90.0 / T_N), 20.0
+    rng = np.random.default_rng(11)
+    acc = 0.06 * rng.standard_normal((N, 4))
+    gyro = omega + 0.014 * rng.standard_normal(N)
+    step = 2 * np.pi / 6144
+    turns = np.cumsum(np.full(N, 0.034 * omega / 0.015 * T_N))
+    enc = np.floor(np.column_stack([turns, -turns]) / step) * step
+    params = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
+    out = navigation_loop(acc, gyro, enc, params, 0.015, 0.068, T_N, 0.02)
+    assert out["C1"][-1] < 1e-6
+    P = out["P"][::250]
+    limit = params.ekf.velocity_variance_limit
+    assert np.max(P[:, [0, 1], [0, 1]]) <= limit * (1 + 1e-9)
+    assert np.min(np.linalg.eigvalsh(P)) > 1e-6
