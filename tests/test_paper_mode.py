@@ -200,3 +200,14 @@ def test_run_paper_writes_the_paper_stem_and_summary(tmp_path, capsys):
     assert summary["paper"] is True and summary["standstill_s"] == 0.0
     assert main(["run", "corner", "--duration", "0.2", "--no-figures", "--out", str(tmp_path)]) == 0
     assert json.loads((tmp_path / "corner-seed0.summary.json").read_text())["paper"] is False
+
+
+def test_paper_effects_variants():
+    """The study runs the default, paper mode and each deviation alone; the control ones closed loop only."""
+    from slipnav.studies.paper_effects import scenario_of, variants
+
+    assert variants(False)[:2] == ["default", "paper"] and len(variants(False)) == 2 + len(DEVIATIONS)
+    assert "only step_size_delay" not in variants(True) and len(variants(True)) == len(DEVIATIONS)
+    alone = scenario_of("corner", "only creep")
+    assert not alone.navigation.mixing.odometry_slip_compensation and not alone.paper
+    assert alone.navigation.mixing.dv_memory == 0.7  # the rest stays the default
