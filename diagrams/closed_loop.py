@@ -115,7 +115,7 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
         interpolator.set_name("Trajectory interpolator")
         b.ExportInput(step.GetInputPort("C1"), "C1")
         b.ExportInput(step.GetInputPort("side_slip_angle"), "side_slip_angle")
-        b.Connect(step.GetOutputPort("step_size"), interpolator.GetInputPort("step_size"))
+        b.Connect(step.GetOutputPort("pace"), interpolator.GetInputPort("step_size"))
         b.Connect(step.GetOutputPort("progress"), interpolator.GetInputPort("progress"))
         b.Connect(follower.GetOutputPort("virtual_target"), interpolator.GetInputPort("virtual_target"))
         b.Connect(interpolator.GetOutputPort("speed"), follower.GetInputPort("speed"))

@@ -99,7 +99,10 @@ def build_navigation_diagram(
     gain = add(
         KalmanGain(params.ekf, T_C, ekf_prior_covariance(P0, initial.ekf_state(), Q, T_N)), "Kalman gain"
     )
-    detector = add(TangentialSlipDetector(T_N, T_C, initial.speed), "Tangential slip detector")
+    detector = add(
+        TangentialSlipDetector(T_N, T_C, initial.speed, params.mixing.delta_v_running_integral),
+        "Tangential slip detector",
+    )
     c1 = add(MixerC1(params.mixing, T_C), "Mixer C1")
     c23 = add(MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
     calibration = add(

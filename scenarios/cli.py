@@ -3,8 +3,8 @@
     slipnav list
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
                          [--speed-law bounded|constant] [--open-loop] [--tolerances]
-                         [--localisation fused|odometry|gyrodometry|truth]
-    slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
+                         [--localisation fused|odometry|gyrodometry|truth] [--paper]
+    slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [ENGINE]
     slipnav faults [SCENARIO ...] [--seeds N] [ENGINE]
@@ -90,6 +90,11 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="what the path follower localises by (default: the scenario's, fused)",
     )
+    run.add_argument(
+        "--paper",
+        action="store_true",
+        help="the papers' equations as printed, every extension off (README: Paper mode)",
+    )
     dia = sub.add_parser("diagram", help="write a block diagram (graphviz)")
     dia.add_argument("name", help="navigation, control or closed_loop")
     dia.add_argument("--out", default=None, help="FILE.dot (default NAME.dot), FILE.svg or FILE.png")
@@ -101,6 +106,9 @@ def _parser() -> argparse.ArgumentParser:
     acc.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
     acc.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     acc.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
+    acc.add_argument(
+        "--paper", action="store_true", help="the papers' equations as printed (README: Paper mode)"
+    )
     _engine_options(acc, "accuracy")
     bud = sub.add_parser("error-budget", help="navigation errors with oracle inputs (benchmark)")
     bud.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
@@ -260,7 +268,14 @@ def _command(args) -> int:
         from slipnav.studies.accuracy import accuracy
 
         _check_study(args, args.duration)
-        accuracy(args.scenarios, args.seeds, args.duration, open_loop=args.open_loop or None, **_engine(args))
+        accuracy(
+            args.scenarios,
+            args.seeds,
+            args.duration,
+            open_loop=args.open_loop or None,
+            paper=args.paper,
+            **_engine(args),
+        )
         return 0
     from slipnav.scenarios.runner import (
         check_output_directory,
@@ -270,6 +285,10 @@ def _command(args) -> int:
     )
 
     scenario = load_scenario(args.scenario)
+    if args.paper:
+        from slipnav.scenarios.paper import paper_mode
+
+        scenario = paper_mode(scenario)
     options = dict(
         seed=args.seed,
         duration=args.duration,

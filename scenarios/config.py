@@ -87,6 +87,9 @@ class Scenario:
         faults: timed sensor faults between the sensors and the navigation (systems/faults.py
             FaultEvent: kind, channel, start, duration, value), e.g. ``faults: [{kind: dropout,
             channel: gyro, start: 2.0, duration: 0.5}]``.
+        paper: the papers' equations exactly as printed, every extension off (scenarios/paper.py
+            paper_mode, applied on top of the other keys when the scenario is loaded or run; README:
+            Paper mode).
     """
 
     name: str = ""
@@ -115,6 +118,7 @@ class Scenario:
     speed_law: str = "bounded"
     localisation: str = "fused"
     faults: list[FaultEvent] = dc.field(default_factory=list)
+    paper: bool = False
 
     # -- derived, validated objects -----------------------------------------------------------------
     def rates(self) -> SampleRates:
@@ -368,7 +372,16 @@ def scenario_from_yaml(text: str, name: str = "") -> Scenario:
         raise ScenarioError(str(e)) from None
     if not scenario.name:
         scenario.name = name
-    return scenario.validate()
+    return with_paper_mode(scenario.validate())
+
+
+def with_paper_mode(scenario: Scenario) -> Scenario:
+    """``scenario``, in paper mode (scenarios/paper.py) when its ``paper`` key is true."""
+    if not scenario.paper:
+        return scenario
+    from slipnav.scenarios.paper import paper_mode
+
+    return paper_mode(scenario)
 
 
 def builtin_scenarios() -> list[str]:
@@ -586,4 +599,4 @@ def with_keys(scenario: Scenario, changes: dict) -> Scenario:
     for key, value in changes.items():
         steps = _key_steps(key)
         scenario = _replaced(scenario, Scenario, steps, value, "")
-    return scenario.validate()
+    return with_paper_mode(scenario.validate())

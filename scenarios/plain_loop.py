@@ -165,16 +165,19 @@ def run_plain_loop(
 
         if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K
             if trajectory_mode:
-                if progress >= table_end:
-                    u = 0.0
-                else:
-                    ref = interpolate(table, progress)
-                    u = max(delta * ref[3] + control.step_size.k_s * (ref[4] - s), 0.0)
+                pace = delta  # delta_K-1 (delayed_step_size), else delta_K below
                 if control.slip_control:
                     c1, alpha = nav_row[LOOP_KEYS.index("C1")], nav_row[LOOP_KEYS.index("est_alpha")]
                     delta = step_size(delta, c1, alpha, (k - k_start) // n - progress, control.step_size)
                 else:
                     delta = 1.0
+                if not control.step_size.delayed_step_size:
+                    pace = delta
+                if progress >= table_end:
+                    u = 0.0
+                else:
+                    ref = interpolate(table, progress)
+                    u = max(pace * ref[3] + control.step_size.k_s * (ref[4] - s), 0.0)
                 progress += delta
             elif s >= path.length:
                 u = 0.0
@@ -234,8 +237,10 @@ def run_scenario_plain_loop(
     scenario, seed: int, num_steps: int, slip_control=None, speed_law=None, noise=None, timings=None
 ) -> dict:
     """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (same overrides)."""
+    from slipnav.scenarios.config import with_paper_mode
     from slipnav.scenarios.runner import closed_loop_settings
 
+    scenario = with_paper_mode(scenario)
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
     plant, sensor_params, _ = scenario.plant_parameters(seed)
     speed_law = scenario.speed_law if speed_law is None else speed_law

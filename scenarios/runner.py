@@ -24,7 +24,7 @@ import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram
 from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
-from slipnav.scenarios.config import MAX_DURATION, Scenario, ScenarioError, check_duration
+from slipnav.scenarios.config import MAX_DURATION, Scenario, ScenarioError, check_duration, with_paper_mode
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.metrics import moving_alpha
 from slipnav.scenarios.model import RobotModel, model_text
@@ -224,6 +224,7 @@ def run_scenario(
     ``faults``; ``localisation``: what the follower localises by (--localisation); None keeps them.
     """
     check_run_options(scenario, seed, duration, slip_control, speed_law, open_loop)
+    scenario = with_paper_mode(scenario)
     if localisation is not None:
         scenario = dc.replace(scenario, localisation=localisation).validate()
     seed = scenario.seed if seed is None else int(seed)
@@ -339,6 +340,7 @@ def run_scenario(
         "sensor_health": health_report(arrays["t"], arrays, SENSOR_CHANNELS),
         "faults": [dc.asdict(event) for event in faults],
         "tolerances": bool(tolerances),
+        "paper": bool(scenario.paper),
         "plant": record,
         "plant_deviations": {key: float(value) for key, value in deviations.items()},
         "path_length_m": float(arrays["path_length"]),
@@ -713,8 +715,8 @@ def collect_navigation(a: dict, data) -> None:
 
 def artifact_stem(result: RunResult) -> str:
     """File stem of a run's artifacts: ``<scenario>-seed<N>`` plus the switches that changed what ran,
-    ``-open-loop``, ``-no-slip-control``, ``-speed-law-constant``, ``-tolerances``, ``-localised-by-<source>``
-    (README: Run artifacts)."""
+    ``-open-loop``, ``-no-slip-control``, ``-speed-law-constant``, ``-tolerances``,
+    ``-localised-by-<source>``, ``-paper`` (README: Run artifacts)."""
     s = result.summary
     stem = f"{s['scenario'] or 'scenario'}-seed{s['seed']}"
     if s["controller"] != "closed loop":
@@ -727,6 +729,8 @@ def artifact_stem(result: RunResult) -> str:
         stem += "-tolerances"
     if s.get("localisation") not in (None, "fused"):
         stem += f"-localised-by-{s['localisation']}"
+    if s.get("paper"):
+        stem += "-paper"
     return stem
 
 

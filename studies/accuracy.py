@@ -16,6 +16,7 @@ import time
 import numpy as np
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, MIN_SIDE_SLIP_UPDATES, navigation_figures
+from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.sweep import session
 
@@ -96,8 +97,10 @@ def _worst(values) -> float:
 
 
 def run_seed(job: dict) -> dict:
-    """The figures of one run (job: scenario, seed, duration, open_loop)."""
+    """The figures of one run (job: scenario, seed, duration, open_loop, and paper if true)."""
     scenario = load_scenario(job["scenario"])
+    if job.get("paper"):
+        scenario = paper_mode(scenario)
     return navigation_figures(
         run_scenario(scenario, seed=job["seed"], duration=job["duration"], open_loop=job["open_loop"]).arrays
     )
@@ -110,6 +113,7 @@ def accuracy(
     stream=None,
     open_loop=None,
     *,
+    paper=False,
     workers=None,
     scheduler=None,
     out_dir=None,
@@ -117,15 +121,17 @@ def accuracy(
 ) -> dict:
     """Run each scenario for seeds 0..seeds-1 on the sweep engine (studies/sweep.py: ``workers``,
     ``scheduler``, results in ``out_dir``/accuracy.csv, ``resume``); print and return the per-scenario
-    rows (the figures with their job)."""
+    rows (the figures with their job). ``paper``: in paper mode (scenarios/paper.py)."""
     results = {}
     with session("accuracy", workers, scheduler, out_dir, resume) as (engine, file):
         for name in names:
             start = time.perf_counter()
             jobs = [
                 {"scenario": name, "seed": seed, "duration": duration, "open_loop": open_loop}
+                | ({"paper": True} if paper else {})
                 for seed in range(seeds)
             ]
             results[name] = figures = engine.map(run_seed, jobs, file, label=name)
-            summarise(name, figures, time.perf_counter() - start, stream)
+            label = f"{name} (paper mode)" if paper else name
+            summarise(label, figures, time.perf_counter() - start, stream)
     return results

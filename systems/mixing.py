@@ -36,6 +36,9 @@ class MixingParameters:
             square's gradual locks (closed loop 78/83 -> 78/78 episodes, all within 1 T_C, 10 seeds),
             short enough that the inertial v_t taken meanwhile hardly drifts (accelerometer bias sums to
             3.3 x its ~0.4 mm/s per batch, far below b1). 0: the paper's S(12).
+        delta_v_running_integral: S(11)'s acceleration term is the running integral of the mean
+            tangential acceleration since the batch start ("discrete integration", §IV-C; systems/
+            slip_detector.py). False: the printed single-sample term (a_t1,k + a_t2,k) T_N/2.
         a2: C2 steepness (s^2/m): 4 gives a 10 %-90 % transition over 1.1 m/s^2.
         b2: C2 threshold on |a_n| (m/s^2): above the EKF's a_n noise (commotion) at speed.
         a3: C3 steepness (s/rad): 200 gives a 10 %-90 % transition over 0.022 rad/s.
@@ -85,6 +88,7 @@ class MixingParameters:
     b1: float = 0.04
     p: float = 0.5
     dv_memory: float = 0.7
+    delta_v_running_integral: bool = True
     a2: float = 4.0
     b2: float = 2.0
     a3: float = 200.0
@@ -122,7 +126,11 @@ class MixingParameters:
         c = self.tyre_shape_factor
         if not 1.0 < c < 2.0:
             raise ValueError(f"mixing.tyre_shape_factor={c!r} is out of range: allowed (1, 2)")
-        for name in ("odometry_slip_compensation", "side_slip_from_accelerations"):
+        for name in (
+            "odometry_slip_compensation",
+            "side_slip_from_accelerations",
+            "delta_v_running_integral",
+        ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(
                     f"mixing.{name}={getattr(self, name)!r} is out of range: allowed true, false"

@@ -8,6 +8,7 @@ estimated speed (the navigation's v_t); the speed law's u sets the wheel command
 kinematic unicycle of the paper both are the same; on a robot that cannot realise a speed step at once
 (Kurt3D near V_m) using the command in I(16) lets the virtual target run ahead, V1 stays above epsilon
 and I(24) chatters at V_m/2.
+``follower.use_estimated_speed = false`` (paper mode) puts the commanded u in I(15)-(16) as printed.
 
 Sign of the approach angle: with y1 positive to the left of the path (I(12): dy1/dt = ... + u sin theta),
 assumption iii) of I(14), y1 u sin(delta) <= 0, holds for delta = -sign(u) k3 tanh(y1); the paper's
@@ -36,6 +37,8 @@ class PathFollowerParameters:
             the wheel speeds: with 0.01 the navigation noise kept V1 above epsilon half of the time, and
             each crossing switches u between V_m/2 and full speed (long path: 0.01 -> 78 % of the constant
             law's time, 0.03 -> 57 %, 0.05 -> 53 % with a smaller path error).
+        use_estimated_speed: I(15)-(16) read the robot's estimated speed (the navigation's v_t), the
+            speed of I(11)-(12); false: the commanded u, as printed (the same u as I(18)-(19)).
     """
 
     gamma: float = 0.5
@@ -43,12 +46,18 @@ class PathFollowerParameters:
     k2: float = 3.0
     k3: float = 0.5
     epsilon: float = 0.05
+    use_estimated_speed: bool = True
 
     def __post_init__(self):
         for name in ("gamma", "k1", "k2", "epsilon"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"follower.{name}={v!r} is out of range: allowed (0, inf)")
+        if not isinstance(self.use_estimated_speed, bool):
+            raise ValueError(
+                f"follower.use_estimated_speed={self.use_estimated_speed!r} is out of range: "
+                "allowed true, false"
+            )
         if not (math.isfinite(self.k3) and 0.0 <= self.k3 < math.pi / 2):
             raise ValueError(f"follower.k3={self.k3!r} is out of range: allowed [0, pi/2)")
 
@@ -222,13 +231,13 @@ def follower_step(
 ):
     """One T_C sample of the follower: returns the next state in FollowerState order.
 
-    I(15)-(16) use ``u_measured`` (the robot's estimated speed; ``None``: the command u), I(18)-(19) u.
+    I(15)-(16) use ``u_measured`` (the robot's estimated speed; ``None`` or ``p.use_estimated_speed``
+    false: the command u, as printed), I(18)-(19) u.
     """
     s1, y1, theta = frenet_errors(pose, path.pose(s))
     kappa = path.curvature(s)
-    s_dot, theta_dot, V1 = path_following_law(
-        s1, y1, theta, kappa, u if u_measured is None else u_measured, p
-    )
+    speed = u if u_measured is None or not p.use_estimated_speed else u_measured
+    s_dot, theta_dot, V1 = path_following_law(s1, y1, theta, kappa, speed, p)
     if s >= path.length:
         return [s, 0.0, 0.0, V1, s1, y1, theta]
     v_R, v_L = wheel_commands(u, kappa, s_dot, theta_dot, half_track)

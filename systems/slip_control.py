@@ -42,6 +42,10 @@ class StepSizeParameters:
         delta_rem: step size after overshooting the trajectory (< 1); 0.9.
         c_delta, d_delta: upper/lower thresholds on K - Pi_K (control samples) of S(23); 0.5 and -0.5.
         k_s: arc-length lag gain of the speed command (1/s); 2.
+        delayed_step_size: the speed command at t_K uses delta_K-1, the step size the controller set at
+            the previous control instant (its state: one T_C late). False: delta_K, computed at t_K from
+            C1 and alpha in force, paces the reference at once, as S(22), (24), (25) print (x_ref at
+            Pi_K + i delta_K).
     """
 
     delta_min: float = 0.75
@@ -53,6 +57,7 @@ class StepSizeParameters:
     c_delta: float = 0.5
     d_delta: float = -0.5
     k_s: float = 2.0
+    delayed_step_size: bool = True
 
     def __post_init__(self):
         checks = (
@@ -65,6 +70,11 @@ class StepSizeParameters:
             ("c_delta", math.isfinite(self.c_delta), "finite"),
             ("k_s", self.k_s >= 0.0, "[0, inf)"),
         )
+        if not isinstance(self.delayed_step_size, bool):
+            raise ValueError(
+                f"slip_control.delayed_step_size={self.delayed_step_size!r} is out of range: "
+                "allowed true, false"
+            )
         for name, ok, allowed in checks:
             if not ok:
                 raise ValueError(
@@ -115,9 +125,13 @@ class StepSizeController(LeafSystem):
         output_ports:
         - step_size
         - progress
+        - pace
 
     - C1: the navigation's tangential-slip mixing parameter; side_slip_angle: alpha_K of S(19).
     - step_size: delta_K (state); progress: Pi_K (state), the position on the pre-planned trajectory.
+    - pace: the step size the interpolator expands the reference's speed by at t_K: the state delta_K-1
+      (``delayed_step_size``, default), or delta_K of S(22) computed at t_K from the inputs (direct
+      feedthrough; the state between control instants), as printed.
 
     Update at t_K = K T_C: delta_K from delta_K-1, C1 and alpha (S(22)) bounded by S(23) on K - Pi_K,
     then Pi_K+1 = Pi_K + delta_K (S(24)). ``enabled=False`` keeps delta = 1 (Pi_K = K): slip control off.
@@ -133,20 +147,40 @@ class StepSizeController(LeafSystem):
         self._progress = self.DeclareDiscreteState([0.0])
         self.DeclareStateOutputPort("step_size", self._delta)
         self.DeclareStateOutputPort("progress", self._progress)
+        self.DeclareVectorOutputPort("pace", 1, self._calc_pace)
         self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
 
-    def _update(self, context, discrete_state):
-        if context.get_time() < self._start - 1e-9:
-            return  # standing still
-        K = round((context.get_time() - self._start) / self._T_C)
+    def _control_instant(self, context) -> int | None:
+        """K at a control instant t_K = start + K T_C, else None."""
+        t = context.get_time()
+        if t < self._start - 1e-9:
+            return None
+        K = round((t - self._start) / self._T_C)
+        return K if abs(t - self._start - K * self._T_C) < 1e-9 else None
+
+    def _next_step_size(self, context, K: int) -> float:
+        """delta_K of S(22)-(23) from the state and the inputs at t_K (1 with slip control off)."""
+        if not self._enabled:
+            return 1.0
         progress = context.get_discrete_state(self._progress).get_value()[0]
         delta = context.get_discrete_state(self._delta).get_value()[0]
-        if self._enabled:
-            delta = step_size(
-                delta, self._c1.Eval(context)[0], self._alpha.Eval(context)[0], K - progress, self._p
-            )
+        return step_size(
+            delta, self._c1.Eval(context)[0], self._alpha.Eval(context)[0], K - progress, self._p
+        )
+
+    def _calc_pace(self, context, output):
+        K = None if self._p.delayed_step_size else self._control_instant(context)
+        if K is None:
+            output.SetFromVector(context.get_discrete_state(self._delta).get_value())
         else:
-            delta = 1.0
+            output.SetFromVector([self._next_step_size(context, K)])
+
+    def _update(self, context, discrete_state):
+        K = self._control_instant(context)
+        if K is None:
+            return  # standing still
+        progress = context.get_discrete_state(self._progress).get_value()[0]
+        delta = self._next_step_size(context, K)
         discrete_state.set_value(self._delta, [delta])
         discrete_state.set_value(self._progress, [progress + delta])
 
@@ -166,8 +200,8 @@ class TrajectoryInterpolator(LeafSystem):
         - reference_pose
         - speed
 
-    - step_size, progress: delta_K and Pi_K from the StepSizeController (read at t_K, i.e. the values
-      set at the previous control instant: delta_K-1 and Pi_K).
+    - step_size, progress: the StepSizeController's pace and Pi_K (read at t_K: Pi_K set at the previous
+      control instant, and delta_K-1, or delta_K with ``delayed_step_size`` false).
     - virtual_target: the follower's s.
     - reference_pose: [x, y, phi] at Pi (direct feedthrough).
     - speed: u = delta v_ref(Pi) + k_s (s_ref(Pi) - s), zero once the trajectory's end is reached.

@@ -8,6 +8,11 @@ mean of the tangential accelerations"):
 
 where ^O v_t,K-1 is the odometric speed at the last sample of the previous batch. We read the printed
 acceleration term as this running integral (the printed single-sample term would not be an integration).
+``running_integral=False`` (``mixing.delta_v_running_integral``, paper mode) computes S(11) exactly as
+printed, with the single sample's term (a_t1,k + a_t2,k) T_N/2:
+
+    dv_K = (T_N/T_C) sum_{k in batch} (^O v_t,k - ^O v_t,K-1 - (a_t1,k + a_t2,k) T_N/2).
+
 A trend of wheel speed against body speed is detected, not a stationary slip (§IV-C).
 """
 
@@ -15,10 +20,15 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 
-def slip_detector_step(state, odometric_v_t: float, accelerometers, T_N: float):
-    """Accumulate one sample. state = [sum, integrated speed change, ^O v_t,K-1]; returns (state', sum)."""
+def slip_detector_step(
+    state, odometric_v_t: float, accelerometers, T_N: float, running_integral: bool = True
+):
+    """Accumulate one sample. state = [sum, integrated speed change, ^O v_t,K-1]; returns (state', sum).
+
+    ``running_integral``: the inertial speed change integrated since the batch start (default); False:
+    only this sample's (a_t1,k + a_t2,k) T_N/2, S(11) as printed."""
     total, integral, v_ref = state
-    integral = integral + 0.5 * (accelerometers[0] + accelerometers[2]) * T_N
+    integral = (integral if running_integral else 0.0) + 0.5 * (accelerometers[0] + accelerometers[2]) * T_N
     total = total + (odometric_v_t - v_ref - integral)
     return [total, integral, v_ref], total
 
@@ -51,11 +61,12 @@ class TangentialSlipDetector(LeafSystem):
     Args:
         T_N, T_C: periods (s); batch_length n = T_C/T_N.
         initial_speed: ^O v_t,-1, the reference speed of the first batch (m/s).
+        running_integral: see slip_detector_step (False: S(11) as printed).
     """
 
-    def __init__(self, T_N: float, T_C: float, initial_speed: float = 0.0):
+    def __init__(self, T_N: float, T_C: float, initial_speed: float = 0.0, running_integral: bool = True):
         super().__init__()
-        self._T_N = T_N
+        self._T_N, self._running = T_N, running_integral
         self._n = int(round(T_C / T_N))
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._acc = self.DeclareVectorInputPort("accelerometers", 4)
@@ -76,6 +87,7 @@ class TangentialSlipDetector(LeafSystem):
             self._odo.Eval(context)[0],
             self._acc.Eval(context),
             self._T_N,
+            self._running,
         )
         output.SetFromVector([*state, total])
 

@@ -57,6 +57,13 @@ YAML_CASES = [
     (STRAIGHT + "sensor_overrides: {gyro_noise_std: -1}\n", "gyro_noise_std=-1"),
     (STRAIGHT + "slip_control: {k_s: .inf}\n", "slip_control.k_s=inf"),
     (STRAIGHT + "slip_control: {delta_min: 1.5}\n", "slip_control.delta_min=1.5"),
+    (STRAIGHT + "paper: 1\n", "paper: expected bool"),
+    (STRAIGHT + "slip_control: {delayed_step_size: 0}\n", "slip_control.delayed_step_size: expected bool"),
+    (STRAIGHT + "follower: {use_estimated_speed: no_}\n", "follower.use_estimated_speed: expected bool"),
+    (
+        STRAIGHT + "navigation: {mixing: {delta_v_running_integral: 1}}\n",
+        "delta_v_running_integral: expected bool",
+    ),
     (STRAIGHT + "robot_overrides: {mass: 1.0e+6}\n", "mass=1000000.0"),
     (STRAIGHT + "robot_overrides: {mass: 1e6}\n", "mass=1000000.0"),  # YAML 1.1 float accepted, then checked
     (STRAIGHT + "robot_overrides: {tyre_friction: 0.01}\n", "tyre_friction=0.01"),

@@ -38,6 +38,8 @@ FAULT_EVENTS = [
         ("square", 2.0, {}, {"localisation": "odometry"}),  # the follower on odometry-only
         ("circle", 2.0, {}, {"localisation": "gyrodometry"}),
         ("corner", 2.0, {}, {"localisation": "truth"}),  # on the plant's state
+        ("corner", 2.0, {}, {"paper": True}),  # paper mode: S(11) printed, delta_K at once, I(16) with u
+        ("circle", 1.0, {}, {"paper": True}),  # max_speed mode in paper mode
     ],
 )
 def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, changes):
@@ -66,7 +68,7 @@ def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, change
         np.testing.assert_allclose(plain[key][finite], artifact[finite], rtol=0, atol=1e-12, err_msg=key)
         compared += 1
     assert compared >= 40
-    if name == "corner" and not changes:
+    if name == "corner" and (not changes or "paper" in changes):
         assert np.min(a["step_size"]) < 1.0  # the slip-control branch was exercised
     assert np.ptp(a["true_x"]) > 0.5  # and the robot really drove
     if "faults" in changes:

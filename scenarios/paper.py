@@ -1,0 +1,161 @@
+"""Paper mode: the equations of Seyr & Jakubek and Indiveri et al. exactly as printed.
+
+``paper_mode(scenario)`` switches every extension of this package off and every deviation from the
+printed equations back to the print, on top of the scenario (scenario key ``paper: true``, ``slipnav run
+--paper``, ``slipnav accuracy --paper``). Everything else (robot, trajectory, seeds, the tuning the papers
+give no number for) stays the scenario's. The papers' own tuning, T_N = 2 ms and T_C = 20 ms (S §IV), is
+the default already. DEVIATIONS is the table of README "Paper mode", one row per switch.
+"""
+
+import dataclasses as dc
+import math
+import typing
+
+from slipnav.systems.mixing import MixingParameters
+
+PER_SAMPLE_C3 = {"a3": 60.0, "b3": 0.05}
+"""S(14)'s steepness and threshold for the single sample's yaw-rate residual (the defaults a3 = 200,
+b3 = 0.02 suit the residual's PT1; one encoder count is 0.11 rad/s of yaw rate per 2 ms sample on
+Tinyphoon): the error budget's "paper's heading" (studies/error_budget.papers_heading). A scenario
+that sets its own a3 or b3 keeps them (the Kurt3D scenarios: 15, 0.4)."""
+
+
+def _nav(scenario, part: str, **changes):
+    """``scenario`` with ``navigation.<part>`` fields changed."""
+    nav = scenario.navigation
+    return dc.replace(
+        scenario, navigation=dc.replace(nav, **{part: dc.replace(getattr(nav, part), **changes)})
+    )
+
+
+def _per_sample_c3(scenario):
+    """S(14) on the single sample; the per-sample thresholds PER_SAMPLE_C3 unless the scenario sets its
+    own a3, b3."""
+    m, defaults = scenario.navigation.mixing, MixingParameters()
+    own = (m.a3, m.b3) != (defaults.a3, defaults.b3)
+    return _nav(scenario, "mixing", c3_residual_time_constant=0.0, **({} if own else PER_SAMPLE_C3))
+
+
+@dc.dataclass(frozen=True)
+class Deviation:
+    """One extension or deviation from the printed equations: what this package does, what the paper
+    prints, the scenario key that switches it (with its value in paper mode) and ``to_paper``, the
+    function that sets it to the print."""
+
+    name: str
+    ours: str
+    printed: str
+    key: str
+    to_paper: typing.Callable
+
+
+DEVIATIONS = (
+    Deviation(
+        "health",
+        "sensor checks: every channel checked, a faulty one replaced",
+        "none (S §IV)",
+        "navigation.health.enabled: false (the NaN/inf guard only)",
+        lambda s: _nav(s, "health", enabled=False),
+    ),
+    Deviation(
+        "yaw_calibration",
+        "gyro bias and rolling-radius difference learned; EKF gets gyro - b",
+        "S(3): the raw gyro; S(10) as is",
+        "navigation.yaw_calibration.enabled: false",
+        lambda s: _nav(s, "yaw_calibration", enabled=False),
+    ),
+    Deviation(
+        "c3_residual",
+        "S(14) on the yaw-rate residual's PT1 (one T_C)",
+        "S(14): this sample's residual",
+        "navigation.mixing.c3_residual_time_constant: 0 (a3: 60, b3: 0.05)",
+        _per_sample_c3,
+    ),
+    Deviation(
+        "s11",
+        "S(11)'s acceleration term integrated since the batch start",
+        "S(11): (a_t1,k + a_t2,k) T_N/2",
+        "navigation.mixing.delta_v_running_integral: false",
+        lambda s: _nav(s, "mixing", delta_v_running_integral=False),
+    ),
+    Deviation(
+        "dv_memory",
+        "S(12) also sees the leaky sum of the batches' dv",
+        "S(12): |dv_K|",
+        "navigation.mixing.dv_memory: 0",
+        lambda s: _nav(s, "mixing", dv_memory=0.0),
+    ),
+    Deviation(
+        "creep",
+        "S(15): ^O v_t less the tyres' creep",
+        "S(15): ^O v_t",
+        "navigation.mixing.odometry_slip_compensation: false",
+        lambda s: _nav(s, "mixing", odometry_slip_compensation=False),
+    ),
+    Deviation(
+        "tyre_curve",
+        "S(17): v_n relaxed towards the tyre curve's side slip (at the measured force above b2)",
+        "S(17): relaxed to 0 below b2, integrated above",
+        "navigation.mixing.tyre_peak_acceleration: .inf, q2_inertial: 1, side_slip_from_accelerations: false",
+        lambda s: _nav(
+            s, "mixing", tyre_peak_acceleration=math.inf, q2_inertial=1.0, side_slip_from_accelerations=False
+        ),
+    ),
+    Deviation(
+        "gyrodometry",
+        "Gyrodometry's c1 test on the odometric rate's PT1 (0.05 s)",
+        "I Algorithm 1: the sample's rotation",
+        "navigation.gyrodometry.rate_time_constant: 0",
+        lambda s: _nav(s, "gyrodometry", rate_time_constant=0.0),
+    ),
+    Deviation(
+        "standstill",
+        "1 s standstill before the controller starts (bias learned)",
+        "none",
+        "standstill_time: 0",
+        lambda s: dc.replace(s, standstill_time=0.0),
+    ),
+    Deviation(
+        "step_size_delay",
+        "the reference paced by delta_K-1 (one T_C late)",
+        "S(22), S(25): delta_K at once",
+        "slip_control.delayed_step_size: false",
+        lambda s: dc.replace(s, slip_control=dc.replace(s.slip_control, delayed_step_size=False)),
+    ),
+    Deviation(
+        "estimated_speed",
+        "I(15)-(16) with the estimated speed v_t",
+        "I(15)-(16): the commanded u",
+        "follower.use_estimated_speed: false",
+        lambda s: dc.replace(s, follower=dc.replace(s.follower, use_estimated_speed=False)),
+    ),
+)
+"""Every extension and deviation, in the order of README's Paper mode table."""
+
+
+def paper_navigation(navigation):
+    """NavigationParameters with every navigation extension off (DEVIATIONS' navigation rows)."""
+    from slipnav.scenarios.config import Scenario
+
+    scenario = Scenario(navigation=navigation)
+    for deviation in DEVIATIONS:
+        if deviation.key.startswith("navigation."):
+            scenario = deviation.to_paper(scenario)
+    return scenario.navigation
+
+
+def paper_mode(scenario):
+    """``scenario`` (scenarios.config.Scenario) with every DEVIATIONS switch set to the print and
+    ``paper = True``; idempotent. Returns a validated copy."""
+    for deviation in DEVIATIONS:
+        scenario = deviation.to_paper(scenario)
+    return dc.replace(scenario, paper=True).validate()
+
+
+def one_deviation(scenario, name: str):
+    """``scenario`` with the single deviation ``name`` (Deviation.name) set to the print (not validated
+    as paper mode: ``paper`` stays as it was)."""
+    for deviation in DEVIATIONS:
+        if deviation.name == name:
+            return deviation.to_paper(scenario).validate()
+    raise ValueError(f"deviation {name!r} is unknown: allowed {[d.name for d in DEVIATIONS]}")
