@@ -613,23 +613,31 @@ def test_mixing_as_pseudo_measurement_of_the_velocities_in_P():
     assert gain[1] == pytest.approx(1.0 - 0.25 * still.q2 - 0.75 * still.q2_inertial, rel=1e-14)
 
 
-def test_covariance_stays_bounded_in_a_long_fast_spin():
-    """The long-run check, scaled to the suite: 90 s of spinning on the spot at 20 rad/s, in which S(6)
-    and S(9) alone grow the velocities' variance by (1 + (omega T_N)^2)^N = e^72 (NaN after ~860 s). With
-    the mixing in P, P is steady from 30 s on, v_t's variance is odometry's, C1^2 R_t / (1 - (1 - C1)^2)
-    to 2 %, and P stays symmetric positive definite."""
-    N, omega = int(90.0 / T_N), 20.0
+def spin_on_the_spot(omega: float, centripetal: bool, duration: float = 90.0):
+    """(parameters, navigation_loop output) of Tinyphoon spinning on the spot at omega for ``duration``:
+    the gyro beyond its 300 deg/s (replaced by the odometric yaw rate), exact encoder counts, and
+    accelerometers at +-(0.02, 0.015) m that read the centripetal -omega^2 r (or, ``centripetal`` False,
+    nothing but noise)."""
+    N = int(duration / T_N)
     rng = np.random.default_rng(11)
-    # The accelerometers at +-(0.02, 0.015) m read the centripetal -omega^2 r (the sensor checks compare
-    # the pair with it); the gyro reads beyond its 300 deg/s and is replaced by the odometric yaw rate.
-    centripetal = -(omega**2) * np.array([0.02, 0.015, -0.02, -0.015])
-    acc = centripetal + 0.06 * rng.standard_normal((N, 4))
+    acc = 0.06 * rng.standard_normal((N, 4))
+    if centripetal:
+        acc = acc - omega**2 * np.array([0.02, 0.015, -0.02, -0.015])
     gyro = omega + 0.014 * rng.standard_normal(N)
     step = 2 * np.pi / 6144
     turns = np.cumsum(np.full(N, 0.034 * omega / 0.015 * T_N))
     enc = np.floor(np.column_stack([turns, -turns]) / step) * step
     params = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
-    out = navigation_loop(acc, gyro, enc, params, 0.015, 0.068, T_N, 0.02)
+    return params, navigation_loop(acc, gyro, enc, params, 0.015, 0.068, T_N, 0.02)
+
+
+def test_covariance_stays_bounded_in_a_long_fast_spin():
+    """The long-run check, scaled to the suite: 90 s of spinning on the spot at 20 rad/s, in which S(6)
+    and S(9) alone grow the velocities' variance by (1 + (omega T_N)^2)^N = e^72 (NaN after ~860 s). With
+    the mixing in P, P is steady from 30 s on, v_t's variance is odometry's, C1^2 R_t / (1 - (1 - C1)^2)
+    to 2 %, and P stays symmetric positive definite."""
+    omega = 20.0
+    params, out = spin_on_the_spot(omega, centripetal=True)
     P = out["P"][::250]
     np.testing.assert_array_equal(P, np.transpose(P, (0, 2, 1)))
     assert np.all(np.linalg.eigvalsh(P) > 0.0)
@@ -718,15 +726,7 @@ def test_covariance_stays_bounded_when_the_odometry_is_not_trusted_in_a_spin():
     measures v_t. The velocities' cross-covariance with the measured states would grow as S(5)'s rotation
     (1 + (omega T_N)^2)^(N/2) = e^36; it is scaled so that their variance stays within
     ekf.velocity_variance_limit, and P stays positive definite."""
-    N, omega = int(90.0 / T_N), 20.0
-    rng = np.random.default_rng(11)
-    acc = 0.06 * rng.standard_normal((N, 4))
-    gyro = omega + 0.014 * rng.standard_normal(N)
-    step = 2 * np.pi / 6144
-    turns = np.cumsum(np.full(N, 0.034 * omega / 0.015 * T_N))
-    enc = np.floor(np.column_stack([turns, -turns]) / step) * step
-    params = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
-    out = navigation_loop(acc, gyro, enc, params, 0.015, 0.068, T_N, 0.02)
+    params, out = spin_on_the_spot(20.0, centripetal=False)
     assert out["C1"][-1] < 1e-6
     P = out["P"][::250]
     limit = params.ekf.velocity_variance_limit
