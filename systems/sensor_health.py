@@ -28,11 +28,13 @@ Checks (health codes, 0 = healthy):
    pair's average falls below half the threshold.
 6. ``recovering``: excluded, waiting to agree again with its redundant estimate.
 
-Replacements: an excluded gyro reads the odometric yaw rate (both encoders healthy), else its last
-value; an accelerometer axis reads the other accelerometer's plus the rotational difference; an encoder
-advances by v_pred T_N / r (the other wheel and the gyro), else by its last increment. A stuck encoder's
-travel missed before the detection is added then; the first increment after an exclusion (it spans the
-gap) is never used.
+Replacements: an excluded gyro reads the odometric yaw rate (both encoders healthy), else its last value;
+a saturated one the accelerometer pair's yaw rate (pair_omega_squared, averaged over
+consistency_samples), at least its full scale, with the gyro's sign, unless the odometry and the pair
+both say below the full scale (the gyro reads beyond the robot: the odometry's); an accelerometer axis
+reads the other accelerometer's plus the rotational difference; an encoder advances by v_pred T_N / r
+(the other wheel and the gyro), else by its last increment. A stuck encoder's travel missed before the
+detection is added then; the first increment after an exclusion (it spans the gap) is never used.
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement, an encoder when
 its increment agrees with v_pred (with no prediction, with its previous increment); either after
@@ -164,13 +166,14 @@ _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E
 )
 _W = _E + 20  # accelerometer pair averages (t, n), unused, previous odometric v, each sensor's average
 # deviation from the kinematic reference (t1, n1, t2, n2)
-STATE_SIZE = _W + 12  # + each sensor's level before the pair became suspect (t1, n1, t2, n2)
+STATE_SIZE = _W + 13  # + each sensor's level before the pair became suspect (t1, n1, t2, n2), the pair's
+# averaged omega^2
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
     """Nothing read yet (the first finite reading is accepted); wheels rolling at ``initial_speed``."""
     s = np.zeros(STATE_SIZE)
-    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12)):
+    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12)):  # the pair's omega^2: 0
         s[part] = np.nan
     s[_E_INC] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
     s[_W + 3] = initial_speed
@@ -323,9 +326,20 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     # Accelerometer pair: disagreement beyond the rotational terms, a moving average over
     # consistency_samples (hysteresis: flagged above accel_consistency, cleared below half of it);
     # the one farther from the kinematic reference is excluded.
-    omega = raw[4] if gyro_ok else omega_o
-    omega_dot = (omega - ref[4]) / g.T_N if math.isfinite(ref[4]) else 0.0
     px, py = g.accelerometer_position
+    omega = raw[4] if gyro_ok else omega_o
+    full_scale = p.saturation_fraction * p.gyro_range
+    if all(math.isfinite(raw[c]) for c in range(4)):  # the pair's omega^2, averaged
+        s[_W + 12] += (pair_omega_squared(raw, (px, py)) - s[_W + 12]) / p.consistency_samples
+    if codes[4] == SATURATED:
+        pair = math.sqrt(max(s[_W + 12], 0.0))
+        if enc_ok and abs(omega_o) < full_scale and pair < full_scale:
+            omega = omega_o  # the gyro reads beyond what the robot does (railed, or its scale)
+        else:  # this sample's pair (the averaged one lags a spin's onset)
+            omega = math.copysign(
+                max(full_scale, math.sqrt(max(pair_omega_squared(raw, (px, py)), 0.0))), raw[4]
+            )
+    omega_dot = (omega - ref[4]) / g.T_N if math.isfinite(ref[4]) else 0.0
     rot = (-2.0 * omega * omega * px, -2.0 * omega * omega * py)  # a_1 - a_2 without omega_dot
     rot_dot = (-2.0 * omega_dot * py, 2.0 * omega_dot * px)  # averaged only: noisy per sample
     average, deviation, level = s[_W : _W + 2], s[_W + 4 : _W + 8], s[_W + 8 : _W + 12]
@@ -364,7 +378,9 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             excl[c] = 0.0
             continue
         excl[c] += 1.0
-        if c == 4:
+        if c == 4 and codes[4] == SATURATED:
+            value = omega  # saturated_yaw_rate (or the odometry's, with an accelerometer not finite)
+        elif c == 4:
             value = omega_o if enc_ok else ref[4]
         elif codes[c ^ 2] == 0:
             value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * rot[c % 2]
@@ -372,6 +388,14 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             value = ref[c]
         out[c] = ref[c] = value if math.isfinite(value) else 0.0
     return s, out, codes
+
+
+def pair_omega_squared(sample, position) -> float:
+    """omega^2 from the accelerometer pair at +-(x, y) (S(3)'s rotational terms):
+    a_t1 - a_t2 = -2 (omega_dot y + omega^2 x), a_n1 - a_n2 = 2 (omega_dot x - omega^2 y), so
+    omega^2 = -(x (a_t1 - a_t2) + y (a_n1 - a_n2)) / (2 (x^2 + y^2)): a yaw-rate sensor without a range."""
+    x, y = position
+    return -(x * (sample[0] - sample[2]) + y * (sample[1] - sample[3])) / (2.0 * (x * x + y * y))
 
 
 def health_report(t, arrays: dict, channels) -> dict:

@@ -23,7 +23,9 @@ from slipnav.systems.sensor_health import (
     SensorHealthParameters,
     health_initial_state,
     health_step,
+    pair_omega_squared,
 )
+from slipnav.systems.sensors import accelerometer_truth
 
 T_N = 0.002
 R, B = 0.015, 0.068
@@ -343,3 +345,23 @@ def test_closed_loop_wheel_held_by_hand_is_followed():
     fused = final_position_error(a, "est")
     assert fused < min(final_position_error(a, "odo"), final_position_error(a, "gyro"))
     assert result.summary["completed"]
+
+
+def test_the_accelerometer_pair_measures_omega_squared():
+    """The sensors' rigid-body model (systems/sensors.accelerometer_truth): the pair's rotational terms
+    give omega^2 back exactly, whatever omega_dot and the centre's acceleration."""
+    for omega, omega_dot in ((12.0, 50.0), (-9.0, -20.0), (3.0, 0.0)):
+        acc = accelerometer_truth((1.5, 2.0, omega_dot), omega, (0.02, 0.015))
+        assert pair_omega_squared(acc, (0.02, 0.015)) == pytest.approx(omega**2, rel=1e-12)
+
+
+def test_a_gyro_beyond_its_range_reads_the_pairs_yaw_rate():
+    """A spin at 12 rad/s, beyond the gyro's 5.2 rad/s: the gyro reads its full scale, flagged saturated,
+    and is replaced by the pair's |omega| (averaged over 15 samples: within 2 % after 100) with the gyro's
+    sign. (Below the full scale, odometry and pair agreeing, it would read the odometry's: see
+    test_saturated_and_stuck_gyro_are_flagged_and_excluded.)"""
+    rows = stream(200, 0.5, 12.0)
+    rows[:, 4] = math.radians(300.0)
+    out, codes = check(rows, v0=0.5)
+    assert np.all(codes[:, 4] == SATURATED)
+    np.testing.assert_allclose(out[100:, 4], 12.0, rtol=0.02)

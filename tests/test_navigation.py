@@ -613,16 +613,16 @@ def test_mixing_as_pseudo_measurement_of_the_velocities_in_P():
     assert gain[1] == pytest.approx(1.0 - 0.25 * still.q2 - 0.75 * still.q2_inertial, rel=1e-14)
 
 
-def spin_on_the_spot(omega: float, centripetal: bool, duration: float = 90.0):
+def spin_on_the_spot(omega: float, pushed: bool, duration: float = 90.0):
     """(parameters, navigation_loop output) of Tinyphoon spinning on the spot at omega for ``duration``:
-    the gyro beyond its 300 deg/s (replaced by the odometric yaw rate), exact encoder counts, and
-    accelerometers at +-(0.02, 0.015) m that read the centripetal -omega^2 r (or, ``centripetal`` False,
-    nothing but noise)."""
+    the gyro beyond its 300 deg/s (replaced by the pair's or the odometric yaw rate), exact encoder counts,
+    and accelerometers at +-(0.02, 0.015) m that read the centripetal -omega^2 r and, ``pushed``, 3 m/s^2
+    forward that the wheels do not show (the odometry then is not trusted: C1 = 0)."""
     N = int(duration / T_N)
     rng = np.random.default_rng(11)
-    acc = 0.06 * rng.standard_normal((N, 4))
-    if centripetal:
-        acc = acc - omega**2 * np.array([0.02, 0.015, -0.02, -0.015])
+    acc = 0.06 * rng.standard_normal((N, 4)) - omega**2 * np.array([0.02, 0.015, -0.02, -0.015])
+    if pushed:
+        acc = acc + np.array([3.0, 0.0, 3.0, 0.0])
     gyro = omega + 0.014 * rng.standard_normal(N)
     step = 2 * np.pi / 6144
     turns = np.cumsum(np.full(N, 0.034 * omega / 0.015 * T_N))
@@ -637,7 +637,7 @@ def test_covariance_stays_bounded_in_a_long_fast_spin():
     the mixing in P, P is steady from 30 s on, v_t's variance is odometry's, C1^2 R_t / (1 - (1 - C1)^2)
     to 2 %, and P stays symmetric positive definite."""
     omega = 20.0
-    params, out = spin_on_the_spot(omega, centripetal=True)
+    params, out = spin_on_the_spot(omega, pushed=False)
     P = out["P"][::250]
     np.testing.assert_array_equal(P, np.transpose(P, (0, 2, 1)))
     assert np.all(np.linalg.eigvalsh(P) > 0.0)
@@ -721,14 +721,34 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
 
 
 def test_covariance_stays_bounded_when_the_odometry_is_not_trusted_in_a_spin():
-    """90 s at 20 rad/s with accelerometers that read no centripetal acceleration: the pair check
-    blames one, the slip detector sees the odometry disagree and C1 falls to 0, so S(15) no longer
-    measures v_t. The velocities' cross-covariance with the measured states would grow as S(5)'s rotation
-    (1 + (omega T_N)^2)^(N/2) = e^36; it is scaled so that their variance stays within
-    ekf.velocity_variance_limit, and P stays positive definite."""
-    params, out = spin_on_the_spot(20.0, centripetal=False)
-    assert out["C1"][-1] < 1e-6
+    """90 s at 20 rad/s with accelerometers that also read 3 m/s^2 forward that the wheels do not show:
+    the slip detector sees the odometry disagree and C1 falls to ~0, so S(15) hardly measures v_t; P stays
+    within ekf.velocity_variance_limit and positive definite (the cap itself:
+    test_velocity_cross_covariance_is_scaled_to_the_variance_limit)."""
+    params, out = spin_on_the_spot(20.0, pushed=True)
+    assert out["C1"][-1] < 1e-3
     P = out["P"][::250]
     limit = params.ekf.velocity_variance_limit
     assert np.max(P[:, [0, 1], [0, 1]]) <= limit * (1 + 1e-9)
     assert np.min(np.linalg.eigvalsh(P)) > 1e-6
+
+
+def test_velocity_cross_covariance_is_scaled_to_the_variance_limit():
+    """ekf_covariance_update with no odometry trusted (gains 0) on a P whose velocities are explained
+    by the measured states far beyond the limit: P_vm scaled by c so that E_ii c^2 + S_ii <= limit, the
+    Schur complement S kept, P positive definite (numbers by hand)."""
+    params = EkfParameters()
+    limit = params.velocity_variance_limit
+    P_mm = np.diag([1e-3, 0.03, 0.03])
+    P_vm = np.array([[0.0, 10.0, 0.0], [0.0, 0.0, 5.0]])  # v_t with a_t, v_n with a_n
+    S = np.diag([0.2, 0.3])
+    P = np.block([[P_vm @ np.linalg.inv(P_mm) @ P_vm.T + S, P_vm], [P_vm.T, P_mm]])
+    R = np.diag(np.asarray(params.R, float))
+    out = ekf_covariance_update(P, np.zeros((5, 3)), R, [0.0, 0.0], params)
+    E = np.diag([100.0 / 0.03, 25.0 / 0.03])  # P_vm P_mm^-1 P_mv
+    c = min(np.sqrt((limit - 0.2) / E[0, 0]), np.sqrt((limit - 0.3) / E[1, 1]))
+    np.testing.assert_allclose(out[0:2, 2:5], c * P_vm, rtol=1e-12)
+    schur = out[0:2, 0:2] - out[0:2, 2:5] @ np.linalg.inv(out[2:5, 2:5]) @ out[2:5, 0:2]
+    np.testing.assert_allclose(schur, S, rtol=1e-9, atol=1e-15)
+    assert out[0, 0] == pytest.approx(limit, rel=1e-12) and out[1, 1] < limit
+    assert np.min(np.linalg.eigvalsh(out)) > 0.0
