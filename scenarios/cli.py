@@ -7,7 +7,7 @@
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [ENGINE]
-    slipnav faults [SCENARIO ...] [--seeds N] [ENGINE]
+    slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [ENGINE]
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
@@ -131,6 +131,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     fau.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
     fau.add_argument("--seeds", type=int, default=1, help="number of seeds (default 1)")
+    fau.add_argument(
+        "--perturbations", action="store_true", help="also the plant perturbations (wheel lifted, held, ...)"
+    )
     _engine_options(fau, "faults")
     rep = sub.add_parser("replay", help="run the navigation alone on a sensor log (CSV)")
     rep.add_argument("log", help="sensor log CSV (README.md: Sensor log), e.g. runs/corner-seed0.sensors.csv")
@@ -262,7 +265,7 @@ def _command(args) -> int:
         from slipnav.studies.faults import faults
 
         _check_study(args)
-        faults(args.scenarios, args.seeds, **_engine(args))
+        faults(args.scenarios, args.seeds, perturbations=args.perturbations, **_engine(args))
         return 0
     if args.command == "accuracy":
         from slipnav.studies.accuracy import accuracy

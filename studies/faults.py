@@ -11,7 +11,9 @@ run reports
 - the gyro-bias estimate at the end against the true bias, in the estimate's standard deviations.
 
 Targets (issue 18): every fault detected within 0.1 s; no false flags; error ratio <= 3; bias within
-3 sigma. Last line: ``faults detected=<n>/<m> worst_error_ratio=<f>``.
+3 sigma. Last line: ``faults detected=<n>/<m> worst_error_ratio=<f>``. With ``--perturbations`` it also
+runs the plant perturbations (PERTURBATIONS) and prints their final errors against both baselines, the
+completion and the flags they caused (no detection target: they have no flag of their own).
 """
 
 import math
@@ -148,22 +150,104 @@ def run_fault(job: dict) -> dict:
     return fault_figures(a, event, job["onset_s"], job["clean_fused_error_m"])
 
 
-def faults(names, seeds: int = 1, stream=None, *, workers=None, scheduler=None, out_dir=None, resume=False):
-    """Run the benchmark (module docstring); print the table and the last line; return the rows."""
+PERTURBATIONS = (
+    ("wheel_lifted", "wheel_R"),
+    ("wheel_held", "wheel_R"),
+    ("wheel_pushed", "wheel_R"),
+    ("body_push", "body_n"),
+    ("body_push", "body_t"),
+)
+"""Plant perturbations (Indiveri et al. Fig. 5), 0.5 s from 1 s after the controller starts: the right
+wheel lifted, held, pushed with 0.6 x the motor's stall torque; the body pushed at 5 m/s^2 x its mass to
+the left and backwards."""
+
+
+def perturbation_cases(scenario, a: dict) -> list[dict]:
+    """The perturbations of one fault-free run ``a`` of ``scenario`` as sweep jobs."""
+    robot = scenario.robot_parameters()
+    values = {
+        "wheel_pushed": 0.6 * robot.motor_constant * robot.motor_current_limit,
+        "body_push": 5.0 * robot.mass,
+    }
+    start = round(float(a["start_time"]) + 1.0, 3)
+    return [
+        {
+            "channel": channel,
+            "kind": kind,
+            "start": start,
+            "duration": FAULT_DURATION,
+            "value": -values[kind] if channel == "body_t" else values.get(kind, 0.0),
+        }
+        for kind, channel in PERTURBATIONS
+    ]
+
+
+def run_perturbation(job: dict) -> dict:
+    """One perturbation run: the three estimates' final errors, completion and the flags it caused."""
+    event = FaultEvent(job["kind"], job["channel"], job["start"], job["duration"], job["value"])
+    result = run_scenario(load_scenario(job["scenario"]), seed=job["seed"], faults=[event])
+    a = result.arrays
+    flags = result.summary["sensor_health"]
+    return {
+        "fused_error_m": final_position_error(a, "est"),
+        "odometry_error_m": final_position_error(a, "odo"),
+        "gyrodometry_error_m": final_position_error(a, "gyro"),
+        "completed": bool(result.summary["completed"]),
+        "flags": " ".join(f"{c}:{'+'.join(v['classes'])}" for c, v in flags.items()) or "none",
+    }
+
+
+def faults(
+    names,
+    seeds: int = 1,
+    stream=None,
+    *,
+    perturbations=False,
+    workers=None,
+    scheduler=None,
+    out_dir=None,
+    resume=False,
+):
+    """Run the benchmark (module docstring); with ``perturbations`` also the plant perturbations
+    (PERTURBATIONS; printed, not kept in faults.csv); print the tables and the last line; return the
+    sensor-fault rows."""
     stream = stream or sys.stdout
-    rows, clean_rows = [], []
+    rows, clean_rows, perturbed = [], [], []
     start = time.perf_counter()
     with session("faults", workers, scheduler, out_dir, resume) as (engine, file):
         for name in names:
             scenario = load_scenario(name)
-            jobs = []
+            jobs, plant_jobs = [], []
             for seed in range(seeds):
                 clean = run_scenario(scenario, seed=seed, faults=[]).arrays
                 clean_rows.append({"scenario": name, "seed": seed, **clean_figures(clean)})
                 jobs += [{"scenario": name, "seed": seed, **case} for case in fault_cases(clean)]
+                plant_jobs += [
+                    {"scenario": name, "seed": seed, **c} for c in perturbation_cases(scenario, clean)
+                ]
             rows += engine.map(run_fault, jobs, file, label=f"faults {name}")
+            if perturbations:
+                perturbed += engine.map(run_perturbation, plant_jobs, None, label=f"perturbations {name}")
+    if perturbed:
+        print_perturbations(perturbed, stream)
     print_report(rows, clean_rows, time.perf_counter() - start, stream)
     return rows
+
+
+def print_perturbations(rows: list, stream) -> None:
+    """The perturbation table: final errors (fused, odometry-only, Gyrodometry), completion, flags."""
+    print(
+        f"{'scenario':10} {'seed':>4} {'perturbation':13} {'on':7} {'fused m':>8} {'odo m':>7} "
+        f"{'gyrodo m':>8} {'done':>5}  flags",
+        file=stream,
+    )
+    for r in rows:
+        print(
+            f"{r['scenario']:10} {r['seed']:>4} {r['kind']:13} {r['channel']:7} {r['fused_error_m']:8.4f} "
+            f"{r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} {str(r['completed']):>5}  "
+            f"{r['flags']}",
+            file=stream,
+        )
 
 
 def clean_figures(a: dict) -> dict:

@@ -9,7 +9,7 @@ import pytest
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.faults import fault_cases, fault_onset, print_report
+from slipnav.studies.faults import fault_cases, fault_onset, perturbation_cases, print_report
 from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.plant import contact_forces, plant_derivatives, plant_substep, tinyphoon
 from slipnav.systems.sensor_health import (
@@ -365,3 +365,19 @@ def test_a_gyro_beyond_its_range_reads_the_pairs_yaw_rate():
     out, codes = check(rows, v0=0.5)
     assert np.all(codes[:, 4] == SATURATED)
     np.testing.assert_allclose(out[100:, 4], 12.0, rtol=0.02)
+
+
+def test_perturbation_cases_scale_with_the_robot():
+    """Tinyphoon: the wheel pushed with 0.6 x k i_max = 0.6 x 6/280 V s x 1.5 A = 0.0193 N m, the body
+    pushed with 5 m/s^2 x 0.4 kg = 2 N; Kurt3D's push 110 N; all 1 s after the controller starts."""
+    corner = load_scenario("corner")
+    cases = perturbation_cases(corner, {"start_time": np.array(1.0)})
+    by_kind = {(c["kind"], c["channel"]): c for c in cases}
+    assert by_kind[("wheel_pushed", "wheel_R")]["value"] == pytest.approx(0.6 * 6.0 / 280.0 * 1.5)
+    assert by_kind[("body_push", "body_n")]["value"] == pytest.approx(2.0)
+    assert by_kind[("body_push", "body_t")]["value"] == pytest.approx(-2.0)
+    assert {c["start"] for c in cases} == {2.0} and len(cases) == 5
+    kurt = perturbation_cases(load_scenario("circle"), {"start_time": np.array(1.0)})
+    assert next(c["value"] for c in kurt if c["channel"] == "body_n") == pytest.approx(110.0)
+    for c in cases + kurt:
+        FaultEvent(c["kind"], c["channel"], c["start"], c["duration"], c["value"])  # valid events
