@@ -6,13 +6,14 @@ variants built here (the circle with its wheels in the air, Indiveri Fig. 5). Ev
 returns a ``Reproduced``: the matplotlib Figure, the paper's caption, its quantitative claim, what we
 measured (computed from the runs) and the command that makes the underlying run. ``reproduce`` writes
 ``DIR/reproduce/index.html`` (the figures beside caption, claim and measurement, and the claims table),
-the PNGs (``<key>-<mode>.png``) and ``lifted_circle.yaml``.
+the PNGs (``<key>-<mode>.png``), ``reproduce.json`` (the same as data) and ``lifted_circle.yaml``.
 """
 
 from __future__ import annotations
 
 import dataclasses as dc
 import html
+import json
 import math
 import time
 from pathlib import Path as FilePath
@@ -949,6 +950,28 @@ def reproduce(out_dir="runs", quick: bool = False, modes=MODES, stream=None) -> 
     table = claims(runs_by_mode)
     wall = time.perf_counter() - start
     index = write_page(out, figures, table, wall, quick)
+    record = {
+        "quick": quick,
+        "wall_s": wall,
+        "figures": {
+            m: {
+                f.key: {
+                    "png": f"{f.key}-{m}.png",
+                    "caption": f.caption,
+                    "claim": f.claim,
+                    "measured": f.measured,
+                    "command": f.command,
+                    "numbers": f.numbers,
+                }
+                for f in figs
+            }
+            for m, figs in figures.items()
+        },
+        "claims": table,
+    }
+    tmp = out / "reproduce.json.tmp"
+    tmp.write_text(json.dumps(record, indent=1))
+    tmp.replace(out / "reproduce.json")
     for row in table:
         print(f"claim: {row['claim']}", file=stream)
         for m, text in row["measured"].items():
