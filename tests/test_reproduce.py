@@ -182,3 +182,12 @@ def test_reproduce_writes_a_page_referencing_every_figure(tmp_path, capsys):
     lifted = load_scenario(str(out / "lifted_circle.yaml"))
     assert [e.kind for e in lifted.faults] == ["wheel_lifted", "wheel_lifted", "wheel_held", "wheel_pushed"]
     assert "reproduce figures=11" in capsys.readouterr().out
+
+
+def test_reproduce_into_a_file_is_a_user_error(tmp_path, capsys):
+    target = tmp_path / "a_file"
+    target.write_text("")
+    assert main(["reproduce", "--quick", "--out", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: error:") and "--out" in err
+    assert not (tmp_path / "a_file" / "reproduce").exists()
