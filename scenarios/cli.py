@@ -13,6 +13,7 @@
     slipnav bench [SCENARIO] [--repeat N]
     slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
     slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--out DIR]
+    slipnav reproduce [--out DIR] [--quick]
 
 ENGINE (studies/sweep.py): [--workers N] [--scheduler ADDRESS] [--out DIR] [--resume]: the runs go to a
 dask.distributed cluster of N worker processes (default one per core; 0: in this process) or to the
@@ -170,6 +171,14 @@ def _parser() -> argparse.ArgumentParser:
     swe.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     swe.add_argument("--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds")
     _engine_options(swe, "sweep-SCENARIO")
+    rpr = sub.add_parser(
+        "reproduce",
+        help="the papers' figures (Seyr 4-8, Indiveri 2, 5-9) recreated, default and paper mode: one page",
+    )
+    rpr.add_argument("--out", default="runs", help="writes DIR/reproduce/index.html and PNGs (default runs)")
+    rpr.add_argument(
+        "--quick", action="store_true", help="default mode only, the long runs cut short (a smoke test)"
+    )
     ben = sub.add_parser("bench", help="speed of the closed-loop diagram vs the plain loop (benchmark)")
     ben.add_argument("scenario", nargs="?", default="corner", help="closed-loop scenario (default corner)")
     ben.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
@@ -261,6 +270,13 @@ def _command(args) -> int:
         return 0
     if args.command == "replay":
         return _replay(args)
+    if args.command == "reproduce":
+        from slipnav.scenarios.runner import check_output_directory
+        from slipnav.studies.reproduce import reproduce
+
+        check_output_directory(args.out)
+        reproduce(args.out, quick=args.quick, modes=("default",) if args.quick else ("default", "paper"))
+        return 0
     if args.command == "faults":
         from slipnav.studies.faults import faults
 

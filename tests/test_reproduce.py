@@ -1,0 +1,193 @@
+"""slipnav reproduce (studies/reproduce.py): each figure function on cheap inputs, the helpers by hand, and
+the command writing a page that references every figure with the numbers of its runs."""
+
+import json
+import math
+import re
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from slipnav.scenarios.cli import main
+from slipnav.scenarios.config import load_scenario, scenario_from_yaml
+from slipnav.scenarios.paper import paper_mode
+from slipnav.scenarios.runner import follower_path, run_scenario
+from slipnav.studies import reproduce as rp
+from slipnav.systems.mixing import MixingParameters, logsig
+
+KEYS = [
+    "seyr-fig4",
+    "seyr-fig5",
+    "seyr-fig6",
+    "seyr-fig7",
+    "seyr-fig8",
+    "indiveri-fig2",
+    "indiveri-fig5",
+    "indiveri-fig6",
+    "indiveri-fig7",
+    "indiveri-fig8",
+    "indiveri-fig9",
+]
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+def _run(name, command="cmd", scenario=None, **options):
+    scenario = scenario or load_scenario(name)
+    r = run_scenario(scenario, **options)
+    return rp.Run(r.arrays, r.summary, r.reference, follower_path(scenario), command)
+
+
+@pytest.fixture(scope="module")
+def corner():
+    return _run("corner", "slipnav run corner")
+
+
+@pytest.fixture(scope="module")
+def circles():
+    """Short circle runs (3 s): bounded, constant, and the lifted variant (to 6 s)."""
+    lifted = scenario_from_yaml(rp.lifted_circle_yaml(), "lifted_circle")
+    return {
+        "bounded": _run("circle", duration=3.0),
+        "constant": _run("circle", speed_law="constant", duration=3.0),
+        "lifted": _run(
+            "lifted_circle", scenario=lifted, localisation="odometry", speed_law="constant", duration=6.0
+        ),
+    }
+
+
+def _labels(fig):
+    return [(ax.get_xlabel(), ax.get_ylabel()) for ax in fig.axes]
+
+
+def test_seyr_fig4_is_the_logsig_of_the_modes_mixing():
+    m = MixingParameters()
+    r = rp.seyr_fig4(m)
+    labels = _labels(r.figure)
+    assert ("$\\Delta v_K$ S(11) (m/s)", "C1 (1)") in labels
+    assert any(y == "C3 (1)" for _, y in labels)
+    line = r.figure.axes[0].lines[0]
+    x, y = line.get_data()
+    assert y[np.argmin(np.abs(x - m.b1))] == pytest.approx(0.5, abs=0.02)  # the threshold: halfway
+    assert y[200] == pytest.approx(logsig(m.a1, 0.0, m.b1))  # x = 0: odometric
+    assert np.allclose(y, y[::-1])  # double-sided
+    assert r.numbers["c1_transition_m_s"] == pytest.approx(2 * math.log(9) / m.a1)
+    paper = rp.seyr_fig4(paper_mode(load_scenario("corner")).navigation.mixing, "paper")
+    assert paper.numbers["b3"] == 0.05 and r.numbers["b3"] == 0.02  # S(14) per sample in paper mode
+
+
+def test_indiveri_fig2_without_runs_is_the_wheel_speed_square():
+    r = rp.indiveri_fig2(4.1, 0.25)
+    assert ("$v_l$ (m/s)", "$v_r$ (m/s)") in _labels(r.figure)
+    assert "V_m = 4.1" in r.measured
+    assert r.figure.axes[0].get_xlim()[1] == pytest.approx(4.1 * 1.02)
+
+
+def test_seyr_figures_on_the_corner(corner):
+    a = corner.arrays
+    five = rp.seyr_fig5(corner)
+    assert five.numbers["min_step_size"] == pytest.approx(np.nanmin(a["step_size"][rp._moving(a)]))
+    assert five.numbers["max_lag_samples"] > 0  # slip control fell behind the nominal K
+    six = rp.seyr_fig6(corner)
+    assert [y for _, y in _labels(six.figure)][:4] == [
+        "$v_t$ (m/s)",
+        "$v_n$ (m/s)",
+        "$\\alpha$ (deg)",
+        "step size $\\delta_K$ (1)",
+    ]
+    assert six.numbers["peak_alpha_true_deg"] == pytest.approx(corner.summary["peak_abs_true_alpha_deg"])
+    seven = rp.seyr_fig7(corner)
+    assert seven.numbers["detections"] == len(rp.detection_onsets(a))
+    assert seven.numbers["divergence_s"] == pytest.approx(np.sum(rp.divergence_mask(a)) * float(a["T_N"]))
+    eight = rp.seyr_fig8(corner, corner)
+    pct = 100 * corner.summary["final_position_error_m"]["fused"] / corner.summary["path_length_m"]
+    assert eight.numbers["corner_fused_pct"] == pytest.approx(pct)
+    assert f"{pct:.2f} %" in eight.measured
+    assert "2.5 %" in eight.claim
+
+
+def test_indiveri_figures_on_short_circles(circles):
+    b, c, lifted = circles["bounded"], circles["constant"], circles["lifted"]
+    two = rp.indiveri_fig2(float(b.arrays["V_m"]), 0.5 * float(b.arrays["track_width"]), (("circle", b),))
+    peak = two.numbers["circle"]["peak_command"]
+    assert peak <= float(b.arrays["V_m"]) + 1e-9 and peak > 0.5 * float(b.arrays["V_m"])
+    five = rp.indiveri_fig5(lifted)
+    assert five.numbers["held_wheel"] < 0.05  # the hand holds it
+    assert five.numbers["other_during_hold"] < five.numbers["other_before_hold"]  # the other slows
+    assert np.allclose(lifted.arrays["true_x"], 0.0) and np.allclose(
+        lifted.arrays["true_y"], 0.0
+    )  # in the air
+    six = rp.indiveri_fig6({"odometry": b, "gyrodometry": b, "fused": b})
+    assert six.numbers["fused"]["path_error_rms_m"] == b.summary["path_error_rms_m"]
+    seven = rp.indiveri_fig7(b, c)
+    assert seven.numbers["rms_constant"] == c.summary["path_error_rms_m"]
+    eight = rp.indiveri_fig8(b, c)
+    assert eight.numbers["time_ratio"] == pytest.approx(rp.following_time(b) / rp.following_time(c))
+    assert eight.numbers["one_constant"] == 0.0  # u = V_m/2 on a circle: no wheel near V_m
+    assert eight.numbers["one_bounded"] > 0.0
+    assert "wheel speed command (m/s)" in [y for _, y in _labels(eight.figure)]
+
+
+def _fake(t, **series):
+    a = {"t": t, "T_N": np.array(t[1] - t[0]), "T_C": np.array(0.02), "start_time": np.array(0.0)}
+    a.update(series)
+    return rp.Run(a, {"controller_completion_time_s": None}, None, None, "cmd")
+
+
+def test_helpers_by_hand():
+    t = np.arange(0.0, 1.0, 0.01)
+    c1 = np.where((t > 0.2) & (t < 0.3) | (t > 0.6) & (t < 0.65), 0.4, 1.0)
+    run = _fake(t, C1=c1, est_v_t=np.where(t > 0.5, 0.1, 0.0), true_v_t=np.zeros_like(t))
+    assert rp.detection_onsets(run.arrays) == pytest.approx([0.21, 0.61])
+    assert rp.divergence_mask(run.arrays).sum() == 49
+    V = 4.0
+    cmd_R = np.where(t < 0.5, 4.0, 2.0)
+    cmd_L = np.where(t < 0.25, 4.0, 1.0)
+    run = _fake(t, cmd_R=cmd_R, cmd_L=cmd_L, V_m=np.array(V))
+    one, both = rp.saturation_fractions(run)
+    assert (one, both) == (pytest.approx(0.5), pytest.approx(0.25))
+    assert rp.speed_switches(run) == 1
+    assert rp.following_time(run) == pytest.approx(0.99)
+
+
+def test_reproduce_writes_a_page_referencing_every_figure(tmp_path, capsys):
+    """--quick: default mode only, the long runs cut short. The page shows every figure's PNG beside its
+    caption, claim, measurement and command; the numbers are those of the runs."""
+    assert main(["reproduce", "--quick", "--out", str(tmp_path)]) == 0
+    out = tmp_path / "reproduce"
+    page = (out / "index.html").read_text()
+    record = json.loads((out / "reproduce.json").read_text())
+    assert sorted(record["figures"]["default"]) == sorted(KEYS)
+    for key in KEYS:
+        entry = record["figures"]["default"][key]
+        assert (out / entry["png"]).stat().st_size > 10_000
+        assert f"src='{key}-default.png'" in page and f"id='{key}'" in page
+        assert entry["command"].startswith("slipnav")
+    # The claims: position error, slip control, speed law, saturation; the page carries the numbers.
+    claims = record["claims"]
+    assert [c["figure"] for c in claims] == ["seyr-fig8", "seyr-fig6", "indiveri-fig9", "indiveri-fig8"]
+    corner = run_scenario(load_scenario("corner"))
+    pct = 100 * corner.summary["final_position_error_m"]["fused"] / corner.summary["path_length_m"]
+    assert record["figures"]["default"]["seyr-fig8"]["numbers"]["corner_fused_pct"] == pytest.approx(pct)
+    assert f"fused {pct:.2f} % corner" in claims[0]["measured"]["default"]
+    assert claims[0]["measured"]["default"] in page.replace("&#x27;", "'")
+    assert "2.5 %" in page and "50 %" in page
+    ratio = record["figures"]["default"]["indiveri-fig9"]["numbers"]["time_ratio"]
+    assert re.search(rf"\({100 * ratio:.0f} % of the time\)", claims[2]["measured"]["default"])
+    # The lifted circle's scenario file is written and loads: its command can be run.
+    lifted = load_scenario(str(out / "lifted_circle.yaml"))
+    assert [e.kind for e in lifted.faults] == ["wheel_lifted", "wheel_lifted", "wheel_held", "wheel_pushed"]
+    assert "reproduce figures=11" in capsys.readouterr().out
+
+
+def test_reproduce_into_a_file_is_a_user_error(tmp_path, capsys):
+    target = tmp_path / "a_file"
+    target.write_text("")
+    assert main(["reproduce", "--quick", "--out", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: error:") and "--out" in err
+    assert not (tmp_path / "a_file" / "reproduce").exists()
