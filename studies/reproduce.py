@@ -28,6 +28,7 @@ from slipnav.scenarios.metrics import (  # noqa: E402
     DETECTION_C1_LEVEL,
     final_position_error,
     moving_alpha,
+    side_slip_rms_error,
 )
 from slipnav.scenarios.paper import paper_mode  # noqa: E402
 from slipnav.scenarios.plots import (  # noqa: E402
@@ -349,12 +350,7 @@ def seyr_fig6(run: Run, mode: str = "default") -> Reproduced:
     fig.tight_layout()
     alpha_true = np.degrees(np.nanmax(np.abs(moving_alpha(a))))
     alpha_est = np.degrees(np.nanmax(np.abs(a["est_alpha"][moving])))
-    big = np.abs(np.nan_to_num(moving_alpha(a))) > math.radians(1.0)
-    rms = (
-        math.degrees(math.sqrt(np.mean((a["est_alpha"][big] - a["true_alpha"][big]) ** 2)))
-        if big.any()
-        else math.nan
-    )
+    rms = math.degrees(side_slip_rms_error(a))
     dmin = float(np.nanmin(a["step_size"][moving]))
     return Reproduced(
         "seyr-fig6",
