@@ -136,6 +136,7 @@ def build_navigation_diagram(
     b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
     b.Connect(odo, detector.GetInputPort("odometry"))
     b.Connect(acc, detector.GetInputPort("accelerometers"))
+    b.Connect(check.GetOutputPort("sensor_fault"), detector.GetInputPort("sensor_fault"))
     b.Connect(detector.GetOutputPort("delta_v"), c1.GetInputPort("delta_v"))
     b.Connect(ekf.GetOutputPort("inertial_estimate"), c23.GetInputPort("inertial_estimate"))
     b.Connect(odo, c23.GetInputPort("odometry"))

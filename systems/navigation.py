@@ -195,7 +195,10 @@ class NavigationLoop:
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_update(ekf_predict(x, T_N), self.L, measurement)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
-        det_next, total = slip_detector_step(self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral)
+        excluded = fault_imu > 0.5 or fault_enc > 0.5
+        det_next, total = slip_detector_step(
+            self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
+        )
         c2 = mixing_c2(inertial[4], mp)
         residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
         c3 = mixing_c3(residual, mp)

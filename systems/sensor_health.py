@@ -436,13 +436,14 @@ class SensorHealthMonitor(LeafSystem):
         - health
         - inertial_fault
         - encoder_fault
+        - sensor_fault
 
     - inputs: the samples as read; accelerometers, gyro, encoders (out): the accepted or replaced
       samples (direct feedthrough).
     - health: the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
       k: HEALTH_CLASSES[k - 1]).
     - inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any encoder channel is excluded (the
-      yaw calibration does not learn from the sample).
+      yaw calibration does not learn from the sample); sensor_fault: either (nor does S(11)'s sum).
 
     Update every T_N: health_step's state.
 
@@ -477,6 +478,7 @@ class SensorHealthMonitor(LeafSystem):
         for name, cols in (
             ("inertial_fault", slice(n + 7, n + 12)),
             ("encoder_fault", slice(n + 12, n + 14)),
+            ("sensor_fault", slice(n + 7, n + 14)),
         ):
             self.DeclareVectorOutputPort(
                 name,

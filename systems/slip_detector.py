@@ -21,15 +21,23 @@ from pydrake.systems.framework import LeafSystem
 
 
 def slip_detector_step(
-    state, odometric_v_t: float, accelerometers, T_N: float, running_integral: bool = True
+    state,
+    odometric_v_t: float,
+    accelerometers,
+    T_N: float,
+    running_integral: bool = True,
+    excluded: bool = False,
 ):
     """Accumulate one sample. state = [sum, integrated speed change, ^O v_t,K-1]; returns (state', sum).
 
     ``running_integral``: the inertial speed change integrated since the batch start (default); False:
-    only this sample's (a_t1,k + a_t2,k) T_N/2, S(11) as printed."""
+    only this sample's (a_t1,k + a_t2,k) T_N/2, S(11) as printed. ``excluded``: a sensor channel of this
+    sample failed its check (systems/sensor_health.py): the sample adds nothing to the sum, so C1 S(12)
+    learns nothing from it (its replaced acceleration still enters the integral)."""
     total, integral, v_ref = state
     integral = (integral if running_integral else 0.0) + 0.5 * (accelerometers[0] + accelerometers[2]) * T_N
-    total = total + (odometric_v_t - v_ref - integral)
+    if not excluded:
+        total = total + (odometric_v_t - v_ref - integral)
     return [total, integral, v_ref], total
 
 
@@ -47,11 +55,13 @@ class TangentialSlipDetector(LeafSystem):
         input_ports:
         - odometry
         - accelerometers
+        - sensor_fault
         output_ports:
         - delta_v
 
     - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample.
     - accelerometers: checked [a_t1, a_n1, a_t2, a_n2] of the current sample.
+    - sensor_fault: 1 when any channel of the current sample was excluded (its term is left out).
     - delta_v: dv_K of the batch that ends with the current sample (direct feedthrough). Batches end at
       the control instants t = K*T_C (sample k = K*n, n = T_C/T_N); the MixerC1 block samples this port
       there. Between control instants the port shows the running partial mean.
@@ -70,8 +80,9 @@ class TangentialSlipDetector(LeafSystem):
         self._n = int(round(T_C / T_N))
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._acc = self.DeclareVectorInputPort("accelerometers", 4)
+        self._fault = self.DeclareVectorInputPort("sensor_fault", 1)
         self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, float(initial_speed)]))
-        prereq = {self.xd_ticket(), self._odo.ticket(), self._acc.ticket()}
+        prereq = {self.xd_ticket(), self._odo.ticket(), self._acc.ticket(), self._fault.ticket()}
         self._step = self.DeclareVectorOutputPort("step", 4, self._calc_step, prerequisites_of_calc=prereq)
         self.DeclareVectorOutputPort(
             "delta_v",
@@ -88,6 +99,7 @@ class TangentialSlipDetector(LeafSystem):
             self._acc.Eval(context),
             self._T_N,
             self._running,
+            self._fault.Eval(context)[0] > 0.5,
         )
         output.SetFromVector([*state, total])
 

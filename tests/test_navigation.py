@@ -613,7 +613,7 @@ def test_mixing_as_pseudo_measurement_of_the_velocities_in_P():
     assert gain[1] == pytest.approx(1.0 - 0.25 * still.q2 - 0.75 * still.q2_inertial, rel=1e-14)
 
 
-def spin_on_the_spot(omega: float, pushed: bool, duration: float = 90.0):
+def spin_on_the_spot(omega: float, pushed: bool, duration: float = 90.0, checks: bool = True):
     """(parameters, navigation_loop output) of Tinyphoon spinning on the spot at omega for ``duration``:
     the gyro beyond its 300 deg/s (replaced by the pair's or the odometric yaw rate), exact encoder counts,
     and accelerometers at +-(0.02, 0.015) m that read the centripetal -omega^2 r and, ``pushed``, 3 m/s^2
@@ -627,7 +627,10 @@ def spin_on_the_spot(omega: float, pushed: bool, duration: float = 90.0):
     step = 2 * np.pi / 6144
     turns = np.cumsum(np.full(N, 0.034 * omega / 0.015 * T_N))
     enc = np.floor(np.column_stack([turns, -turns]) / step) * step
-    params = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
+    params = NavigationParameters(
+        mixing=MixingParameters(odometry_slip_compensation=False),
+        health=SensorHealthParameters(enabled=checks),
+    )
     return params, navigation_loop(acc, gyro, enc, params, 0.015, 0.068, T_N, 0.02)
 
 
@@ -721,11 +724,12 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
 
 
 def test_covariance_stays_bounded_when_the_odometry_is_not_trusted_in_a_spin():
-    """90 s at 20 rad/s with accelerometers that also read 3 m/s^2 forward that the wheels do not show:
-    the slip detector sees the odometry disagree and C1 falls to ~0, so S(15) hardly measures v_t; P stays
+    """90 s at 20 rad/s with accelerometers that also read 3 m/s^2 forward that the wheels do not show,
+    the sensor checks off (with them the saturated gyro's samples teach S(11) nothing): the slip detector
+    sees the odometry disagree and C1 falls to ~0, so S(15) hardly measures v_t; P stays
     within ekf.velocity_variance_limit and positive definite (the cap itself:
     test_velocity_cross_covariance_is_scaled_to_the_variance_limit)."""
-    params, out = spin_on_the_spot(20.0, pushed=True)
+    params, out = spin_on_the_spot(20.0, pushed=True, checks=False)
     assert out["C1"][-1] < 1e-3
     P = out["P"][::250]
     limit = params.ekf.velocity_variance_limit
@@ -752,3 +756,16 @@ def test_velocity_cross_covariance_is_scaled_to_the_variance_limit():
     np.testing.assert_allclose(schur, S, rtol=1e-9, atol=1e-15)
     assert out[0, 0] == pytest.approx(limit, rel=1e-12) and out[1, 1] < limit
     assert np.min(np.linalg.eigvalsh(out)) > 0.0
+
+
+def test_slip_detector_leaves_out_excluded_samples():
+    """S(11) over a batch of n = 10 at 1 m/s with a_t = 3 m/s^2 on the accelerometers and a constant
+    odometric speed: each sample adds -(k + 1) 3 T_N; with samples 4..9 excluded only k = 0..3 add,
+    dv = -3 T_N (1 + 2 + 3 + 4) / 10 (the integral still runs through the excluded ones)."""
+    n = 10
+    state = [0.0, 0.0, 1.0]
+    for k in range(n):
+        state, total = slip_detector_step(state, 1.0, [3.0, 0.0, 3.0, 0.0], T_N, excluded=k >= 4)
+    dv, _ = slip_detector_batch_end(total, 1.0, n)
+    assert dv == pytest.approx(-3.0 * T_N * 10 / n, rel=1e-12)
+    assert state[1] == pytest.approx(3.0 * n * T_N, rel=1e-12)
