@@ -320,13 +320,8 @@ def _command(args) -> int:
     options["localisation"] = args.localisation
     check_output_directory(args.out)
     result = run_scenario(scenario, **options)
-    try:
-        written = write_artifacts(result, args.out, figures=not args.no_figures)
-    except OSError as e:
-        print(f"slipnav: error: cannot write the artifacts into --out={args.out!r}: {e}", file=sys.stderr)
+    if not _write(write_artifacts, result, args):
         return 1
-    for path in written:
-        print(path)
     s = result.summary
     print(
         f"{s['scenario']}: {s['duration_s']:.2f} s simulated in {s['wall_time_s']:.2f} s "
@@ -347,6 +342,19 @@ def _command(args) -> int:
     return 0
 
 
+def _write(write, result, args) -> bool:
+    """``write(result, --out, figures=...)`` and print the files; False (the error printed) when the
+    directory cannot take them."""
+    try:
+        written = write(result, args.out, figures=not args.no_figures)
+    except OSError as e:
+        print(f"slipnav: error: cannot write the artifacts into --out={args.out!r}: {e}", file=sys.stderr)
+        return False
+    for path in written:
+        print(path)
+    return True
+
+
 def _check_study(args, duration=None) -> None:
     """A study's --seeds and scenarios (and --duration against each), before any run starts."""
     if args.seeds < 1:
@@ -363,13 +371,8 @@ def _replay(args) -> int:
 
     check_output_directory(args.out)
     result = replay_file(args.log, args.model)  # every log or model mistake before the simulation
-    try:
-        written = write_replay_artifacts(result, args.out, figures=not args.no_figures)
-    except OSError as e:
-        print(f"slipnav: error: cannot write the artifacts into --out={args.out!r}: {e}", file=sys.stderr)
+    if not _write(write_replay_artifacts, result, args):
         return 1
-    for path in written:
-        print(path)
     s = result.summary
     errors = s["final_position_error_m"]
     truth = (

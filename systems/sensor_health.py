@@ -155,25 +155,25 @@ class HealthGeometry:
 
 # State layout (flat, for a Drake discrete state): per analog channel (5 each) the reference (last
 # accepted or replaced value), the last raw reading, its repeat count, the inconsistency hold and the
-# samples excluded; per encoder (2 each) the last finite raw angle, the output angle, the last used
-# increment, still samples, predicted travel while still and its absolute sum, code, lost, the last
-# raw increment, the samples excluded; then the
-# accelerometer pair window (sum t, sum n, count) and the previous odometric v.
+# samples excluded; per encoder (2 each) the last finite raw angle, the output angle less that reading,
+# the last used increment, still samples, predicted travel while still and its absolute sum, code, lost,
+# the last raw increment, the samples excluded; then the accelerometer pair (below).
 _REF, _LAST, _REPEAT, _HOLD, _EXCL = (slice(5 * i, 5 * i + 5) for i in range(5))
 _E = 25  # encoder slots; _E_OUT holds the output angle less the last finite raw reading
 _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E_EXCL = (
     slice(_E + 2 * i, _E + 2 * i + 2) for i in range(10)
 )
-_W = _E + 20  # accelerometer pair averages (t, n), unused, previous odometric v, each sensor's average
-# deviation from the kinematic reference (t1, n1, t2, n2)
-STATE_SIZE = _W + 13  # + each sensor's level before the pair became suspect (t1, n1, t2, n2), the pair's
-# averaged omega^2
+# Accelerometer pair: averages of the disagreement (t, n), a spare slot, the previous odometric v,
+# each sensor's averaged deviation from the kinematic reference (t1, n1, t2, n2), each sensor's level
+# before the pair became suspect (t1, n1, t2, n2), the pair's averaged omega^2.
+_W = _E + 20
+STATE_SIZE = _W + 13
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
     """Nothing read yet (the first finite reading is accepted); wheels rolling at ``initial_speed``."""
     s = np.zeros(STATE_SIZE)
-    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12)):  # the pair's omega^2: 0
+    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12)):
         s[part] = np.nan
     s[_E_INC] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
     s[_W + 3] = initial_speed
@@ -227,6 +227,13 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
     e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
     previous_out = [e_last[w] + e_out[w] for w in range(2)]  # e_out: the output less the last raw
+
+    def predicted_increment(w: int, other_increment: float) -> float:
+        """Wheel w's increment from the other wheel's and the gyro: v_R - v_L = b omega."""
+        o = 1 - w
+        v_pred = other_increment * radii[o] / g.T_N + (1.0 if w == 0 else -1.0) * g.track_width * raw[4]
+        return v_pred * g.T_N / radii[w]
+
     missed = [0.0, 0.0]
     inc = [math.nan, math.nan]
     first = [False, False]
@@ -261,20 +268,17 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
         else:  # re-admission: agree with the prediction, else (none) with the last raw increment
             other = inc_candidate[1 - w]
             if math.isfinite(other) and gyro_ok:
-                v_pred = other * radii[1 - w] / g.T_N + (1.0 if w == 0 else -1.0) * g.track_width * raw[4]
-                ok = abs(d - v_pred * g.T_N / radii[w]) <= bound
+                ok = abs(d - predicted_increment(w, other)) <= bound
             else:
                 ok = abs(d - d_prev) <= bound
             if ok or e_excl[w] >= max_excl:
                 inc[w] = d
             else:
                 codes[5 + w] = RECOVERING
-    predicted = [math.nan, math.nan]  # v_R - v_L = b omega
-    for w in range(2):
-        o = 1 - w
-        if math.isfinite(inc[o]) and gyro_ok:
-            v_pred = inc[o] * radii[o] / g.T_N + (1.0 if w == 0 else -1.0) * g.track_width * raw[4]
-            predicted[w] = v_pred * g.T_N / radii[w]
+    predicted = [
+        predicted_increment(w, inc[1 - w]) if math.isfinite(inc[1 - w]) and gyro_ok else math.nan
+        for w in range(2)
+    ]
     for w in range(2):
         if inc[w] == 0.0 and e_code[w] == STUCK:
             codes[5 + w] = STUCK  # still stuck
@@ -324,21 +328,22 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     enc_ok = codes[5] == 0 and codes[6] == 0
 
     # Accelerometer pair: disagreement beyond the rotational terms, a moving average over
-    # consistency_samples (hysteresis: flagged above accel_consistency, cleared below half of it);
-    # the one farther from the kinematic reference is excluded.
+    # consistency_samples (hysteresis: flagged above the limit, cleared below half of it); the one that
+    # moved more and lies farther from the kinematics is excluded. The yaw rate the rotational terms use
+    # is the gyro's, else the odometry's, else (saturated) the pair's own.
     px, py = g.accelerometer_position
     omega = raw[4] if gyro_ok else omega_o
     full_scale = p.saturation_fraction * p.gyro_range
-    if all(math.isfinite(raw[c]) for c in range(4)):  # the pair's omega^2, averaged
-        s[_W + 12] += (pair_omega_squared(raw, (px, py)) - s[_W + 12]) / p.consistency_samples
+    w2 = pair_omega_squared(raw, (px, py)) if all(math.isfinite(raw[c]) for c in range(4)) else math.nan
+    if math.isfinite(w2):  # the pair's omega^2, averaged
+        s[_W + 12] += (w2 - s[_W + 12]) / p.consistency_samples
     if codes[4] == SATURATED:
         pair = math.sqrt(max(s[_W + 12], 0.0))
         if enc_ok and abs(omega_o) < full_scale and pair < full_scale:
             omega = omega_o  # the gyro reads beyond what the robot does (railed, or its scale)
         else:  # this sample's pair (the averaged one lags a spin's onset)
-            omega = math.copysign(
-                max(full_scale, math.sqrt(max(pair_omega_squared(raw, (px, py)), 0.0))), raw[4]
-            )
+            this_sample = math.sqrt(max(w2, 0.0)) if math.isfinite(w2) else 0.0
+            omega = math.copysign(max(full_scale, this_sample), raw[4])
     omega_dot = (omega - ref[4]) / g.T_N if math.isfinite(ref[4]) else 0.0
     rot = (-2.0 * omega * omega * px, -2.0 * omega * omega * py)  # a_1 - a_2 without omega_dot
     rot_dot = (-2.0 * omega_dot * py, 2.0 * omega_dot * px)  # averaged only: noisy per sample
@@ -351,23 +356,23 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             if not math.isfinite(level[c]):
                 level[c] = raw[c]
         for axis in (0, 1):
-            first, second = axis, axis + 2
-            disagreement = raw[first] - raw[second] - rot[axis] - rot_dot[axis]
+            pair_of = (axis, axis + 2)  # sensor 1's and sensor 2's channel of this axis
+            disagreement = raw[axis] - raw[axis + 2] - rot[axis] - rot_dot[axis]
             average[axis] += (disagreement - average[axis]) / p.consistency_samples
             if abs(average[axis]) < 0.5 * limit:  # each sensor's level while the pair agrees
-                for c in (first, second):
+                for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
-            if abs(average[axis]) > limit and not (hold[first] or hold[second]):
+            if abs(average[axis]) > limit and not any(hold[c] for c in pair_of):
                 # Blame the one that moved more from its level before the pair began to disagree plus
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
                 # one encoder count in T_N is 3.8 m/s^2 of Tinyphoon's d v_o/dt, and the wheels slip).
-                score = [abs(raw[c] - level[c]) + abs(deviation[c]) for c in (first, second)]
-                bad = first if score[0] > score[1] else second
+                score = [abs(raw[c] - level[c]) + abs(deviation[c]) for c in pair_of]
+                bad = pair_of[0] if score[0] > score[1] else pair_of[1]
                 hold[bad] = 1.0
                 codes[bad] = INCONSISTENT
-            elif abs(average[axis]) < 0.5 * limit and (hold[first] or hold[second]):
-                hold[first] = hold[second] = 0.0
-                for c in (first, second):
+            elif abs(average[axis]) < 0.5 * limit and any(hold[c] for c in pair_of):
+                for c in pair_of:
+                    hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
     s[_W + 3] = v_o
 
@@ -379,7 +384,7 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             continue
         excl[c] += 1.0
         if c == 4 and codes[4] == SATURATED:
-            value = omega  # saturated_yaw_rate (or the odometry's, with an accelerometer not finite)
+            value = omega  # the pair's yaw rate, or the odometry's (above)
         elif c == 4:
             value = omega_o if enc_ok else ref[4]
         elif codes[c ^ 2] == 0:
