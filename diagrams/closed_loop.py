@@ -14,6 +14,7 @@ from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.slip_control import StepSizeController, StepSizeParameters, TrajectoryInterpolator
 
@@ -167,6 +168,7 @@ def build_closed_loop_diagram(
     plant: RobotParameters | None = None,
     faults=(),
     nominal_sensors: SensorParameters | None = None,
+    calibration: SensorCalibration | None = None,
 ) -> LoggedDiagram:
     """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
     (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). ``plant_time_step``: see
@@ -175,7 +177,8 @@ def build_closed_loop_diagram(
 
     Truth and belief: ``robot`` is the nominal model that navigation and control read; ``plant`` the
     simulated robot as it really is (default ``robot``), and ``sensor_params`` the real sensors;
-    ``nominal_sensors`` their data sheet, which the navigation knows (default the robot's).
+    ``nominal_sensors`` their data sheet, which the navigation knows (default the robot's);
+    ``calibration`` the sensors' systematic errors a calibrated model states (SensorCalibration).
     ``faults``: sensor FaultEvents between the sensors and the navigation (systems/faults.py)."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     require_instance("navigation", navigation, NavigationParameters)
@@ -213,7 +216,15 @@ def build_closed_loop_diagram(
         faults,
     )
     nav, nav_ports = add_navigation(
-        builder, handles.readings, navigation, rates, robot, initial_speed, initial_pose, nominal_sensors
+        builder,
+        handles.readings,
+        navigation,
+        rates,
+        robot,
+        initial_speed,
+        initial_pose,
+        nominal_sensors,
+        calibration,
     )
     ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
     pose, speed = localisation_ports(builder, control.localisation, nav, handles.plant)

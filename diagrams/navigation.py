@@ -16,6 +16,7 @@ from slipnav.systems.navigation import NavigationInitialState, NavigationParamet
 from slipnav.systems.odometry import Odometry
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
 from slipnav.systems.sensor_health import SensorHealthMonitor
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
@@ -50,12 +51,15 @@ def build_navigation_diagram(
     initial: NavigationInitialState | None = None,
     sensors: SensorParameters | None = None,
     no_load_speed: float | None = None,
+    calibration: SensorCalibration | None = None,
 ) -> Diagram:
     """The navigation algorithm as a Diagram.
 
     ``wheel_radius``: one radius for both wheels or the pair (r_R, r_L) of a calibrated model (m).
     ``sensors``, ``no_load_speed``: the sensors' data sheet (default Tinyphoon's) and the nominal motors'
     no-load speed (m/s) for the sensor checks (systems.navigation.health_geometry).
+    ``calibration``: the model's SensorCalibration; unless it is the identity a SensorCorrection block
+    removes it from the checked inertial samples before every block that reads them.
 
     .. pydrake_system::
 
@@ -83,6 +87,7 @@ def build_navigation_diagram(
         - health
     """
     params.validate()
+    sensor_calibration = calibration
     initial = initial or NavigationInitialState()
     T_N, T_C = rates.T_N, rates.T_C
     b = DiagramBuilder()
@@ -124,6 +129,11 @@ def build_navigation_diagram(
         check.GetOutputPort("gyro"),
         odometry.GetOutputPort("odometry"),
     )
+    if sensor_calibration is not None and not sensor_calibration.is_identity():
+        correction = add(SensorCorrection(sensor_calibration), "Sensor calibration")
+        b.Connect(acc, correction.GetInputPort("accelerometers"))
+        b.Connect(gyro, correction.GetInputPort("gyro"))
+        acc, gyro = correction.GetOutputPort("accelerometers"), correction.GetOutputPort("gyro")
     odo = calibration.GetOutputPort("odometry")  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
     b.Connect(gyro, calibration.GetInputPort("gyro"))
@@ -247,9 +257,11 @@ def add_navigation(
     initial_speed=0.0,
     initial_pose=(0.0, 0.0, 0.0),
     nominal_sensors: SensorParameters | None = None,
+    calibration: SensorCalibration | None = None,
 ):
     """Add the navigation diagram fed by ``sensors`` (ProprioceptiveSensors or a SensorFaultInjector) to
-    ``builder``; ``robot`` and ``nominal_sensors`` (default the robot's data sheet) are what it knows.
+    ``builder``; ``robot``, ``nominal_sensors`` (default the robot's data sheet) and ``calibration`` (the
+    model's SensorCalibration, default none) are what it knows.
 
     Returns (navigation subsystem, its output ports keyed ``nav_<name>`` for logging).
     """
@@ -262,6 +274,7 @@ def add_navigation(
             NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
             nominal_sensors or default_sensor_parameters(robot.name),
             robot.no_load_speed,
+            calibration,
         )
     )
     for name in ("accelerometers", "gyro", "encoders"):

@@ -22,6 +22,7 @@ from slipnav.systems.feedforward import TrajectoryFeedforward
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters
 
 
@@ -110,6 +111,7 @@ def build_open_loop_diagram(
     start_time: float = 0.0,
     faults=(),
     nominal_sensors: SensorParameters | None = None,
+    calibration: SensorCalibration | None = None,
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
     the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out).
@@ -117,7 +119,8 @@ def build_open_loop_diagram(
     ``start_time``: the table's row 0 plays until then (the standstill; a robot at rest only). Raises
     ValueError naming the parameter for an input that cannot be simulated. ``faults``: sensor FaultEvents
     between the sensors and the navigation; ``nominal_sensors``: the sensors' data sheet the navigation
-    knows (default the robot's, systems.sensors.default_sensor_parameters)."""
+    knows (default the robot's, systems.sensors.default_sensor_parameters); ``calibration``: the sensors'
+    systematic errors a calibrated model states (SensorCalibration)."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     if navigation is not None:
         require_instance("navigation", navigation, NavigationParameters)
@@ -149,7 +152,15 @@ def build_open_loop_diagram(
     nav_ports = {}
     if navigation is not None:
         _, nav_ports = add_navigation(
-            builder, handles.readings, navigation, rates, robot, initial_speed, initial_pose, nominal_sensors
+            builder,
+            handles.readings,
+            navigation,
+            rates,
+            robot,
+            initial_speed,
+            initial_pose,
+            nominal_sensors,
+            calibration,
         )
     feedforward = builder.AddSystem(
         TrajectoryFeedforward(rates.T_C, wheel_speeds, reference_poses, start_time)

@@ -7,6 +7,8 @@ from slipnav.diagrams.navigation import NAVIGATION_OUTPUTS, SensorReplay, build_
 from slipnav.diagrams.open_loop import add_loggers
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import SensorCalibration
+from slipnav.systems.sensors import SensorParameters
 
 
 def build_log_replay_diagram(
@@ -18,13 +20,17 @@ def build_log_replay_diagram(
     gyro,
     encoders,
     initial: NavigationInitialState | None = None,
+    sensors: SensorParameters | None = None,
+    no_load_speed: float | None = None,
+    calibration: SensorCalibration | None = None,
 ):
     """SensorReplay (the log's rows, row k at t_k = k T_N) -> navigation diagram, every navigation output
     but the covariance logged every T_N through diagrams.open_loop.add_loggers, keyed ``nav_<output>``
     as in a run (so runner.collect_navigation reads them).
 
     Args:
-        params, rates, wheel_radius, track_width, initial: as build_navigation_diagram (the model).
+        params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration: as
+            build_navigation_diagram (the model).
         accelerometers: (N, 4) a_t1, a_n1, a_t2, a_n2; gyro: (N,); encoders: (N, 2) wheel angles (rad).
 
     Returns:
@@ -33,7 +39,11 @@ def build_log_replay_diagram(
     b = DiagramBuilder()
     source = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders))
     source.set_name("Sensor log")
-    nav = b.AddSystem(build_navigation_diagram(params, rates, wheel_radius, track_width, initial))
+    nav = b.AddSystem(
+        build_navigation_diagram(
+            params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration
+        )
+    )
     for name in ("accelerometers", "gyro", "encoders"):
         b.Connect(source.GetOutputPort(name), nav.GetInputPort(name))
     ports = {f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"}

@@ -4,6 +4,7 @@
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
                          [--speed-law bounded|constant] [--open-loop] [--tolerances]
                          [--localisation fused|odometry|gyrodometry|truth] [--paper]
+                         [--model MODEL.yaml]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [ENGINE]
@@ -95,6 +96,13 @@ def _parser() -> argparse.ArgumentParser:
         "--paper",
         action="store_true",
         help="the papers' equations as printed, every extension off (README: Paper mode)",
+    )
+    run.add_argument(
+        "--model",
+        default=None,
+        metavar="MODEL.yaml",
+        help="what navigation and control believe (README: Model files), e.g. one slipnav calibrate wrote; "
+        "the plant stays the scenario's",
     )
     dia = sub.add_parser("diagram", help="write a block diagram (graphviz)")
     dia.add_argument("name", help="navigation, control or closed_loop")
@@ -308,6 +316,10 @@ def _command(args) -> int:
         from slipnav.scenarios.paper import paper_mode
 
         scenario = paper_mode(scenario)
+    if args.model is not None:
+        import dataclasses
+
+        scenario = dataclasses.replace(scenario, model=args.model).validate()
     options = dict(
         seed=args.seed,
         duration=args.duration,

@@ -33,6 +33,7 @@ from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.slip_control import StepSizeParameters
 
@@ -44,6 +45,26 @@ SPEED_LAWS = ("bounded", "constant")
 
 class ScenarioError(ValueError):
     """A scenario that cannot be loaded or built; the message names the offending key."""
+
+
+@dc.dataclass
+class Belief:
+    """What navigation and control read (Scenario.belief): never the plant.
+
+    Args:
+        robot: the nominal robot, refined by the model's ``robot_overrides``.
+        sensors: the nominal sensors' data sheet, refined by the model's ``sensor_overrides``.
+        navigation: the scenario's navigation tuning with the model's navigation keys over it (paper
+            mode applied last).
+        calibration: the sensors' systematic errors the navigation removes (the model's; none without).
+        model: the RobotModel read (None: the nominal belief).
+    """
+
+    robot: RobotParameters
+    sensors: SensorParameters
+    navigation: NavigationParameters
+    calibration: SensorCalibration
+    model: object = None
 
 
 @dc.dataclass
@@ -90,6 +111,12 @@ class Scenario:
         paper: the papers' equations exactly as printed, every extension off (scenarios/paper.py
             paper_mode, applied on top of the other keys when the scenario is loaded or run; README:
             Paper mode).
+        model: a model YAML (scenarios/model.py; e.g. one ``slipnav calibrate`` wrote): what navigation
+            and control believe, refining the nominal ``robot``: its ``robot_overrides`` and
+            ``sensor_overrides`` over the scenario's, its ``calibration`` removed from every sensor
+            sample, its navigation keys over the scenario's ``navigation``. The plant stays the
+            scenario's. A relative path is read from the scenario file's folder (``slipnav run
+            --model``: from the working directory).
     """
 
     name: str = ""
@@ -119,6 +146,7 @@ class Scenario:
     localisation: str = "fused"
     faults: list[FaultEvent] = dc.field(default_factory=list)
     paper: bool = False
+    model: str | None = None
 
     # -- derived, validated objects -----------------------------------------------------------------
     def rates(self) -> SampleRates:
@@ -133,6 +161,46 @@ class Scenario:
     def sensor_parameters(self) -> SensorParameters:
         base = default_sensor_parameters(self.robot)
         return _wrap(lambda: _override(base, self.sensor_overrides, "sensor_overrides"))
+
+    def robot_model(self):
+        """The RobotModel of the ``model`` key (None without); ScenarioError naming ``model`` and the key
+        of the model file, or the model's robot or periods where they differ from the scenario's."""
+        if self.model is None:
+            return None
+        from slipnav.scenarios.model import ModelError, load_model
+
+        try:
+            model = load_model(self.model)
+        except ModelError as e:
+            raise ScenarioError(f"model: {e}") from None
+        if model.robot != self.robot:
+            raise ScenarioError(
+                f"model: the model file {self.model!r} describes robot {model.robot!r}, the scenario "
+                f"robot {self.robot!r}: allowed a model of the same robot"
+            )
+        for key in ("T_N", "T_C"):
+            if getattr(model, key) != getattr(self, key):
+                raise ScenarioError(
+                    f"model: the model file's {key}={getattr(model, key)!r} differs from the scenario's "
+                    f"{key}={getattr(self, key)!r}: allowed the same periods"
+                )
+        return model
+
+    def belief(self) -> Belief:
+        """What navigation and control read: the nominal robot refined by the ``model`` (Belief)."""
+        model = self.robot_model()
+        robot, sensors, navigation = self.robot_parameters(), self.sensor_parameters(), self.navigation
+        calibration = SensorCalibration()
+        if model is not None:
+            robot = _wrap(lambda: _override(robot, model.robot_overrides, "model.robot_overrides"))
+            sensors = _wrap(lambda: _override(sensors, model.sensor_overrides, "model.sensor_overrides"))
+            navigation = _wrap(lambda: model.navigation_over(navigation))
+            calibration = model.calibration
+            if self.paper:
+                from slipnav.scenarios.paper import paper_mode
+
+                navigation = paper_mode(dc.replace(self, navigation=navigation, model=None)).navigation
+        return Belief(robot, sensors, navigation, calibration, model)
 
     def plant_parameters(self, seed: int | None = None, tolerances: bool = False):
         """The simulated robot as it really is: (RobotParameters, SensorParameters, drawn deviations).
@@ -207,6 +275,7 @@ class Scenario:
             _wrap(lambda: substeps_per(self.T_N, self.plant_time_step, "T_N"))
             _wrap(lambda: substeps_per(period, self.plant_time_step, "speed_loop_period"))
         _wrap(lambda: check_fault_events(self.faults))
+        self.belief()
         check_plausible(self)
         self.plant_parameters()  # after the seed check: the draw needs a valid seed
         return self
@@ -355,8 +424,9 @@ def _load_yaml(text: str):
         raise ScenarioError(f"malformed YAML: {' '.join(str(e).split())}") from None
 
 
-def scenario_from_yaml(text: str, name: str = "") -> Scenario:
-    """Parse and validate a scenario from YAML text."""
+def scenario_from_yaml(text: str, name: str = "", folder=None) -> Scenario:
+    """Parse and validate a scenario from YAML text; ``folder``: where a relative ``model`` path is
+    read from (the scenario file's folder; default the working directory)."""
     raw = _load_yaml(text)
     if raw is None:
         raise ScenarioError(
@@ -372,6 +442,8 @@ def scenario_from_yaml(text: str, name: str = "") -> Scenario:
         raise ScenarioError(str(e)) from None
     if not scenario.name:
         scenario.name = name
+    if scenario.model is not None and folder is not None and not FilePath(scenario.model).is_absolute():
+        scenario.model = str(FilePath(folder) / scenario.model)
     return with_paper_mode(scenario.validate())
 
 
@@ -408,7 +480,7 @@ def load_scenario(name_or_path: str) -> Scenario:
                 f"scenario file {str(name_or_path)!r} is not UTF-8 text (byte 0x{data[e.start]:02x} at "
                 f"offset {e.start}): allowed UTF-8 YAML"
             ) from None
-        return scenario_from_yaml(text, name=path.stem)
+        return scenario_from_yaml(text, name=path.stem, folder=path.parent)
     if name_or_path not in builtin_scenarios():
         raise ScenarioError(
             f"scenario {name_or_path!r} is neither a built-in ({', '.join(builtin_scenarios())}) "

@@ -3,13 +3,14 @@
 A model names a nominal robot (``robot``, the data sheet) and changes it by what was measured or
 identified: ``robot_overrides`` (RobotParameters fields, e.g. ``rolling_radius_R``, ``track_width``),
 ``sensor_overrides`` (SensorParameters fields of the nominal sensor set, e.g.
-``encoder_counts_per_revolution``), ``calibration`` (the sensors' systematic errors the navigation
-removes from every sample: SensorCalibration), ``navigation`` (tuning of the navigation blocks, e.g. the
+``encoder_counts_per_revolution``), ``calibration`` (the sensors' scale errors and misalignments, which
+the navigation removes from every sample, and the calibration day's biases as a record:
+systems/sensor_correction.py), ``navigation`` (tuning of the navigation blocks, e.g. the
 EKF's ``R`` from an Allan variance, the tyres' ``mixing.tyre_peak_acceleration``, the drag) and
 ``standard_errors`` (informative: each identified value's standard error, keyed as in
 studies/calibration.py). ``slipnav run`` writes the model its navigation read (``<stem>.model.yaml``);
-``slipnav calibrate`` writes an identified one; ``slipnav replay --model`` and a scenario's ``model:``
-key read them.
+``slipnav calibrate`` writes an identified one; ``slipnav run --model``, ``slipnav replay --model`` and a
+scenario's ``model:`` key read them (scenarios/config.py Scenario.belief).
 
 Never the plant: a model changes only the belief. The simulated robot stays the scenario's ``robot``
 with its ``plant:`` section.
@@ -23,59 +24,14 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.plant import ROBOTS, RobotParameters, robot_parameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
+
+__all__ = ["ModelError", "RobotModel", "SensorCalibration", "load_model", "model_from_text", "model_text"]
 
 
 class ModelError(ValueError):
     """A model YAML that cannot be loaded; the message names the key."""
-
-
-@dc.dataclass
-class SensorCalibration:
-    """The sensors' systematic errors as the model believes them (a reading is (1 + scale error) times the
-    truth, turned by the misalignment, plus the bias; systems/sensors.py). Zero everywhere: the sensors
-    are taken as perfect (the nominal model).
-
-    Args:
-        gyro_scale_error: relative sensitivity error of the gyro (1).
-        gyro_bias: the gyro's bias (rad/s), e.g. from a standstill.
-        accel1_scale_error, accel2_scale_error: relative sensitivity errors of the accelerometers (1).
-        accel1_misalignment, accel2_misalignment: angle of each accelerometer's axes against the body's
-            (rad, about the vertical, counter-clockwise).
-        accel_bias: biases of a_t1, a_n1, a_t2, a_n2 as read (m/s^2).
-    """
-
-    gyro_scale_error: float = 0.0
-    gyro_bias: float = 0.0
-    accel1_scale_error: float = 0.0
-    accel2_scale_error: float = 0.0
-    accel1_misalignment: float = 0.0
-    accel2_misalignment: float = 0.0
-    accel_bias: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
-
-    def is_identity(self) -> bool:
-        return all(getattr(self, f.name) == 0.0 for f in dc.fields(self) if f.name != "accel_bias") and all(
-            b == 0.0 for b in self.accel_bias
-        )
-
-    def validate(self) -> "SensorCalibration":
-        for name in ("gyro_scale_error", "accel1_scale_error", "accel2_scale_error"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and -0.5 < value < 0.5):
-                raise ModelError(f"calibration.{name}={value!r} is out of range: allowed (-0.5, 0.5)")
-        for name in ("accel1_misalignment", "accel2_misalignment"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and abs(value) < 0.5):
-                raise ModelError(f"calibration.{name}={value!r} is out of range: allowed (-0.5, 0.5) rad")
-        if not (math.isfinite(self.gyro_bias) and abs(self.gyro_bias) < 1.0):
-            raise ModelError(
-                f"calibration.gyro_bias={self.gyro_bias!r} is out of range: allowed (-1, 1) rad/s"
-            )
-        if len(self.accel_bias) != 4 or not all(math.isfinite(b) and abs(b) < 10.0 for b in self.accel_bias):
-            raise ModelError(
-                f"calibration.accel_bias={self.accel_bias!r}: allowed four finite numbers in (-10, 10) m/s^2"
-            )
-        return self
 
 
 @dc.dataclass
@@ -131,14 +87,17 @@ class RobotModel:
                 child_name="navigation",
                 defaults=dc.replace(base),
             ).validate()
-        except RuntimeError:  # no navigation key in the file
+        except (RuntimeError, KeyError):  # no navigation key in the file
             return base
 
     def validate(self) -> "RobotModel":
         self.robot_parameters()
         self.sensor_parameters()
         self.rates()
-        self.calibration.validate()
+        try:
+            self.calibration.validate()
+        except ValueError as e:
+            raise ModelError(str(e)) from None
         try:
             self.navigation.validate()
         except ValueError as e:
@@ -202,9 +161,11 @@ def load_model(path) -> RobotModel:
 
 
 def model_text(model: RobotModel) -> str:
-    """YAML text of ``model`` (floats round-trip exactly)."""
+    """YAML text of ``model`` (floats round-trip exactly), the keys that differ from the defaults."""
     header = "# slipnav model: what navigation and control believe (README.md: Model files)\n"
-    return header + yaml_dump_typed(model)
+    # Only what differs from the defaults (robot and periods always): a model's navigation keys lie over
+    # a scenario's tuning (navigation_over), so it carries only what was tuned or identified.
+    return header + yaml_dump_typed(model, defaults=RobotModel(robot="", T_N=math.nan, T_C=math.nan))
 
 
 def write_model(model: RobotModel, path) -> FilePath:

@@ -40,6 +40,7 @@ from slipnav.systems.plant import (
     substeps_per,
 )
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import (
     NOISE_CHANNELS,
     SensorParameters,
@@ -73,6 +74,7 @@ def run_plain_loop(
     plant: RobotParameters | None = None,
     faults=(),
     nominal_sensors: SensorParameters | None = None,
+    calibration: SensorCalibration | None = None,
 ) -> dict:
     """Simulate ``num_steps`` samples t_0 ... t_{num_steps-1} of the closed loop.
 
@@ -88,6 +90,7 @@ def run_plain_loop(
             ``robot``, the nominal model.
         faults: sensor FaultEvents between the sensors and the navigation (apply_sensor_faults).
         nominal_sensors: the sensors' data sheet the navigation knows (default the robot's).
+        calibration: the model's SensorCalibration, which the navigation removes (SensorCorrection).
 
     Returns:
         dict of (num_steps,) arrays keyed by PLAIN_LOOP_KEYS.
@@ -119,13 +122,14 @@ def run_plain_loop(
     meas_enc = np.floor(-np.array(w0) * T_N / step) * step
     nav = NavigationLoop(
         navigation,
-        p.wheel_radius,
+        (p.radius_R, p.radius_L),
         p.track_width,
         T_N,
         T_C,
         NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
         nominal_sensors or default_sensor_parameters(p.name),
         p.no_load_speed,
+        calibration,
     )
     # Control (build_control_diagram).
     path, half = control.path, 0.5 * p.track_width
@@ -245,11 +249,12 @@ def run_scenario_plain_loop(
     plant, sensor_params, _ = scenario.plant_parameters(seed)
     speed_law = scenario.speed_law if speed_law is None else speed_law
     control, initial_speed, _ = closed_loop_settings(scenario, slip_control, speed_law)
+    belief = scenario.belief()
     return run_plain_loop(
-        scenario.robot_parameters(),
+        belief.robot,
         sensor_params,
         scenario.rates(),
-        scenario.navigation,
+        belief.navigation,
         control,
         seed,
         num_steps,
@@ -260,5 +265,6 @@ def run_scenario_plain_loop(
         timings=timings,
         plant=plant,
         faults=scenario.faults,
-        nominal_sensors=scenario.sensor_parameters(),
+        nominal_sensors=belief.sensors,
+        calibration=belief.calibration,
     )

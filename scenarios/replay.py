@@ -104,7 +104,17 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
     initial = initial_state(log)
     acc, gyro, enc = log.accelerometers, log.gyro, log.encoder_angles(counts)
     diagram, loggers = build_log_replay_diagram(
-        navigation, rates, (robot.radius_R, robot.radius_L), robot.track_width, acc, gyro, enc, initial
+        navigation,
+        rates,
+        (robot.radius_R, robot.radius_L),
+        robot.track_width,
+        acc,
+        gyro,
+        enc,
+        initial,
+        model.sensor_parameters(),
+        robot.no_load_speed,
+        model.calibration,
     )
     simulator = Simulator(diagram)
     simulator.Initialize()

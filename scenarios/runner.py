@@ -94,7 +94,7 @@ def reference_for(scenario: Scenario) -> tuple[Trajectory, float]:
         if scenario.mode == "trajectory":
             trajectory = build_trajectory(scenario.trajectory, rates.T_C)
             return trajectory, scenario.trajectory.initial_speed
-        robot = scenario.robot_parameters()
+        robot = scenario.belief().robot
         speed = scenario.path_speed or 0.5 * robot.wheel_speed_limit
         return trajectory_along_path(build_path(scenario.path), speed, rates.T_C), speed
     except TrajectoryError as e:
@@ -117,7 +117,7 @@ def closed_loop_settings(scenario: Scenario, slip_control: bool, speed_law: str)
     path = follower_path(scenario)
     if scenario.mode == "max_speed":
         initial_speed = 0.0
-        nominal = path.length / (0.5 * scenario.robot_parameters().wheel_speed_limit)
+        nominal = path.length / (0.5 * scenario.belief().robot.wheel_speed_limit)
     else:
         nominal = reference.duration
     start = standstill_for(scenario, initial_speed)
@@ -215,8 +215,8 @@ def run_scenario(
 
     The keyword arguments override the scenario (the command line's --seed, --duration,
     --no-slip-control, --speed-law, --open-loop, --tolerances; None keeps the scenario's). Navigation
-    and control read the nominal robot (``scenario.robot_parameters()``); the plant and sensors are the
-    real robot (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*``
+    and control read the nominal robot refined by a model (``scenario.belief()``); the plant and sensors
+    are the real robot (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*``
     scalars, the summary's ``plant``). A closed-loop run ends when the controller has finished its
     trajectory (progress Pi at its end) or path (virtual target at its end) plus ``settle_time``, or at
     the duration limit (default: three times the nominal time). Completion is then judged on the true
@@ -232,12 +232,12 @@ def run_scenario(
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
     open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
     rates = scenario.rates()
-    robot = scenario.robot_parameters()
+    belief = scenario.belief()  # what navigation and control read: nominal robot, refined by a model
+    robot, nominal_sensors, navigation = belief.robot, belief.sensors, belief.navigation
     plant, sensor_params, deviations = scenario.plant_parameters(seed, tolerances)
     reference, initial_speed = reference_for(scenario)
     pose0 = tuple(scenario.initial_pose)
     faults = scenario.faults if faults is None else faults
-    nominal_sensors = scenario.sensor_parameters()
 
     if open_loop:
         start = standstill_for(scenario, initial_speed)
@@ -252,12 +252,13 @@ def run_scenario(
                 seed,
                 initial_pose=pose0,
                 initial_speed=initial_speed,
-                navigation=scenario.navigation,
+                navigation=navigation,
                 plant_time_step=scenario.plant_time_step,
                 plant=plant,
                 start_time=start,
                 faults=faults,
                 nominal_sensors=nominal_sensors,
+                calibration=belief.calibration,
             )
         )
         nominal = reference.duration + start
@@ -270,7 +271,7 @@ def run_scenario(
                 robot,
                 sensor_params,
                 rates,
-                scenario.navigation,
+                navigation,
                 control,
                 seed,
                 initial_pose=pose0,
@@ -279,6 +280,7 @@ def run_scenario(
                 plant=plant,
                 faults=faults,
                 nominal_sensors=nominal_sensors,
+                calibration=belief.calibration,
             )
         except ValueError as e:
             raise ScenarioError(str(e)) from None
@@ -341,6 +343,7 @@ def run_scenario(
         "faults": [dc.asdict(event) for event in faults],
         "tolerances": bool(tolerances),
         "paper": bool(scenario.paper),
+        "model": scenario.model,
         "plant": record,
         "plant_deviations": {key: float(value) for key, value in deviations.items()},
         "path_length_m": float(arrays["path_length"]),
@@ -401,21 +404,27 @@ def run_scenario(
         summary=summary,
         reference=reference,
         sensor_log=log,
-        model=belief_model(scenario),
+        model=belief_model(scenario, belief),
     )
 
 
-def belief_model(scenario: Scenario) -> RobotModel:
+def belief_model(scenario: Scenario, belief=None) -> RobotModel:
     """The model the run's navigation and control read (its ``<stem>.model.yaml``): the nominal robot with
-    the scenario's overrides, its periods and navigation tuning."""
+    the scenario's overrides and those of its ``model``, the model's calibration and standard errors, the
+    periods and the navigation tuning in force."""
+    belief = belief or scenario.belief()
+    model = belief.model
+    read = f" with the model {scenario.model!r}" if model is not None else ""
     return RobotModel(
         robot=scenario.robot,
-        description=f"the model scenario {scenario.name!r} believed (written by slipnav run)",
-        robot_overrides=dict(scenario.robot_overrides),
-        sensor_overrides=dict(scenario.sensor_overrides),
+        description=f"the model scenario {scenario.name!r} believed{read} (written by slipnav run)",
+        robot_overrides={**scenario.robot_overrides, **(model.robot_overrides if model else {})},
+        sensor_overrides={**scenario.sensor_overrides, **(model.sensor_overrides if model else {})},
+        calibration=belief.calibration,
         T_N=scenario.T_N,
         T_C=scenario.T_C,
-        navigation=scenario.navigation,
+        navigation=belief.navigation,
+        standard_errors=dict(model.standard_errors) if model else {},
     )
 
 
@@ -716,7 +725,7 @@ def collect_navigation(a: dict, data) -> None:
 def artifact_stem(result: RunResult) -> str:
     """File stem of a run's artifacts: ``<scenario>-seed<N>`` plus the switches that changed what ran,
     ``-open-loop``, ``-no-slip-control``, ``-speed-law-constant``, ``-tolerances``,
-    ``-localised-by-<source>``, ``-paper`` (README: Run artifacts)."""
+    ``-localised-by-<source>``, ``-paper``, ``-model-<model file stem>`` (README: Run artifacts)."""
     s = result.summary
     stem = f"{s['scenario'] or 'scenario'}-seed{s['seed']}"
     if s["controller"] != "closed loop":
@@ -731,7 +740,17 @@ def artifact_stem(result: RunResult) -> str:
         stem += f"-localised-by-{s['localisation']}"
     if s.get("paper"):
         stem += "-paper"
+    if s.get("model"):
+        stem += f"-model-{model_stem(s['model'])}"
     return stem
+
+
+def model_stem(path) -> str:
+    """``runs/tinyphoon-seed3.calibrated.model.yaml`` -> ``tinyphoon-seed3.calibrated``."""
+    name = FilePath(path).name
+    for suffix in (".yaml", ".yml", ".model"):
+        name = name.removesuffix(suffix)
+    return name or "model"
 
 
 FIGURE_SAMPLES = 150_000

@@ -49,6 +49,7 @@ from slipnav.systems.mixing import (
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.pose import pose_step
+from slipnav.systems.sensor_correction import SensorCalibration, corrected_accelerometers, corrected_gyro
 from slipnav.systems.sensor_health import (
     HealthGeometry,
     SensorHealthParameters,
@@ -149,9 +150,12 @@ class NavigationLoop:
         initial: NavigationInitialState | None = None,
         sensors: SensorParameters | None = None,
         no_load_speed: float | None = None,
+        calibration: SensorCalibration | None = None,
     ):
         initial = initial or NavigationInitialState()
         r_R, r_L = wheel_radii(wheel_radius)
+        identity = calibration is None or calibration.validate().is_identity()
+        self.sensor_calibration = None if identity else calibration
         self.geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed)
         self.health = health_initial_state(self.geometry, initial.speed)
         self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
@@ -183,6 +187,9 @@ class NavigationLoop:
             self.health, [*accelerometers, gyro, *encoders], self.params.health, self.geometry
         )
         acc, g = sample[0:4], sample[4]
+        if self.sensor_calibration is not None:  # SensorCorrection
+            cal = self.sensor_calibration
+            acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)
         fault_imu = 1.0 if any(codes[0:5]) else 0.0
         odo_next, odo_raw, fault_enc = odometry_step(
             self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
@@ -258,6 +265,7 @@ def navigation_loop(
     initial: NavigationInitialState | None = None,
     sensors: SensorParameters | None = None,
     no_load_speed: float | None = None,
+    calibration: SensorCalibration | None = None,
 ):
     """Run the navigation algorithm sequentially over N sensor rows (as read at t_0 ... t_N-1).
 
@@ -265,11 +273,14 @@ def navigation_loop(
         accelerometers: (N, 4); gyro: (N,) or (N, 1); encoders: (N, 2).
         sensors, no_load_speed: the sensors' data sheet and the nominal motors' no-load speed (m/s) for
             the sensor checks (health_geometry).
+        calibration: the model's SensorCalibration, removed from the checked samples (SensorCorrection).
 
     Returns:
         dict of (N,) arrays keyed by LOOP_KEYS, plus ``P`` (N, 5, 5): the EKF covariance P_k-1 at t_k.
     """
-    loop = NavigationLoop(params, wheel_radius, track_width, T_N, T_C, initial, sensors, no_load_speed)
+    loop = NavigationLoop(
+        params, wheel_radius, track_width, T_N, T_C, initial, sensors, no_load_speed, calibration
+    )
     return run_navigation_loop(loop, accelerometers, gyro, encoders)
 
 

@@ -45,7 +45,36 @@ FAULT_EVENTS = [
 def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, changes):
     """Every signal, every sample: plant, sensors, navigation and control (<= 1e-12). This proves the
     multi-rate wiring of the whole loop (no stray delay at any port) and the plant's discrete timing."""
-    scenario = dc.replace(load_scenario(name), **changes)
+    assert_diagram_equals_plain_loop(dc.replace(load_scenario(name), **changes), duration, overrides, changes)
+
+
+def test_diagram_equals_plain_loop_with_a_calibrated_model(tmp_path):
+    """A model with radii, track, gyro scale and accelerometer gains and misalignments (the
+    SensorCorrection block and its twin in NavigationLoop) on a robot that differs from the nominal."""
+    from slipnav.scenarios.model import RobotModel, SensorCalibration, write_model
+
+    model = RobotModel(
+        robot="tinyphoon",
+        robot_overrides={"rolling_radius_R": 0.01515, "rolling_radius_L": 0.0149, "track_width": 0.0695},
+        calibration=SensorCalibration(
+            gyro_scale_error=0.01,
+            accel1_scale_error=-0.02,
+            accel2_scale_error=0.015,
+            accel1_misalignment=0.017,
+            accel2_misalignment=-0.01,
+        ),
+    )
+    path = write_model(model, tmp_path / "robot.model.yaml")
+    scenario = dc.replace(load_scenario("corner"), model=str(path)).validate()
+    deviations = {"wheel_radius_R": 0.01, "gyro_scale": 0.01, "accel1_misalignment_deg": 1.0}
+    truth = dc.replace(scenario.plant, deviations=dc.replace(scenario.plant.deviations, **deviations))
+    a = assert_diagram_equals_plain_loop(dc.replace(scenario, plant=truth), 2.0, {}, {"model": True})
+    assert a["plant_gyro_scale_error"] == pytest.approx(0.01)  # the plant is not the model
+
+
+def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes):
+    """The run's artifact arrays after comparing every plain-loop signal with the diagram's."""
+    name = scenario.name
     seed = 7
     result = run_scenario(scenario, seed=seed, duration=duration, **overrides)
     a = result.arrays
@@ -56,7 +85,8 @@ def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, change
     for key in PLAIN_LOOP_KEYS:
         artifact_key = key.removeprefix("nav_")
         if key in ("true_w_R", "true_w_L"):
-            artifact = a[f"true_wheel_{key[-1]}"] / scenario.robot_parameters().wheel_radius
+            world = scenario.plant_parameters(seed)[0]  # the plant's rolling radius of each wheel
+            artifact = a[f"true_wheel_{key[-1]}"] / getattr(world, f"radius_{key[-1]}")
         elif artifact_key in a:
             artifact = a[artifact_key]
         else:
@@ -80,6 +110,7 @@ def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, change
             "health_encoder_L": {0, 4, 6},
             "health_accel2_n": {0, 5},
         }
+    return a
 
 
 def test_plain_loop_rejects_bad_inputs():
