@@ -13,7 +13,8 @@
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
     slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
-    slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--out DIR]
+    slipnav calibrate SESSION.yaml [--out DIR]
+    slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--logs] [--out DIR]
     slipnav reproduce [--out DIR] [--quick]
 
 ENGINE (studies/sweep.py): [--workers N] [--scheduler ADDRESS] [--out DIR] [--resume]: the runs go to a
@@ -156,10 +157,22 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--no-figures", action="store_true", help="skip the figures")
     cal = sub.add_parser("calibrate", help="identify the robot's parameters from calibration manoeuvres")
     cal.add_argument(
+        "session",
+        nargs="?",
+        default=None,
+        help="calibration session YAML of a real robot's logs and hand measurements (README: Calibration "
+        "sessions); or --simulate",
+    )
+    cal.add_argument(
         "--simulate",
-        required=True,
+        default=None,
         metavar="ROBOT",
         help="simulated robot (tinyphoon, kurt3d), drawn from the tolerance preset by the seed",
+    )
+    cal.add_argument(
+        "--logs",
+        action="store_true",
+        help="with --simulate: write each seed's session (DIR/ROBOT-seedN.calibration/) and identify from it",
     )
     cal.add_argument("--seed", type=int, default=0, help="tolerance draw and noise seed (default 0)")
     cal.add_argument("--seeds", type=int, default=None, help="benchmark: seeds 0 .. N-1 instead of --seed")
@@ -262,6 +275,14 @@ def _command(args) -> int:
         from slipnav.systems.checks import require_seed
         from slipnav.systems.plant import ROBOTS
 
+        if (args.session is None) == (args.simulate is None):
+            raise ScenarioError("give a calibration session SESSION.yaml or --simulate ROBOT (one of them)")
+        if args.session is not None:
+            from slipnav.studies.calibration_session import calibrate_session_command
+
+            check_output_directory(args.out)
+            calibrate_session_command(args.session, args.out)
+            return 0
         if args.simulate not in ROBOTS:
             raise ScenarioError(
                 f"--simulate={args.simulate!r} is unknown: allowed {', '.join(sorted(ROBOTS))}"
@@ -274,7 +295,7 @@ def _command(args) -> int:
             raise ScenarioError(str(e)) from None
         check_output_directory(args.out)
         seeds = list(range(args.seeds)) if args.seeds is not None else [args.seed]
-        calibrate_command(args.simulate, seeds, args.out)
+        calibrate_command(args.simulate, seeds, args.out, logs=args.logs)
         return 0
     if args.command == "replay":
         return _replay(args)

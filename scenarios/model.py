@@ -18,6 +18,8 @@ with its ``plant:`` section.
 
 import dataclasses as dc
 import math
+import os
+import tempfile
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
@@ -169,6 +171,15 @@ def model_text(model: RobotModel) -> str:
 
 
 def write_model(model: RobotModel, path) -> FilePath:
+    """Write ``model`` to ``path`` atomically (a temporary file in the same folder, then os.replace)."""
     path = FilePath(path)
-    path.write_text(model_text(model))
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.partial-")
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(model_text(model))
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
     return path

@@ -549,32 +549,43 @@ def compare(calibration: Calibration, truth: dict) -> dict:
     return out
 
 
-def simulated_calibration(robot_name: str, seed: int) -> tuple[Calibration, dict]:
-    """Drive and identify on the toleranced simulated ``robot_name`` of ``seed``: (calibration, truth)."""
+def simulated_calibration(robot_name: str, seed: int, session_dir=None) -> tuple[Calibration, dict]:
+    """Drive and identify on the toleranced simulated ``robot_name`` of ``seed``: (calibration, truth).
+    ``session_dir``: write the logs and measurements there as a calibration session and identify from
+    reading it back (studies/calibration_session.py: the path of a real robot's logs)."""
     scenario = Scenario(robot=robot_name, mode="trajectory", trajectory=None)
     manoeuvres, truth = simulate_manoeuvres(scenario, seed)
+    if session_dir is not None:
+        from slipnav.studies.calibration_session import read_session, write_session
+
+        description = f"slipnav calibrate --simulate {robot_name} --seed {seed}"
+        path = write_session(manoeuvres, session_dir, robot_name, description)
+        _, manoeuvres = read_session(path)
     base = RobotModel(robot=robot_name, navigation=NavigationParameters())
     base.T_N, base.T_C = SampleRates().T_N, SampleRates().T_C
     return calibrate(manoeuvres, robot_name, base), truth
 
 
-def calibrate_command(robot_name: str, seeds: list[int], out_dir, stream=None) -> list[dict]:
+def calibrate_command(
+    robot_name: str, seeds: list[int], out_dir, stream=None, logs: bool = False
+) -> list[dict]:
     """``slipnav calibrate --simulate ROBOT --seed N`` (or ``--seeds N``): drive, identify, write
     ``DIR/<robot>-seed<N>.calibrated.model.yaml`` per seed, print identified vs true with the errors in
     standard errors; last line ``calibration worst_radius_pct=.. worst_track_pct=.. worst_gyro_scale_pct=..
-    worst_a_peak_pct=..``. Returns one row per seed."""
+    worst_a_peak_pct=..``. ``logs``: also write each seed's session (``DIR/<robot>-seed<N>.calibration/``,
+    logs and session.yaml) and identify from reading it back. Returns one row per seed."""
     import sys
     from pathlib import Path as FilePath
 
-    from slipnav.scenarios.model import model_text
+    from slipnav.scenarios.model import write_model
 
     stream = stream or sys.stdout
     out = FilePath(out_dir)
     rows = []
     for seed in seeds:
-        calibration, truth = simulated_calibration(robot_name, seed)
-        path = out / f"{robot_name}-seed{seed}.calibrated.model.yaml"
-        path.write_text(model_text(calibration.model))
+        session = out / f"{robot_name}-seed{seed}.calibration" if logs else None
+        calibration, truth = simulated_calibration(robot_name, seed, session)
+        path = write_model(calibration.model, out / f"{robot_name}-seed{seed}.calibrated.model.yaml")
         rows.append(compare(calibration, truth))
         print(f"{path}", file=stream)
         for key, (value, true, error, z) in rows[-1].items():

@@ -1,0 +1,119 @@
+"""slipnav calibrate SESSION.yaml: a real robot's logs and hand measurements, read as a session
+(studies/calibration_session.py); the simulated session round-trips to the same identification."""
+
+import dataclasses as dc
+
+import numpy as np
+import pytest
+from slipnav.scenarios.cli import main
+from slipnav.scenarios.config import Scenario, ScenarioError
+from slipnav.scenarios.model import RobotModel, load_model
+from slipnav.scenarios.sensor_log import SensorLog, write_sensor_log
+from slipnav.studies.calibration import calibrate, compare, simulate_manoeuvres
+from slipnav.studies.calibration_session import read_session, write_session
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    """Kurt3D's calibration manoeuvres for seed 5, in memory and written as a session."""
+    manoeuvres, truth = simulate_manoeuvres(Scenario(robot="kurt3d", trajectory=None), 5)
+    folder = tmp_path_factory.mktemp("lab") / "kurt3d-day1.calibration"
+    session = write_session(manoeuvres, folder, "kurt3d", "simulated lab day")
+    return manoeuvres, truth, session
+
+
+def test_session_round_trip_identifies_exactly_what_the_memory_does(simulated, tmp_path, capsys):
+    manoeuvres, truth, session = simulated
+    direct = calibrate(manoeuvres, "kurt3d", RobotModel(robot="kurt3d"))
+    assert main(["calibrate", str(session), "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out.strip().splitlines()
+    path = tmp_path / "kurt3d-day1.calibrated.model.yaml"
+    assert printed[-1] == f"calibration model={path}"
+    model = load_model(path)
+    robot = model.robot_parameters()
+    assert robot.radius_R == direct.values["wheel_radius_R"]  # bit for bit: logs round-trip exactly
+    assert robot.track_width == direct.values["track_width"]
+    assert model.calibration.gyro_scale_error == direct.values["gyro_scale_error"]
+    assert "simulated lab day" in model.description
+    # And what was identified is Kurt3D's drawn robot (radii 0.1 %, track 0.3 %).
+    for key, (_, _, relative, _) in compare(direct, truth).items():
+        if key in ("wheel_radius_R", "wheel_radius_L"):
+            assert abs(relative) < 1e-3, key
+        if key == "track_width":
+            assert abs(relative) < 3e-3
+
+
+def _tiny_session(tmp_path, text: str, log_rows=None):
+    t = np.arange(5) * 0.002 if log_rows is None else log_rows
+    columns = {"t": t, "gyro": np.zeros(5), "enc_R": np.zeros(5), "enc_L": np.zeros(5)}
+    columns.update({c: np.zeros(5) for c in ("acc1_t", "acc1_n", "acc2_t", "acc2_n")})
+    write_sensor_log(SensorLog(columns=columns), tmp_path / "a.sensors.csv")
+    path = tmp_path / "session.yaml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("robot: tinyphoon\nmanoeuvres: []\n", r"manoeuvres is empty"),
+        ("robot: tinyphoon\nmanoeuvers: []\n", r"manoeuvers is an unknown key"),
+        ("robot: r2d2\nmanoeuvres: [{kind: standstill, log: a.sensors.csv}]\n", r"robot='r2d2' is unknown"),
+        ("manoeuvres: [{kind: wobble, log: a.sensors.csv}]\n", r"manoeuvres\[0\].kind='wobble' is unknown"),
+        ("manoeuvres: [{kind: square, log: a.sensors.csv}]\n", r"manoeuvres\[0\].measured_pose is missing"),
+        (
+            "manoeuvres: [{kind: square, log: a.sensors.csv, measured_pose: [0, 0]}]\n",
+            r"measured_pose=\[0.0, 0.0\]: allowed three finite numbers",
+        ),
+        (
+            "manoeuvres: [{kind: standstill, log: a.sensors.csv, pose_std: [0.001, 0]}]\n",
+            r"manoeuvres\[0\].pose_std=.*allowed two numbers > 0",
+        ),
+        (
+            "manoeuvres: [{kind: standstill, log: b.sensors.csv}]\n",
+            r"manoeuvres\[0\].log='b.sensors.csv': no such",
+        ),
+        (
+            "manoeuvres: [{kind: standstill, log: a.sensors.csv, speed: x}]\n",
+            r"manoeuvres\[0\].speed: expected float",
+        ),
+    ],
+)
+def test_malformed_session_is_a_clear_error(tmp_path, text, message):
+    with pytest.raises(ScenarioError, match=message):
+        read_session(_tiny_session(tmp_path, text))
+
+
+def test_a_malformed_log_names_the_manoeuvre_column_and_row_and_nothing_is_written(tmp_path, capsys):
+    t = np.array([0.0, 0.002, 0.004, 0.003, 0.008])
+    path = _tiny_session(tmp_path, "manoeuvres: [{kind: standstill, log: a.sensors.csv}]\n", t)
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["calibrate", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "manoeuvres[0].log" in err and "column 't'" in err and "row 4" in err
+    assert list(out.iterdir()) == []
+
+
+def test_an_incomplete_session_writes_no_model(tmp_path, simulated, capsys):
+    _, _, session = simulated
+    text = session.read_text()
+    only_still = text.split("- kind: spot_turn")[0]  # the standstill alone
+    (session.parent / "still.yaml").write_text(only_still)
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["calibrate", str(session.parent / "still.yaml"), "--out", str(out)]) == 2
+    assert "calibration needs the manoeuvres" in capsys.readouterr().err
+    assert list(out.iterdir()) == []
+
+
+def test_calibrate_needs_a_session_or_simulate(capsys):
+    assert main(["calibrate"]) == 2
+    assert "give a calibration session SESSION.yaml or --simulate ROBOT" in capsys.readouterr().err
+
+
+def test_write_session_refuses_an_existing_folder(tmp_path, simulated):
+    manoeuvres, _, _ = simulated
+    (tmp_path / "day").mkdir()
+    with pytest.raises(ScenarioError, match=r"folder .*day.* exists"):
+        write_session([dc.replace(manoeuvres[0])], tmp_path / "day", "kurt3d")
