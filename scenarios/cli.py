@@ -7,7 +7,7 @@
                          [--model MODEL.yaml]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
-    slipnav robustness [SCENARIO ...] [--seeds N] [ENGINE]
+    slipnav robustness [SCENARIO ...] [--seeds N] [--calibrated] [ENGINE]
     slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [ENGINE]
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
@@ -135,6 +135,11 @@ def _parser() -> argparse.ArgumentParser:
         help="default: corner square long_path",
     )
     rob.add_argument("--seeds", type=int, default=10, help="number of seeds (default 10)")
+    rob.add_argument(
+        "--calibrated",
+        action="store_true",
+        help="per preset draw: the nominal, the calibrated (slipnav calibrate on that robot) and true model",
+    )
     _engine_options(rob, "robustness")
     fau = sub.add_parser(
         "faults", help="every sensor fault class on every channel: detection, error (benchmark)"
@@ -254,7 +259,14 @@ def _command(args) -> int:
 
         _check_study(args)
         engine = _engine(args)
-        robustness(args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine)
+        if args.calibrated:
+            from slipnav.studies.robustness import robustness_calibrated
+
+            robustness_calibrated(
+                args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine
+            )
+        else:
+            robustness(args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine)
         return 0
     if args.command == "sweep":
         from slipnav.studies.sweep import parse_set_options, sweep

@@ -202,3 +202,209 @@ def plot_robustness(rows: list, path: FilePath) -> FilePath:
         ax.legend(fontsize=8)
     fig.tight_layout()
     return save_figure_atomically(fig, path)
+
+
+# ---------------------------------------------------------------------------------------------------
+# slipnav robustness --calibrated: nominal, calibrated and matched models on the same toleranced robots
+
+CALIBRATED_TARGET = 1.3
+"""Issue target: the fused error with the calibrated model <= 1.3 x the matched model's (mean)."""
+
+
+def true_model(scenario, plant, sensors):
+    """The matched model (an oracle, for judging only): the nominal robot with every RobotParameters field
+    the plant changed, the sensors' true gains and misalignments, and the tyres' true peak acceleration
+    mu g f_w (S(15), S(17))."""
+    from slipnav.scenarios.model import RobotModel, SensorCalibration
+
+    nominal = scenario.robot_parameters()
+    overrides = {
+        f.name: float(getattr(plant, f.name))
+        for f in dc.fields(plant)
+        if f.name != "name"
+        and getattr(plant, f.name) is not None
+        and isinstance(getattr(plant, f.name), (int, float))
+        and getattr(plant, f.name) != getattr(nominal, f.name)
+    }
+    calibration = SensorCalibration(
+        **{
+            key: getattr(sensors, key)
+            for key in (
+                "gyro_scale_error",
+                "accel1_scale_error",
+                "accel2_scale_error",
+                "accel1_misalignment",
+                "accel2_misalignment",
+            )
+        }
+    )
+    navigation = scenario.navigation
+    navigation = dc.replace(
+        navigation,
+        mixing=dc.replace(navigation.mixing, tyre_peak_acceleration=plant.traction_limit_acceleration),
+    )
+    return RobotModel(
+        robot=scenario.robot,
+        description="the true robot (slipnav robustness --calibrated: the matched model, an oracle)",
+        robot_overrides=overrides,
+        calibration=calibration,
+        T_N=scenario.T_N,
+        T_C=scenario.T_C,
+        navigation=navigation,
+    )
+
+
+def calibrated_model_path(scenario, seed: int, model_dir) -> FilePath:
+    """Calibrate the scenario's robot drawn from the preset by ``seed`` (studies/calibration.py: its
+    manoeuvres on that robot, identified from their logs), once per robot and draw: the model file is
+    kept in ``model_dir`` and reused (corner and square share Tinyphoon's)."""
+    import hashlib
+
+    from slipnav.scenarios.model import RobotModel, write_model
+    from slipnav.studies.calibration import calibrate, simulate_manoeuvres
+
+    world = repr((scenario.robot, scenario.robot_overrides, scenario.sensor_overrides, scenario.plant))
+    key = hashlib.sha1(world.encode()).hexdigest()[:8]
+    path = FilePath(model_dir) / f"{scenario.robot}-{key}-seed{seed}.calibrated.model.yaml"
+    if not path.is_file():
+        manoeuvres, _ = simulate_manoeuvres(scenario, seed)
+        base = RobotModel(robot=scenario.robot, T_N=scenario.T_N, T_C=scenario.T_C)
+        write_model(calibrate(manoeuvres, scenario.robot, base).model, path)
+    return path
+
+
+def run_calibrated(name: str, seed: int, model_dir) -> dict:
+    """The preset draw of ``seed`` on scenario ``name`` with the nominal, the calibrated and the matched
+    model: each one's fused, odometry and Gyrodometry final errors (% of the path) and headings."""
+    from slipnav.scenarios.model import write_model
+
+    model_dir = FilePath(model_dir)
+    model_dir.mkdir(parents=True, exist_ok=True)
+    scenario = load_scenario(name)
+    plant, sensors, _ = scenario.plant_parameters(seed, tolerances=True)
+    models = {
+        "nominal": None,
+        "calibrated": calibrated_model_path(scenario, seed, model_dir),
+        "matched": write_model(
+            true_model(scenario, plant, sensors), model_dir / f"{name}-seed{seed}.true.model.yaml"
+        ),
+    }
+    out = {"scenario": name, "seed": seed}
+    for label, path in models.items():
+        run = scenario if path is None else dc.replace(scenario, model=str(path)).validate()
+        a = run_scenario(run, seed=seed, tolerances=True).arrays
+        length = float(a["path_length"])
+        for estimate, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+            out[f"{label}_{estimate}_pct"] = 100.0 * final_position_error(a, prefix) / length
+            heading = math.remainder(a[f"{prefix}_phi"][-1] - a["true_phi"][-1], 2.0 * math.pi)
+            out[f"{label}_{estimate}_heading_deg"] = math.degrees(heading)
+        out[f"{label}_alpha_rms_deg"] = math.degrees(side_slip_rms_error(a))
+    return out
+
+
+def _run_calibrated(job, model_dir):
+    return run_calibrated(job["scenario"], job["seed"], model_dir)
+
+
+def robustness_calibrated(
+    names, seeds: int, workers=None, out_dir="runs", stream=None, *, scheduler=None, resume=False
+) -> list:
+    """``slipnav robustness --calibrated``: per scenario and preset draw (seeds 0..seeds-1) the nominal,
+    calibrated and matched models on the same robot (run_calibrated), on the sweep engine (results in
+    ``out_dir``/robustness-calibrated.csv, models in ``out_dir``/robustness-models/); prints the table
+    and ``robustness calibrated worst_calibrated_over_matched=<f> worst_calibrated_fused_pct=<f>
+    calibrated_above_a_baseline=<n>/<m>``, writes ``out_dir``/robustness-calibrated.png."""
+    stream = stream or sys.stdout
+    # Scenario-major order: the two workers calibrate different seeds, and square finds corner's models.
+    jobs = [{"scenario": name, "seed": seed} for name in names for seed in range(seeds)]
+    start = time.perf_counter()
+    out = FilePath(out_dir)
+    run = functools.partial(_run_calibrated, model_dir=str(out / "robustness-models"))
+    rows = run_jobs(
+        run,
+        jobs,
+        workers=workers,
+        scheduler=scheduler,
+        results=out / "robustness-calibrated.csv",
+        resume=resume,
+        label="robustness --calibrated",
+    )
+    worst_ratio, worst_pct, above = summarise_calibrated(rows, stream)
+    print(
+        f"{len(jobs)} robots (3 runs and a calibration each) in {time.perf_counter() - start:.0f} s",
+        file=stream,
+    )
+    figure = plot_calibrated(rows, out / "robustness-calibrated.png")
+    print(f"figure: {figure}", file=stream)
+    print(
+        f"robustness calibrated worst_calibrated_over_matched={worst_ratio:.3f} "
+        f"worst_calibrated_fused_pct={worst_pct:.3f} calibrated_above_a_baseline={above}/{len(rows)}",
+        file=stream,
+    )
+    return rows
+
+
+def summarise_calibrated(rows: list, stream) -> tuple:
+    """Per scenario: mean (worst) fused error of each model, the calibrated over matched ratio of the
+    means (target <= CALIBRATED_TARGET), the baselines with the calibrated model, and the seeds where the
+    calibrated fused estimate exceeds either of them. Returns (worst ratio, worst calibrated fused %,
+    seeds above a baseline)."""
+    worst_ratio, worst_pct, above_total = 0.0, 0.0, 0
+    print(
+        f"\n{'scenario':<12}{'nominal %':>14}{'calibrated %':>14}{'matched %':>14}{'cal/matched':>12}"
+        f"{'cal. odometry %':>17}{'cal. Gyrodom. %':>17}{'above a baseline':>18}",
+        file=stream,
+    )
+    for name in dict.fromkeys(r["scenario"] for r in rows):
+        sel = [r for r in rows if r["scenario"] == name]
+        col = {k: np.array([r[k] for r in sel], float) for k in sel[0] if k not in ("scenario", "seed")}
+        ratio = col["calibrated_fused_pct"].mean() / col["matched_fused_pct"].mean()
+        above = int(
+            np.sum(
+                (col["calibrated_fused_pct"] > col["calibrated_odometry_pct"])
+                | (col["calibrated_fused_pct"] > col["calibrated_gyrodometry_pct"])
+            )
+        )
+        worst_ratio = max(worst_ratio, ratio)
+        worst_pct = max(worst_pct, float(col["calibrated_fused_pct"].max()))
+        above_total += above
+
+        def mw(k, col=col):
+            return f"{col[k].mean():.2f} ({col[k].max():.2f})"
+
+        print(
+            f"{name:<12}{mw('nominal_fused_pct'):>14}{mw('calibrated_fused_pct'):>14}"
+            f"{mw('matched_fused_pct'):>14}{ratio:>12.2f}{mw('calibrated_odometry_pct'):>17}"
+            f"{mw('calibrated_gyrodometry_pct'):>17}{f'{above}/{len(sel)}':>18}",
+            file=stream,
+        )
+    print(
+        f"\nfigures: final position error, % of the path, mean (worst) over the preset draws; cal/matched = "
+        f"mean calibrated / mean matched (target <= {CALIBRATED_TARGET}); matched = the true robot as the "
+        "model (an oracle)",
+        file=stream,
+    )
+    return worst_ratio, worst_pct, above_total
+
+
+def plot_calibrated(rows: list, path: FilePath) -> FilePath:
+    """Per scenario and seed: fused final error with the nominal, calibrated and matched model."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(dict.fromkeys(r["scenario"] for r in rows))
+    fig, axes = plt.subplots(1, len(names), figsize=(4.5 * len(names), 3.8), squeeze=False)
+    for ax, name in zip(axes[0], names, strict=True):
+        sel = sorted((r for r in rows if r["scenario"] == name), key=lambda r: r["seed"])
+        seeds = np.array([r["seed"] for r in sel])
+        for j, label in enumerate(("nominal", "calibrated", "matched")):
+            ax.bar(seeds + (j - 1) * 0.27, [r[f"{label}_fused_pct"] for r in sel], 0.27, label=label)
+        ax.set_yscale("log")
+        ax.set_xlabel("seed (tolerance preset draw)")
+        ax.set_ylabel("fused final error (% of path)")
+        ax.set_title(f"{name}: model of the navigation")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure_atomically(fig, path)
