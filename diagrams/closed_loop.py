@@ -12,6 +12,7 @@ from slipnav.diagrams.robot import add_robot_with_sensors
 from slipnav.systems.checks import check_follower_gains, check_start_time, require_instance
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
+from slipnav.systems.perturbation_monitor import PerturbationParameters, add_perturbation_monitor
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration
@@ -169,6 +170,7 @@ def build_closed_loop_diagram(
     faults=(),
     nominal_sensors: SensorParameters | None = None,
     calibration: SensorCalibration | None = None,
+    perturbation_monitor: PerturbationParameters | None = None,
 ) -> LoggedDiagram:
     """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
     (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). ``plant_time_step``: see
@@ -179,6 +181,8 @@ def build_closed_loop_diagram(
     simulated robot as it really is (default ``robot``), and ``sensor_params`` the real sensors;
     ``nominal_sensors`` their data sheet, which the navigation knows (default the robot's);
     ``calibration`` the sensors' systematic errors a calibrated model states (SensorCalibration).
+    ``perturbation_monitor``: PerturbationParameters of the PerturbationMonitor on the wheel commands,
+    the encoders and the navigation (default PerturbationParameters()).
     ``faults``: sensor FaultEvents between the sensors and the navigation (systems/faults.py)."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     require_instance("navigation", navigation, NavigationParameters)
@@ -236,12 +240,22 @@ def build_closed_loop_diagram(
     builder.Connect(
         ctrl.GetOutputPort("wheel_speed_command"), handles.plant.GetInputPort("wheel_speed_command")
     )
+    perturbation = add_perturbation_monitor(
+        builder,
+        perturbation_monitor or PerturbationParameters(),
+        ctrl.GetOutputPort("wheel_speed_command"),
+        handles.readings.GetOutputPort("encoders"),
+        nav,
+        robot,
+        rates.T_N,
+    )
 
     loggers = {}
     if log:
         ports = robot_ports(handles)
         ports.update(nav_ports)
         ports["command"] = ctrl.GetOutputPort("wheel_speed_command")
+        ports["perturbation"] = perturbation
         names = CONTROL_OUTPUTS[1:] + (TRAJECTORY_OUTPUTS if control.mode == "trajectory" else ())
         ports.update({name: ctrl.GetOutputPort(name) for name in names})
         loggers = add_loggers(builder, ports, rates.T_N)

@@ -20,6 +20,7 @@ from slipnav.systems.checks import (
 )
 from slipnav.systems.feedforward import TrajectoryFeedforward
 from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.perturbation_monitor import PerturbationParameters, add_perturbation_monitor
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration
@@ -112,6 +113,7 @@ def build_open_loop_diagram(
     faults=(),
     nominal_sensors: SensorParameters | None = None,
     calibration: SensorCalibration | None = None,
+    perturbation_monitor: PerturbationParameters | None = None,
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
     the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out).
@@ -120,7 +122,8 @@ def build_open_loop_diagram(
     ValueError naming the parameter for an input that cannot be simulated. ``faults``: sensor FaultEvents
     between the sensors and the navigation; ``nominal_sensors``: the sensors' data sheet the navigation
     knows (default the robot's, systems.sensors.default_sensor_parameters); ``calibration``: the sensors'
-    systematic errors a calibrated model states (SensorCalibration)."""
+    systematic errors a calibrated model states (SensorCalibration); ``perturbation_monitor``:
+    PerturbationParameters of the PerturbationMonitor on the commands, encoders and navigation."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     if navigation is not None:
         require_instance("navigation", navigation, NavigationParameters)
@@ -149,9 +152,9 @@ def build_open_loop_diagram(
         plant_time_step,
         faults,
     )
-    nav_ports = {}
+    nav_ports, nav = {}, None
     if navigation is not None:
-        _, nav_ports = add_navigation(
+        nav, nav_ports = add_navigation(
             builder,
             handles.readings,
             navigation,
@@ -172,6 +175,16 @@ def build_open_loop_diagram(
     )
     ports = robot_ports(handles)
     ports["command"] = feedforward.GetOutputPort("wheel_speed_command")
+    if nav is not None:
+        ports["perturbation"] = add_perturbation_monitor(
+            builder,
+            perturbation_monitor or PerturbationParameters(),
+            feedforward.GetOutputPort("wheel_speed_command"),
+            handles.readings.GetOutputPort("encoders"),
+            nav,
+            robot,
+            rates.T_N,
+        )
     ports["reference_pose"] = feedforward.GetOutputPort("reference_pose")
     ports.update(nav_ports)
     loggers = add_loggers(builder, ports, rates.T_N)

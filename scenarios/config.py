@@ -31,6 +31,7 @@ from slipnav.systems.checks import check_follower_gains, check_robot_physics, ch
 from slipnav.systems.faults import FaultEvent, check_fault_events
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
+from slipnav.systems.perturbation_monitor import PerturbationParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration
@@ -108,6 +109,9 @@ class Scenario:
         faults: timed sensor faults between the sensors and the navigation (systems/faults.py
             FaultEvent: kind, channel, start, duration, value), e.g. ``faults: [{kind: dropout,
             channel: gyro, start: 2.0, duration: 0.5}]``.
+        perturbation_monitor: thresholds of the perturbation flags (systems/perturbation_monitor.py: a
+            wheel held, pushed or lifted, the body pushed), from the wheel commands, the encoders and the
+            navigation's estimate.
         paper: the papers' equations exactly as printed, every extension off (scenarios/paper.py
             paper_mode, applied on top of the other keys when the scenario is loaded or run; README:
             Paper mode).
@@ -145,6 +149,7 @@ class Scenario:
     speed_law: str = "bounded"
     localisation: str = "fused"
     faults: list[FaultEvent] = dc.field(default_factory=list)
+    perturbation_monitor: PerturbationParameters = dc.field(default_factory=PerturbationParameters)
     paper: bool = False
     model: str | None = None
 
@@ -238,6 +243,7 @@ class Scenario:
         _wrap(self.navigation.validate)
         _wrap(self.follower.__post_init__)
         _wrap(self.slip_control.__post_init__)
+        _wrap(self.perturbation_monitor.validate)
         if self.controller not in CONTROLLERS:
             raise ScenarioError(f"controller={self.controller!r} is unknown: allowed {list(CONTROLLERS)}")
         if self.localisation not in LOCALISATION_SOURCES:

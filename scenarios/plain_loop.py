@@ -31,6 +31,12 @@ from slipnav.systems.path_follower import (
     follower_step,
     saturate_wheel_speeds,
 )
+from slipnav.systems.perturbation_monitor import (
+    PERTURBATION_CHANNELS,
+    PerturbationParameters,
+    perturbation_initial_state,
+    perturbation_step,
+)
 from slipnav.systems.plant import (
     NO_DISTURBANCE,
     RobotParameters,
@@ -51,11 +57,18 @@ from slipnav.systems.sensors import (
 from slipnav.systems.slip_control import interpolate, step_size
 
 PLAIN_LOOP_KEYS = (
-    "true_x true_y true_phi true_v_t true_v_n true_omega true_theta_R true_theta_L true_w_R true_w_L "
-    "meas_a_t1 meas_a_n1 meas_a_t2 meas_a_n2 meas_gyro meas_enc_R meas_enc_L cmd_R cmd_L V1 "
-    "virtual_target step_size progress"
-).split() + [f"nav_{key}" for key in LOOP_KEYS]
+    (
+        "true_x true_y true_phi true_v_t true_v_n true_omega true_theta_R true_theta_L true_w_R true_w_L "
+        "meas_a_t1 meas_a_n1 meas_a_t2 meas_a_n2 meas_gyro meas_enc_R meas_enc_L cmd_R cmd_L V1 "
+        "virtual_target step_size progress"
+    ).split()
+    + [f"nav_{key}" for key in LOOP_KEYS]
+    + [f"perturbation_{c}" for c in PERTURBATION_CHANNELS]
+)
 """Columns of run_plain_loop's result, each the value at t_k (as a Drake logger at t_k records it)."""
+MIXED_ESTIMATE_COLUMNS = [
+    LOOP_KEYS.index(k) for k in ("est_v_t", "est_v_n", "est_omega", "est_a_t", "est_a_n")
+]
 
 
 def run_plain_loop(
@@ -75,6 +88,7 @@ def run_plain_loop(
     faults=(),
     nominal_sensors: SensorParameters | None = None,
     calibration: SensorCalibration | None = None,
+    perturbation_monitor: PerturbationParameters | None = None,
 ) -> dict:
     """Simulate ``num_steps`` samples t_0 ... t_{num_steps-1} of the closed loop.
 
@@ -91,6 +105,7 @@ def run_plain_loop(
         faults: sensor FaultEvents between the sensors and the navigation (apply_sensor_faults).
         nominal_sensors: the sensors' data sheet the navigation knows (default the robot's).
         calibration: the model's SensorCalibration, which the navigation removes (SensorCorrection).
+        perturbation_monitor: PerturbationParameters (PerturbationMonitor; default the defaults).
 
     Returns:
         dict of (num_steps,) arrays keyed by PLAIN_LOOP_KEYS.
@@ -148,6 +163,9 @@ def run_plain_loop(
     spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
     faults = check_fault_events(faults)
     perturbed, faulty = has_plant_events(faults), has_sensor_faults(faults)
+    # PerturbationMonitor
+    monitor_params = (perturbation_monitor or PerturbationParameters()).validate()
+    monitor, radii = perturbation_initial_state(), (p.radius_R, p.radius_L)
     held = previous = None
     for k in range(num_steps):
         t0 = clock()
@@ -165,7 +183,23 @@ def run_plain_loop(
         spent["navigation"] += t1 - t0
         s = follower[0]
         command = saturate_wheel_speeds(follower[1], follower[2], p.wheel_speed_limit)
-        out[k] = (*x, *meas_acc, meas_gyro, *meas_enc, *command, follower[3], s, delta, progress, *nav_row)
+        out[k] = (
+            *x,
+            *meas_acc,
+            meas_gyro,
+            *meas_enc,
+            *command,
+            follower[3],
+            s,
+            delta,
+            progress,
+            *nav_row,
+            *monitor[-4:],
+        )
+        mixed = [nav_row[i] for i in MIXED_ESTIMATE_COLUMNS]
+        monitor = perturbation_step(
+            monitor, command, meas_enc, mixed, monitor_params, radii, p.track_width, T_N
+        )
 
         if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K
             if trajectory_mode:
@@ -267,4 +301,5 @@ def run_scenario_plain_loop(
         faults=scenario.faults,
         nominal_sensors=belief.sensors,
         calibration=belief.calibration,
+        perturbation_monitor=scenario.perturbation_monitor,
     )

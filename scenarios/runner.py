@@ -41,6 +41,7 @@ from slipnav.scenarios.trajectories import (
 )
 from slipnav.systems.checks import require_seed
 from slipnav.systems.faults import SENSOR_CHANNELS
+from slipnav.systems.perturbation_monitor import PERTURBATION_CHANNELS, perturbation_report
 from slipnav.systems.plant import RobotParameters, tyre_slip
 from slipnav.systems.sensor_health import health_report
 
@@ -259,6 +260,7 @@ def run_scenario(
                 faults=faults,
                 nominal_sensors=nominal_sensors,
                 calibration=belief.calibration,
+                perturbation_monitor=scenario.perturbation_monitor,
             )
         )
         nominal = reference.duration + start
@@ -281,6 +283,7 @@ def run_scenario(
                 faults=faults,
                 nominal_sensors=nominal_sensors,
                 calibration=belief.calibration,
+                perturbation_monitor=scenario.perturbation_monitor,
             )
         except ValueError as e:
             raise ScenarioError(str(e)) from None
@@ -340,6 +343,7 @@ def run_scenario(
         "localisation": None if open_loop else scenario.localisation,
         "sensor_faults": int(np.nansum(arrays["fault"])),
         "sensor_health": health_report(arrays["t"], arrays, SENSOR_CHANNELS),
+        "perturbations": perturbation_report(arrays["t"], arrays),
         "faults": [dc.asdict(event) for event in faults],
         "tolerances": bool(tolerances),
         "paper": bool(scenario.paper),
@@ -692,6 +696,10 @@ def collect_arrays(loggers, context, robot: RobotParameters, copy: bool = True) 
     a["ref_x"], a["ref_y"], a["ref_phi"] = ref[0], ref[1], ref[2]
     if "nav_pose" in logs:
         collect_navigation(a, data)
+    if "perturbation" in logs:
+        flags = data("perturbation")
+        for i, channel in enumerate(PERTURBATION_CHANNELS):
+            a[f"perturbation_{channel}"] = flags[i]
     return a
 
 

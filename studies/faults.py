@@ -26,6 +26,7 @@ from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.sweep import session
 from slipnav.systems.faults import ENCODER_CHANNELS, SENSOR_CHANNELS, FaultEvent, apply_sensor_faults
+from slipnav.systems.perturbation_monitor import PERTURBATION_CHANNELS
 
 FAULT_DURATION = 0.5
 DETECTION_LIMIT = 0.1
@@ -188,7 +189,15 @@ def run_perturbation(job: dict) -> dict:
     result = run_scenario(load_scenario(job["scenario"]), seed=job["seed"], faults=[event])
     a = result.arrays
     flags = result.summary["sensor_health"]
+    caught = result.summary["perturbations"]
+    first = min((v["first_s"] for v in caught.values() if v["first_s"] >= job["start"]), default=math.nan)
     return {
+        "perturbation_latency_s": first - job["start"],
+        "perturbation_flags": " ".join(
+            f"{c}:{'+'.join(k for k in ('braked', 'driven') if v.get(k)) or 'flagged'}"
+            for c, v in caught.items()
+        )
+        or "none",
         "fused_error_m": final_position_error(a, "est"),
         "odometry_error_m": final_position_error(a, "odo"),
         "gyrodometry_error_m": final_position_error(a, "gyro"),
@@ -235,25 +244,34 @@ def faults(
 
 
 def print_perturbations(rows: list, stream) -> None:
-    """The perturbation table: final errors (fused, odometry-only, Gyrodometry), completion, flags."""
+    """The perturbation table: final errors (fused, odometry-only, Gyrodometry), completion, the
+    perturbation monitor's first flag after the onset (ms) and flags, the sensor flags; then a line
+    ``perturbations detected=<n>/<m> within_0.1s=<k>``."""
     print(
         f"{'scenario':10} {'seed':>4} {'perturbation':13} {'on':7} {'fused m':>8} {'odo m':>7} "
-        f"{'gyrodo m':>8} {'done':>5}  flags",
+        f"{'gyrodo m':>8} {'done':>5} {'flag ms':>7}  perturbation flags | sensor flags",
         file=stream,
     )
     for r in rows:
+        latency = r["perturbation_latency_s"]
+        shown = f"{1000 * latency:.0f}" if math.isfinite(latency) else "-"
         print(
             f"{r['scenario']:10} {r['seed']:>4} {r['kind']:13} {r['channel']:7} {r['fused_error_m']:8.4f} "
-            f"{r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} {str(r['completed']):>5}  "
-            f"{r['flags']}",
+            f"{r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} {str(r['completed']):>5} "
+            f"{shown:>7}  {r['perturbation_flags']} | {r['flags']}",
             file=stream,
         )
+    latencies = [r["perturbation_latency_s"] for r in rows]
+    detected = sum(math.isfinite(v) for v in latencies)
+    quick = sum(math.isfinite(v) and v <= 0.1 for v in latencies)
+    print(f"perturbations detected={detected}/{len(rows)} within_0.1s={quick}", file=stream)
 
 
 def clean_figures(a: dict) -> dict:
     """A fault-free run's flags (all false) and fused final error."""
     return {
-        "false_flags": sum(int(np.sum(a[f"health_{c}"] > 0)) for c in SENSOR_CHANNELS),
+        "false_flags": sum(int(np.sum(a[f"health_{c}"] > 0)) for c in SENSOR_CHANNELS)
+        + sum(int(np.sum(a[f"perturbation_{c}"] > 0)) for c in PERTURBATION_CHANNELS),
         "fused_error_m": final_position_error(a, "est"),
     }
 

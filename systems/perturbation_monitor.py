@@ -1,0 +1,250 @@
+"""Perturbations of the robot's motion: a wheel held, pushed or lifted, the body pushed (Indiveri et al.
+Fig. 5, "the robot was perturbed by hand"), flagged from what the robot itself knows: its own wheel
+commands, its encoders and the navigation's estimate.
+
+The sensor checks (systems/sensor_health.py) judge each sensor against the others; they cannot tell a
+wheel stopped by a hand from a robot that was commanded to stop. The commands can: every T_N,
+
+1. ``wheel_braked`` / ``wheel_driven`` (per wheel): the wheel's encoder speed leaves the band the speed
+   loop can follow (between the command and a reference that follows it at most at
+   reference_acceleration, so that a current-limited run-up or a commanded stop is in the band) by more
+   than speed_threshold + speed_fraction |command|, in a PT1 of time_constant: slower (held, blocked,
+   pushed back) or faster (pushed on). A stuck encoder reads as a braked wheel here too; the sensor checks
+   flag it as their own.
+2. ``yaw``: while both wheels are in their band, the body's yaw rate (the navigation's, the gyro's in a
+   turn) leaves the wheels' by more than yaw_threshold + yaw_fraction |omega_wheels| (PT1): a wheel off
+   the ground, or a push that turns the robot. The tyres' own slip in a hard turn (the odometric yaw rate
+   leads the gyro by 10-15 %) stays below it.
+3. ``body``: the lateral acceleration the navigation measures leaves the centripetal v_t omega by more
+   than lateral_threshold + lateral_per_speed |v_t| (PT1; the accelerometers' commotion grows with the
+   speed): a push from the side beyond what the tyres hold.
+
+A condition counts once it has held for confirm_samples; the flag then shows in the output (one sample
+later, as every state output). Thresholds: above the largest value in the fault-free built-in runs
+(corner, square, circle, long path), measured with studies/faults.py.
+
+What cannot be seen: a push the speed loop or the tyres absorb without the motion changing (a wheel
+pushed within the motor's authority, a push below the tyres' grip while driving straight) leaves no
+trace in these sensors; that is no error of the estimate either.
+"""
+
+import dataclasses as dc
+import math
+
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
+"""Output layout: [wheel_R, wheel_L, yaw, body]; a wheel's code is 1 braked, 2 driven; yaw, body 0/1."""
+PERTURBATION_CHANNELS = ("wheel_R", "wheel_L", "yaw", "body")
+WHEEL_BRAKED, WHEEL_DRIVEN = 1, 2
+
+
+@dc.dataclass
+class PerturbationParameters:
+    """Thresholds of the perturbation monitor (module docstring).
+
+    Args:
+        enabled: monitor (False: the output stays zero).
+        time_constant: PT1 of every residual (s): 0.02, one T_C.
+        confirm_samples: samples a condition must hold before it is flagged, in [1, 100].
+        reference_acceleration: the rate (m/s^2) at which the band's reference follows a command: a wheel
+            that accelerates at least this fast towards a new command is following it. 2.0: Kurt3D's
+            wheels accelerate at ~3 m/s^2 at their current limit.
+        speed_threshold, speed_fraction: a wheel outside its band by more than this (m/s, 1 of |command|).
+            Fault-free built-ins: at most 0.10 m/s.
+        yaw_threshold, yaw_fraction: the body's and the wheels' yaw rates differ by more than this (rad/s,
+            1 of the wheels' |omega|). Fault-free: at most 0.43 rad/s (corner) and Kurt3D's skid at 3.4 m/s
+            on the circle.
+        lateral_threshold, lateral_per_speed: |a_n - v_t omega| beyond this (m/s^2, m/s^2 per m/s).
+            Fault-free: 1.2 m/s^2 at 1.6 m/s (corner), 3.2 m/s^2 at 4 m/s (long path).
+    """
+
+    enabled: bool = True
+    time_constant: float = 0.02
+    confirm_samples: int = 5
+    reference_acceleration: float = 2.0
+    speed_threshold: float = 0.25
+    speed_fraction: float = 0.15
+    yaw_threshold: float = 1.2
+    yaw_fraction: float = 0.2
+    lateral_threshold: float = 1.5
+    lateral_per_speed: float = 0.5
+
+    def __post_init__(self):
+        positive = ("time_constant", "reference_acceleration", "speed_threshold", "yaw_threshold")
+        for name in positive + ("lateral_threshold",):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed (0, inf)")
+        for name in ("speed_fraction", "yaw_fraction", "lateral_per_speed"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed [0, inf)")
+        if int(self.confirm_samples) != self.confirm_samples or not 1 <= self.confirm_samples <= 100:
+            raise ValueError(
+                f"perturbation_monitor.confirm_samples={self.confirm_samples!r} is out of range: allowed 1 .. 100"
+            )
+
+    def validate(self) -> "PerturbationParameters":
+        self.__post_init__()
+        return self
+
+
+# State: reference (2), wheel residual PT1 (2), yaw PT1, lateral PT1, counts (4), last encoder (2),
+# flags (4).
+STATE_SIZE = 16
+_REF, _RES, _YAW, _LAT, _CNT, _ENC, _FLAGS = 0, 2, 4, 5, 6, 10, 12
+
+
+def perturbation_initial_state() -> list[float]:
+    state = [0.0] * STATE_SIZE
+    state[_ENC], state[_ENC + 1] = math.nan, math.nan
+    return state
+
+
+def perturbation_step(state, command, encoders, estimate, params, radii, track_width: float, T_N: float):
+    """One T_N update (module docstring).
+
+    Args:
+        state: perturbation_initial_state() layout.
+        command: the wheel speed commands [v_R, v_L] (m/s) in force.
+        encoders: the wheel angles [theta_R, theta_L] (rad) as read.
+        estimate: the navigation's mixed estimate [v_t, v_n, omega, a_t, a_n].
+        radii: the believed rolling radii (r_R, r_L) (m).
+
+    Returns:
+        the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
+    """
+    s = [float(v) for v in state]
+    if not params.enabled:
+        return s
+    a = math.exp(-T_N / params.time_constant)
+    expected, outside = [0.0, 0.0], [0, 0]
+    step = params.reference_acceleration * T_N
+    for w in range(2):
+        cmd = float(command[w])
+        s[_REF + w] = min(max(cmd, s[_REF + w] - step), s[_REF + w] + step)
+        low, high = min(cmd, s[_REF + w]), max(cmd, s[_REF + w])
+        theta, last = float(encoders[w]), s[_ENC + w]
+        if math.isfinite(theta) and math.isfinite(last):
+            speed = (theta - last) * radii[w] / T_N
+            expected[w] = min(max(speed, low), high)
+            s[_RES + w] = a * s[_RES + w] + (1.0 - a) * (speed - expected[w])
+        else:  # a missing sample, the first after it (it spans the gap) and the very first: the
+            expected[w] = cmd  # residual holds, the wheel taken as commanded
+        s[_ENC + w] = theta
+        bound = params.speed_threshold + params.speed_fraction * max(abs(low), abs(high))
+        sign = 1.0 if high > 0.0 else (-1.0 if low < 0.0 else 0.0)
+        residual = s[_RES + w]
+        if sign == 0.0:  # commanded to stand: any motion beyond the bound is driven
+            outside[w] = WHEEL_DRIVEN if abs(residual) > bound else 0
+        elif residual * sign < -bound:
+            outside[w] = WHEEL_BRAKED
+        elif residual * sign > bound:
+            outside[w] = WHEEL_DRIVEN
+    omega_wheels = (expected[0] - expected[1]) / track_width
+    v_t, omega, a_n = float(estimate[0]), float(estimate[2]), float(estimate[4])
+    s[_YAW] = a * s[_YAW] + (1.0 - a) * (omega - omega_wheels)
+    s[_LAT] = a * s[_LAT] + (1.0 - a) * (a_n - v_t * omega)
+    yaw_bound = params.yaw_threshold + params.yaw_fraction * abs(omega_wheels)
+    lateral_bound = params.lateral_threshold + params.lateral_per_speed * abs(v_t)
+    conditions = (
+        outside[0],
+        outside[1],
+        1 if not any(outside) and abs(s[_YAW]) > yaw_bound else 0,
+        1 if abs(s[_LAT]) > lateral_bound else 0,
+    )
+    for j, condition in enumerate(conditions):
+        s[_CNT + j] = s[_CNT + j] + 1.0 if condition else 0.0
+        s[_FLAGS + j] = float(condition) if s[_CNT + j] >= params.confirm_samples else 0.0
+    return s
+
+
+class PerturbationMonitor(LeafSystem):
+    """Flags a wheel held, pushed or lifted and a push on the body (module docstring).
+
+    .. pydrake_system::
+
+        name: PerturbationMonitor
+        input_ports:
+        - wheel_speed_command
+        - encoders
+        - mixed_estimate
+        output_ports:
+        - perturbation
+
+    - wheel_speed_command: the commands [v_R, v_L] (m/s) the motors get.
+    - encoders: the wheel angles [theta_R, theta_L] (rad) the navigation reads.
+    - mixed_estimate: the navigation's [v_t, v_n, omega, a_t, a_n].
+    - perturbation: [wheel_R, wheel_L, yaw, body] (state): a wheel 1 braked, 2 driven; yaw and body 1
+      when flagged.
+
+    Update every T_N: perturbation_step.
+
+    Args:
+        params: PerturbationParameters. radii: the believed rolling radii (r_R, r_L) (m). track_width: the
+            believed track (m). T_N: period (s).
+    """
+
+    def __init__(self, params: PerturbationParameters, radii, track_width: float, T_N: float):
+        super().__init__()
+        self._p = params.validate()
+        self._radii, self._b, self._T_N = (float(radii[0]), float(radii[1])), float(track_width), T_N
+        self._command = self.DeclareVectorInputPort("wheel_speed_command", 2)
+        self._encoders = self.DeclareVectorInputPort("encoders", 2)
+        self._estimate = self.DeclareVectorInputPort("mixed_estimate", 5)
+        self._state = self.DeclareDiscreteState(perturbation_initial_state())
+        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
+        self.DeclareVectorOutputPort(
+            "perturbation",
+            BasicVector(4),
+            lambda c, o: o.SetFromVector(c.get_discrete_state(self._state).get_value()[_FLAGS:]),
+            prerequisites_of_calc={self.xd_ticket()},
+        )
+
+    def _update(self, context, discrete_state):
+        discrete_state.set_value(
+            self._state,
+            perturbation_step(
+                context.get_discrete_state(self._state).get_value(),
+                self._command.Eval(context),
+                self._encoders.Eval(context),
+                self._estimate.Eval(context),
+                self._p,
+                self._radii,
+                self._b,
+                self._T_N,
+            ),
+        )
+
+
+def add_perturbation_monitor(builder, params, command_port, encoders_port, navigation, robot, T_N):
+    """Add a PerturbationMonitor reading ``command_port``, ``encoders_port`` and the navigation
+    subsystem's mixed estimate; returns its output port."""
+    monitor = builder.AddSystem(
+        PerturbationMonitor(params, (robot.radius_R, robot.radius_L), robot.track_width, T_N)
+    )
+    monitor.set_name("Perturbation monitor")
+    builder.Connect(command_port, monitor.GetInputPort("wheel_speed_command"))
+    builder.Connect(encoders_port, monitor.GetInputPort("encoders"))
+    builder.Connect(navigation.GetOutputPort("mixed_estimate"), monitor.GetInputPort("mixed_estimate"))
+    return monitor.GetOutputPort("perturbation")
+
+
+def perturbation_report(t, arrays: dict) -> dict:
+    """Per flagged channel of a run (``arrays[f"perturbation_{channel}"]``): the first flagged time (s),
+    the flagged samples and, for a wheel, the samples braked and driven."""
+    import numpy as np
+
+    report = {}
+    for channel in PERTURBATION_CHANNELS:
+        codes = np.asarray(arrays[f"perturbation_{channel}"])
+        flagged = np.flatnonzero(codes > 0)
+        if len(flagged) == 0:
+            continue
+        entry = {"first_s": float(t[flagged[0]]), "samples": int(len(flagged))}
+        if channel.startswith("wheel"):
+            entry["braked"] = int(np.sum(codes == WHEEL_BRAKED))
+            entry["driven"] = int(np.sum(codes == WHEEL_DRIVEN))
+        report[channel] = entry
+    return report

@@ -1,0 +1,141 @@
+"""The perturbation monitor (systems/perturbation_monitor.py): each flag from scripted commands,
+encoders and estimates by hand, the LeafSystem as the pure function, and on the closed loop a held
+wheel flagged while the fault-free run stays clean."""
+
+import math
+
+import numpy as np
+import pytest
+from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml
+from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.faults import FaultEvent
+from slipnav.systems.perturbation_monitor import (
+    WHEEL_BRAKED,
+    WHEEL_DRIVEN,
+    PerturbationMonitor,
+    PerturbationParameters,
+    perturbation_initial_state,
+    perturbation_step,
+)
+
+T_N, R, B = 0.002, 0.015, 0.068
+P = PerturbationParameters()
+
+
+def drive(n, command, speeds, estimate=(0.0, 0.0, 0.0, 0.0, 0.0), state=None, theta=(0.0, 0.0)):
+    """n samples with constant command and wheel speeds (m/s); returns (flag rows, state, angles)."""
+    state = state or perturbation_initial_state()
+    theta, rows = list(theta), []
+    for _ in range(n):
+        state = perturbation_step(state, command, theta, estimate, P, (R, R), B, T_N)
+        rows.append(state[-4:])
+        theta = [theta[w] + speeds[w] * T_N / R for w in range(2)]
+    return np.array(rows), state, theta
+
+
+def test_a_wheel_following_its_command_is_not_flagged():
+    rows, _, _ = drive(500, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 0.0))
+    assert not rows.any()
+
+
+def test_a_held_wheel_is_braked_within_the_pt1_and_confirm_time():
+    """The residual's PT1 (20 ms) reaches the bound 0.25 + 0.15 * 1.0 = 0.4 m/s of a 1 m/s deficit after
+    ln(0.6) / ln(exp(-0.1)) = 5.1 -> 6 samples, then 5 samples to confirm, the flag one sample later."""
+    _, state, theta = drive(300, (1.0, 1.0), (1.0, 1.0))  # the reference has reached the command
+    rows, _, _ = drive(30, (1.0, 1.0), (0.0, 1.0), state=state, theta=theta)
+    first = int(np.argmax(rows[:, 0] > 0))
+    assert rows[first, 0] == WHEEL_BRAKED and not rows[:, 1].any() and not rows[:, 2].any()
+    expected = math.ceil(math.log(1 - 0.4 / 1.0) / (-T_N / P.time_constant)) + P.confirm_samples
+    assert first in (expected - 1, expected, expected + 1)
+
+
+def test_a_pushed_wheel_is_driven_and_a_wheel_moving_against_a_stop_command_too():
+    _, state, theta = drive(300, (1.0, 1.0), (1.0, 1.0))  # the reference has reached the command
+    rows, _, _ = drive(40, (1.0, 1.0), (1.0, 1.8), state=state, theta=theta)
+    assert rows[-1, 1] == WHEEL_DRIVEN and not rows[:, 0].any()
+    rows, _, _ = drive(40, (0.0, 0.0), (0.0, 0.5))
+    assert rows[-1, 1] == WHEEL_DRIVEN
+
+
+def test_a_current_limited_run_up_is_in_the_band():
+    """A command step 0 -> 3 m/s followed at 2.5 m/s^2 (above reference_acceleration): never flagged;
+    followed at 1 m/s^2 it falls behind the band's reference and is braked."""
+    state, theta, flags = perturbation_initial_state(), [0.0, 0.0], []
+    for k in range(1000):
+        v = min(2.5 * k * T_N, 3.0)
+        state = perturbation_step(state, (3.0, 3.0), theta, (v, 0, 0, 0, 0), P, (R, R), B, T_N)
+        flags.append(state[-4:])
+        theta = [t + v * T_N / R for t in theta]
+    assert not np.any(flags)
+    state, theta, flags = perturbation_initial_state(), [0.0, 0.0], []
+    for k in range(1000):
+        v = min(1.0 * k * T_N, 3.0)
+        state = perturbation_step(state, (3.0, 3.0), theta, (v, 0, 0, 0, 0), P, (R, R), B, T_N)
+        flags.append(state[-4:])
+        theta = [t + v * T_N / R for t in theta]
+    assert np.array(flags)[:, 0].max() == WHEEL_BRAKED
+
+
+def test_yaw_flag_on_a_turn_the_wheels_do_not_make_but_not_on_a_turns_understeer():
+    straight = (1.0, 1.0)
+    rows, _, _ = drive(60, straight, straight, (1.0, 0.0, 2.0, 0.0, 0.0))  # 2 rad/s > 1.2
+    assert rows[-1, 2] == 1 and not rows[:, :2].any()
+    turning = (1.0 + 0.5 * B * 4.0, 1.0 - 0.5 * B * 4.0)  # the wheels say 4 rad/s
+    rows, _, _ = drive(200, turning, turning, (1.0, 0.0, 3.4, 0.0, 3.4))  # 15 % understeer, a_n = v omega
+    assert not rows.any()
+
+
+def test_body_flag_on_a_lateral_acceleration_beyond_the_centripetal():
+    rows, _, _ = drive(60, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 2.5))  # bound 1.5 + 0.5 * 1
+    assert rows[-1, 3] == 1
+    rows, _, _ = drive(200, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8))
+    assert not rows.any()
+
+
+def test_missing_encoder_samples_hold_the_residual():
+    _, state, theta = drive(300, (1.0, 1.0), (1.0, 1.0))  # the reference has reached the command
+    for _ in range(50):
+        state = perturbation_step(state, (1.0, 1.0), (math.nan, theta[1]), (1, 0, 0, 0, 0), P, (R, R), B, T_N)
+        theta[1] += 1.0 * T_N / R
+    assert state[-4:] == [0.0, 0.0, 0.0, 0.0]
+    theta[0] += 50 * T_N / R  # the wheel turned meanwhile: its next increment spans the gap, not used
+    rows, _, _ = drive(30, (1.0, 1.0), (1.0, 1.0), (1.0, 0, 0, 0, 0), state=state, theta=theta)
+    assert not rows.any()
+
+
+def test_system_matches_the_pure_function():
+    system = PerturbationMonitor(P, (R, R), B, T_N)
+    context = system.CreateDefaultContext()
+    system.GetInputPort("wheel_speed_command").FixValue(context, [1.0, 1.0])
+    system.GetInputPort("encoders").FixValue(context, [0.3, 0.2])
+    system.GetInputPort("mixed_estimate").FixValue(context, [1.0, 0.0, 0.5, 0.0, 3.0])
+    state = perturbation_initial_state()
+    for _ in range(3):
+        update = system.EvalUniquePeriodicDiscreteUpdate(context)
+        context.SetDiscreteState(update.value())
+        state = perturbation_step(state, [1.0, 1.0], [0.3, 0.2], [1.0, 0.0, 0.5, 0.0, 3.0], P, (R, R), B, T_N)
+    np.testing.assert_array_equal(context.get_discrete_state_vector().value(), state)
+    np.testing.assert_array_equal(system.GetOutputPort("perturbation").Eval(context), state[-4:])
+
+
+def test_bad_thresholds_name_the_key():
+    with pytest.raises(ValueError, match=r"perturbation_monitor.yaw_threshold=0.0 is out of range"):
+        PerturbationParameters(yaw_threshold=0.0)
+    with pytest.raises(ScenarioError, match=r"perturbation_monitor.confirm_samples=0 is out of range"):
+        scenario_from_yaml(
+            "trajectory: {segments: [!Straight {length: 0.5, v_peak: 0.5}]}\n"
+            "perturbation_monitor: {confirm_samples: 0}\n"
+        )
+
+
+def test_closed_loop_held_wheel_flagged_and_fault_free_run_clean():
+    """Corner, the right wheel held 0.5 s from 2 s (the benchmark's perturbation): braked within 0.1 s;
+    the fault-free run raises no perturbation flag."""
+    scenario = load_scenario("corner")
+    clean = run_scenario(scenario, seed=1)
+    assert clean.summary["perturbations"] == {}
+    held = run_scenario(scenario, seed=1, faults=[FaultEvent("wheel_held", "wheel_R", 2.0, 0.5)])
+    caught = held.summary["perturbations"]
+    assert "wheel_R" in caught and caught["wheel_R"]["braked"] > 0
+    assert 2.0 <= caught["wheel_R"]["first_s"] <= 2.1
+    assert "wheel_L" not in caught
