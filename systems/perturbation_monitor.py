@@ -82,7 +82,8 @@ class PerturbationParameters:
                 raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed [0, inf)")
         if int(self.confirm_samples) != self.confirm_samples or not 1 <= self.confirm_samples <= 100:
             raise ValueError(
-                f"perturbation_monitor.confirm_samples={self.confirm_samples!r} is out of range: allowed 1 .. 100"
+                f"perturbation_monitor.confirm_samples={self.confirm_samples!r} is out of range: "
+                "allowed 1 .. 100"
             )
 
     def validate(self) -> "PerturbationParameters":
