@@ -11,9 +11,19 @@ still for STANDSTILL_PREFIX seconds, so that every log carries its own gyro and 
   the corners) and straight runs there and back, each final pose measured by hand (sigma POSITION_STD,
   HEADING_STD): with the spot turns' headings, each wheel's rolling radius and the track width, by
   nonlinear least squares of the encoders' dead reckoning against the measured poses;
+- spins (SPIN_SEGMENTS spot turns of 1.5 revolutions at SPIN_RATE of the gyro's range, alternately both
+  ways, SPIN_PAUSE s held still after each): each accelerometer's scale error and misalignment, its
+  de-biased reading (biases piecewise linear through the pauses) against the centripetal omega^2 p of
+  the steady spin (gyro, calibrated; nominal mounting position p) (identify_accelerometers); the spot
+  turns above join them;
 - slowly tightening circles (two left, two right) at constant speed into the friction limit: the tyres'
-  peak acceleration a_peak, the mean of the tops of parabolas fitted to the tyres' force per unit mass
-  around its maximum (identify_peak_acceleration), its standard error from the four runs' scatter.
+  peak acceleration a_peak, the median of the tops of parabolas fitted to the tyres' force per unit mass
+  (accelerometers corrected with their identified scale and misalignment) around its maximum
+  (identify_peak_acceleration), its standard error from the four runs' scatter;
+- coasting runs (COAST_RUNS): straight to 1 m/s, then the motors switched off (the plant's motor_enable
+  input), the robot rolls out on its felt shoes: the drag per unit mass the navigation's mixing uses
+  (drag_acceleration + drag_per_speed |v|), from the distance rolled (identify_drag; the wheels' inertia
+  and bearing drag of the data sheet taken off).
 
 Every fit is ``scipy.optimize.least_squares`` on residuals weighted by their standard deviations; the
 standard errors come from its Jacobian, (J^T J)^-1 scaled by max(1, chi^2 / dof).
@@ -24,7 +34,10 @@ takes the "hand measurements" from the true final poses plus noise of the stated
 from the logs: nothing of the plant is read but through them. The true values are reported beside the
 identified ones only to judge the identification.
 
-Not identified (README.md: Calibration): the accelerometers' scale and misalignment and the drag.
+Not identified (README.md: Calibration): the accelerometers' mounting position (the nominal one is
+used), the wheels' inertia and bearing drag (data sheet), the tyres' shape factors. The stated standard
+errors of the drag (encoder quantisation and the two runs' scatter) and of a_peak (the spirals' scatter)
+understate their systematic errors (README.md: Calibration).
 """
 
 from __future__ import annotations
@@ -483,7 +496,8 @@ def identify_peak_acceleration(
     tyres' force per unit mass on the friction circle, |m a - F_shoes| / m: a the de-biased mean of the
     two accelerometers (free of the rotational terms), the shoes' force (nominal shoes) at the body
     velocity from odometry (v_t), gyro (omega) and v_n integrated from dv_n/dt = a_n - v_t omega. This
-    is the quantity the navigation compares with a_peak (mixing.combined_slip)."""
+    is the quantity the navigation compares with a_peak (mixing.combined_slip). ``accel``: the identified
+    (s1, gamma1, s2, gamma2) that correct_accelerometers takes off the readings (None: taken as perfect)."""
     bias, _ = standstill_biases(m.log, STANDSTILL_PREFIX, T_N)
     start = int(round(STANDSTILL_PREFIX / T_N))
     acc = (m.log.accelerometers - bias[1:])[start:]

@@ -7,7 +7,17 @@ import numpy as np
 import pytest
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.model import load_model
-from slipnav.studies.calibration import allan_deviation, compare, simulated_calibration
+from slipnav.scenarios.sensor_log import SensorLog
+from slipnav.studies.calibration import (
+    Manoeuvre,
+    allan_deviation,
+    compare,
+    correct_accelerometers,
+    identify_drag,
+    simulated_calibration,
+)
+from slipnav.systems.plant import tinyphoon
+from slipnav.systems.sensors import SensorParameters, sensor_frame
 
 
 @pytest.fixture(scope="module", params=[3, 7])
@@ -102,3 +112,56 @@ def test_kurt3d_calibrates_too():
         assert abs(errors[key][2]) < target, (key, errors[key])
     assert abs(errors["gyro_scale_error"][2]) < 0.002
     assert math.isfinite(calibration.values["tyre_peak_acceleration"])
+
+
+def test_correct_accelerometers_inverts_the_sensor_frame():
+    """By hand: sensors.sensor_frame scales and turns the true readings; correct_accelerometers with the
+    same (s1, gamma1, s2, gamma2) gives them back."""
+    params = SensorParameters(
+        accel1_scale_error=0.02,
+        accel2_scale_error=-0.015,
+        accel1_misalignment=0.017,
+        accel2_misalignment=-0.01,
+    )
+    truth = [1.0, -0.5, 0.25, 2.0]
+    read = np.array([sensor_frame(truth, params)])
+    # a turn of +gamma: the t axis reads sin(gamma) of a lateral n, the n axis -sin(gamma) of a tangential t
+    assert read[0, 0] == pytest.approx(1.02 * (math.cos(0.017) * 1.0 + math.sin(0.017) * -0.5))
+    back = correct_accelerometers(read, (0.02, 0.017, -0.015, -0.01))
+    np.testing.assert_allclose(back[0], truth, atol=1e-12)
+
+
+def _synthetic_coast(robot, d0, d1, v0, T_N=0.002, counts=6144):
+    """A coasting log by hand: 0.5 s at v0, then m_eff dv/dt = -(m (d0 + d1 v) + 2 b_w v / r^2) to rest,
+    both wheels rolling on the nominal radius, encoders quantised."""
+    r = robot.wheel_radius
+    m_eff = robot.mass + 2.0 * robot.wheel_inertia / r**2
+    A = robot.mass * d0 / m_eff
+    B = (robot.mass * d1 + 2.0 * robot.bearing_drag / r**2) / m_eff
+    t = np.arange(int(4.0 / T_N)) * T_N
+    t_off = 0.5
+    tau = np.maximum(t - t_off, 0.0)
+    t_stop = math.log(1.0 + B * v0 / A) / B
+    s = v0 * np.minimum(t, t_off)
+    rolled = (v0 + A / B) * (-np.expm1(-B * np.minimum(tau, t_stop))) / B - A / B * np.minimum(tau, t_stop)
+    theta = (s + rolled) / r
+    enc = np.floor(theta / (2.0 * math.pi / counts))
+    zeros = np.zeros_like(t)
+    columns = {"t": t, "gyro": zeros, "enc_R": enc, "enc_L": enc}
+    columns.update({k: zeros for k in ("acc1_t", "acc1_n", "acc2_t", "acc2_n")})
+    return Manoeuvre("coast", SensorLog(columns=columns), speed=v0, motors_off=(t_off, 4.0))
+
+
+def test_drag_fit_recovers_a_synthetic_roll_out_within_its_standard_error():
+    """identify_drag on two roll-outs computed by hand (the wheels' inertia and bearing drag of the nominal
+    robot acting, encoders quantised) recovers the drag per unit mass put in, within 3 standard errors and
+    0.5 %."""
+    robot = tinyphoon()
+    d0, d1 = 0.6, 0.18
+    runs = [_synthetic_coast(robot, d0, d1, v0) for v0 in (1.0, 0.8)]
+    r = robot.wheel_radius
+    values, errors, _ = identify_drag(runs, 0.002, robot, (r, r, robot.track_width), 6144)
+    for value, error, true in zip(values, errors, (d0, d1), strict=True):
+        assert abs(value - true) < 3.0 * error and abs(value / true - 1.0) < 0.005, (value, error, true)
+    with pytest.raises(ValueError, match="coasting run"):
+        identify_drag(runs[:0], 0.002, robot, (r, r, robot.track_width), 6144)
