@@ -11,11 +11,11 @@ still for STANDSTILL_PREFIX seconds, so that every log carries its own gyro and 
   the corners) and straight runs there and back, each final pose measured by hand (sigma POSITION_STD,
   HEADING_STD): with the spot turns' headings, each wheel's rolling radius and the track width, by
   nonlinear least squares of the encoders' dead reckoning against the measured poses;
-- spins (SPIN_SEGMENTS spot turns of 1.5 revolutions at SPIN_RATE of the gyro's range, alternately both
+- spins (SPIN_SEGMENTS spot turns of one revolution at SPIN_RATE of the gyro's range, alternately both
   ways, SPIN_PAUSE s held still after each): each accelerometer's scale error and misalignment, its
   de-biased reading (biases piecewise linear through the pauses) against the centripetal omega^2 p of
-  the steady spin (gyro, calibrated; nominal mounting position p) (identify_accelerometers); the spot
-  turns above join them;
+  the steady spin (gyro, calibrated; nominal mounting position p), one fit per segment, their mean and
+  scatter (identify_accelerometers);
 - slowly tightening circles (two left, two right) at constant speed into the friction limit: the tyres'
   peak acceleration a_peak, the median of the tops of parabolas fitted to the tyres' force per unit mass
   (accelerometers corrected with their identified scale and misalignment) around its maximum
@@ -74,8 +74,8 @@ SPIRAL_DIRECTIONS = (1, -1, 1, -1)
 SPIN_RATE = 0.85
 """The accelerometers' spins turn at this fraction of the gyro's 300 deg/s range (Tinyphoon: 4.45 rad/s, a
 centripetal 0.5 m/s^2 at accelerometer 1's 25 mm)."""
-SPIN_SEGMENTS = 8
-SPIN_PAUSE = 0.6
+SPIN_SEGMENTS = 16
+SPIN_PAUSE = 0.8
 """s held still after each spin segment."""
 COAST_RUNS = 2
 """Coasting runs (motors switched off at speed, the robot rolls out on its shoes)."""
@@ -163,13 +163,13 @@ def spiral_rows(speed: float, a_limit: float, track: float, T_C: float, turn_tim
 
 
 def spin_rows(robot, T_C: float, segments: int = SPIN_SEGMENTS) -> np.ndarray:
-    """Spot turns of 1.5 revolutions at SPIN_RATE of the gyro's range, alternately counter-clockwise and
+    """Spot turns of one revolution at SPIN_RATE of the gyro's range, alternately counter-clockwise and
     clockwise, each followed by SPIN_PAUSE s held still (the accelerometers' biases between them)."""
     b = robot.track_width
     wheel = SPIN_RATE * math.radians(300.0) * b / 2.0
     rows = []
     for j in range(segments):
-        rows += [spot_turn_rows((-1) ** j * 3.0 * math.pi, b, wheel, 2.0, T_C), _still(SPIN_PAUSE, T_C)]
+        rows += [spot_turn_rows((-1) ** j * 2.0 * math.pi, b, wheel, 2.0, T_C), _still(SPIN_PAUSE, T_C)]
     return np.vstack(rows)
 
 
@@ -600,9 +600,10 @@ def accelerometer_predictions(kinematics: np.ndarray, position) -> np.ndarray:
     return np.column_stack([a_t + dt, a_n + dn, a_t - dt, a_n - dn])
 
 
-ACCEL_KINDS = ("spin", "spot_turn")
+ACCEL_KINDS = ("spin",)
 """Manoeuvres that scale the accelerometers: steady spins, whose centripetal omega^2 p the gyro gives
-exactly. Not the straights' launches: the simulated accelerometers sample the body's acceleration at the
+exactly. Not the gyro's slower spot turns (0.25 m/s^2 over 6 s: the biases' drift counts 4 x as much).
+Not the straights' launches: the simulated accelerometers sample the body's acceleration at the
 instants of the 1 kHz speed loop's voltage steps (no anti-aliasing filter), a sawtooth of the T_C command
 steps whose samples read ~5 % below its mean; nor the spirals, which slide sideways unseen by the
 encoders."""
@@ -617,15 +618,15 @@ def identify_accelerometers(manoeuvres, T_N: float, robot, geometry, gyro_scale:
     """Each accelerometer's scale error s and misalignment gamma: its de-biased reading z' = t' + i n'
     against the prediction z = t + i n from the encoders and the gyro (body_kinematics,
     accelerometer_predictions; nominal mounting position), z' = (1 + s) exp(-i gamma) z (systems.sensors.
-    sensor_frame), by least squares over ACCEL_WINDOW block means of the spot turns (centripetal
-    omega^2 |p| ~ 2 m/s^2 on Tinyphoon, no commotion at v_t = 0), straights and squares (a_t from the
-    encoders: gamma shows as n' = -(1 + s) sin(gamma) a_t). Each manoeuvre's residuals are weighted by
-    their own scatter (a first unweighted pass), so that the straights' commotion counts for what it is.
+    sensor_frame), by least squares over the ACCEL_WINDOW block means of each steady spin segment of the
+    ACCEL_KINDS runs (a segment: the blocks between two pauses). The biases' drift between the pauses
+    (piecewise linear, _bias_line) errs by the same amount over a whole segment, so each segment is fitted
+    on its own and the estimate is the segments' mean, its standard error their scatter / sqrt(count).
 
-    Returns ((s1, gamma1, s2, gamma2), their standard errors, chi^2/dof of each accelerometer's fit)."""
+    Returns ((s1, gamma1, s2, gamma2), their standard errors, the segments' estimates (K, 4))."""
     n = max(int(round(ACCEL_WINDOW / T_N)), 1)
     skip = int(round(STANDSTILL_PREFIX / T_N))
-    blocks = []
+    segments = []
     for m in manoeuvres:
         if m.kind not in ACCEL_KINDS:
             continue
@@ -636,30 +637,26 @@ def identify_accelerometers(manoeuvres, T_N: float, robot, geometry, gyro_scale:
         omega, omega_dot = _box(kin[skip:, 1], n), np.abs(_box(kin[skip:, 4], n))
         good = np.all(np.isfinite(predicted), axis=1) & np.all(np.isfinite(read), axis=1)
         good &= (omega_dot < ACCEL_STEADY) & (np.abs(omega) > 0.5 * np.nanmax(np.abs(omega)))
-        blocks.append((predicted[good], read[good]))
-    values, errors, chi2s = [], [], []
-    for i in range(2):
-        z = [p[:, 2 * i] + 1j * p[:, 2 * i + 1] for p, _ in blocks]
-        zr = [r[:, 2 * i] + 1j * r[:, 2 * i + 1] for _, r in blocks]
-        sigma = [1.0] * len(blocks)
-        for _ in range(2):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], good.astype(int), [0]])))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            if b - a >= 4:
+                segments.append((predicted[a:b], read[a:b]))
+    if len(segments) < 2:
+        raise ScenarioError("calibration needs at least two steady spin segments for the accelerometers")
+    estimates = np.empty((len(segments), 4))
+    for j, (p, r) in enumerate(segments):
+        for i in range(2):
+            z, zr = p[:, 2 * i] + 1j * p[:, 2 * i + 1], r[:, 2 * i] + 1j * r[:, 2 * i + 1]
 
-            def residuals(p, z=z, zr=zr, sigma=sigma):
-                k = (1.0 + p[0]) * np.exp(-1j * p[1])
-                out = [(b - k * a) / s for a, b, s in zip(z, zr, sigma, strict=True)]
-                e = np.concatenate(out)
+            def residuals(q, z=z, zr=zr):
+                e = zr - (1.0 + q[0]) * np.exp(-1j * q[1]) * z
                 return np.concatenate([e.real, e.imag])
 
-            x, se, chi2 = _fit(residuals, [0.0, 0.0])
-            k = (1.0 + x[0]) * np.exp(-1j * x[1])
-            sigma = [
-                max(float(np.sqrt(np.mean(np.abs(b - k * a) ** 2) / 2.0)), 1e-6)
-                for a, b in zip(z, zr, strict=True)
-            ]
-        values += [float(x[0]), float(x[1])]
-        errors += [float(se[0]), float(se[1])]
-        chi2s.append(chi2)
-    return np.array(values), np.array(errors), chi2s
+            x, _, _ = _fit(residuals, [0.0, 0.0])
+            estimates[j, 2 * i : 2 * i + 2] = x
+    values = estimates.mean(axis=0)
+    errors = estimates.std(axis=0, ddof=1) / math.sqrt(len(segments))
+    return values, errors, estimates
 
 
 def correct_accelerometers(acc: np.ndarray, values) -> np.ndarray:
@@ -772,7 +769,7 @@ def calibrate(manoeuvres: list[Manoeuvre], robot_name: str, base: RobotModel | N
     scale, scale_se = identify_gyro_scale(manoeuvres, T_N, still["gyro_white_noise_std"])
     (r_R, r_L, b), (se_R, se_L, se_b), chi2 = identify_geometry(manoeuvres, robot, counts, T_N)
     position = base.sensor_parameters().accelerometer_position
-    accel, accel_se, accel_chi2 = identify_accelerometers(
+    accel, accel_se, accel_segments = identify_accelerometers(
         manoeuvres, T_N, robot, (r_R, r_L, b), scale, counts, position
     )
     drag, drag_se, drag_chi2 = identify_drag(manoeuvres, T_N, robot, (r_R, r_L, b), counts)
@@ -857,7 +854,7 @@ def calibrate(manoeuvres: list[Manoeuvre], robot_name: str, base: RobotModel | N
     )
     details = {
         "geometry_chi2_per_dof": chi2,
-        "accelerometer_chi2_per_dof": accel_chi2,
+        "accelerometer_segments": accel_segments,
         "drag_chi2_per_dof": drag_chi2,
         "peaks": peaks,
         "allan_tau": still["allan_tau"],
