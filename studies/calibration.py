@@ -93,7 +93,7 @@ class Manoeuvre:
     """One calibration run: its sensor log, what was measured by hand, and how it was driven.
 
     Args:
-        kind: ``standstill``, ``spot_turn``, ``straight``, ``square``, ``spiral``.
+        kind: ``standstill``, ``spot_turn``, ``straight``, ``square``, ``spin``, ``spiral``, ``coast``.
         log: the sensor log.
         measured_pose: the hand-measured final pose (x, y, phi) relative to the start pose (phi unwrapped:
             the whole revolutions are counted, the remainder measured), or None.
@@ -762,7 +762,7 @@ def calibrate(manoeuvres: list[Manoeuvre], robot_name: str, base: RobotModel | N
     T_N = base.T_N
     counts = base.sensor_parameters().encoder_counts_per_revolution
     kinds = {m.kind for m in manoeuvres}
-    missing = {"standstill", "spot_turn", "straight", "square", "spiral", "coast"} - kinds
+    missing = {"standstill", "spot_turn", "straight", "square", "spin", "spiral", "coast"} - kinds
     if missing:
         raise ScenarioError(f"calibration needs the manoeuvres {sorted(missing)}: allowed a complete set")
     still = identify_standstill(next(m for m in manoeuvres if m.kind == "standstill"), T_N)

@@ -50,15 +50,51 @@ def test_gyro_scale_and_bias_are_recovered(calibrated):
     )
 
 
-def test_peak_acceleration_within_six_percent(calibrated):
-    """a_peak = mu g f_w = 5.49 m/s^2. Not met (README: Calibration): the issue's 5 % on every seed (10
-    seeds: -5.2 % .. +5.3 %) and "within its standard error" (the four spirals' scatter understates the
-    lumped tyre model's error); this test holds what is reached, 6 %."""
+def test_peak_acceleration_within_five_percent(calibrated):
+    """a_peak = mu g f_w = 5.49 m/s^2 within the issue's 5 % (10 seeds: README, Calibration). Its stated
+    standard error (the four spirals' scatter) is not asserted: the lumped tyre model reads ~1 % low on
+    every seed, which no scatter shows."""
     calibration, truth = calibrated
     value, true, error, _ = compare(calibration, truth)["tyre_peak_acceleration"]
     assert true == pytest.approx(0.7 * 9.81 * 0.8)
-    assert abs(error) < 0.06
+    assert abs(error) < 0.05
     assert calibration.model.navigation.mixing.tyre_peak_acceleration == value
+
+
+def test_accelerometer_scale_and_misalignment_are_recovered(calibrated):
+    """Each accelerometer's scale error and misalignment from the spins, within 4 standard errors (the
+    spin segments' scatter) and the bounds the 10 seeds reach (README, Calibration): scale 1 % (the
+    issue's 0.5 % is not met on every seed), misalignment 0.6 deg (the issue's 0.1 deg is not met). The
+    written model carries them."""
+    calibration, truth = calibrated
+    errors = compare(calibration, truth)
+    for i in (1, 2):
+        _, true_scale, scale_error, z_scale = errors[f"accel{i}_scale_error"]
+        _, true_angle, angle_error, z_angle = errors[f"accel{i}_misalignment"]
+        assert abs(scale_error) < 0.01 and abs(z_scale) < 4.0, (i, scale_error, z_scale)
+        assert abs(angle_error) < 0.6 and abs(z_angle) < 4.0, (i, angle_error, z_angle)
+        assert getattr(calibration.model.calibration, f"accel{i}_scale_error") == pytest.approx(
+            calibration.values[f"accel{i}_scale_error"]
+        )
+        assert getattr(calibration.model.calibration, f"accel{i}_misalignment") == pytest.approx(
+            calibration.values[f"accel{i}_misalignment"]
+        )
+    # the tolerance draw really moved them (not the nominal zeros back)
+    assert max(abs(truth["accel1_scale_error"]), abs(truth["accel2_scale_error"])) > 0.005
+
+
+def test_drag_from_coasting_is_recovered(calibrated):
+    """drag_acceleration and drag_per_speed from the coasting runs against the true shoes' mu_s (1 - f_w) g
+    and 2 c / m (mixing.py's 0.49, 0.25) within 0.5 % (10 seeds: 0.2 %); their stated standard errors
+    (encoder quantisation, the runs' scatter) are far smaller and not asserted. The model's mixing reads
+    them."""
+    calibration, truth = calibrated
+    errors = compare(calibration, truth)
+    assert truth["drag_acceleration"] == pytest.approx(0.25 * 0.2 * 9.81)
+    assert truth["drag_per_speed"] == pytest.approx(2 * 0.05 / 0.4)
+    for key in ("drag_acceleration", "drag_per_speed"):
+        assert abs(errors[key][2]) < 0.005, (key, errors[key])
+        assert getattr(calibration.model.navigation.mixing, key) == pytest.approx(calibration.values[key])
 
 
 def test_allan_deviation_of_white_noise_falls_as_one_over_root_tau():
@@ -71,11 +107,28 @@ def test_allan_deviation_of_white_noise_falls_as_one_over_root_tau():
 def test_calibrate_command_writes_a_model_that_replay_reads(tmp_path, capsys):
     assert main(["calibrate", "--simulate", "tinyphoon", "--seed", "3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert out.strip().splitlines()[-1].startswith("calibration worst_radius_pct=")
+    last = out.strip().splitlines()[-1]
+    assert last.startswith("calibration worst_radius_pct=")
+    for field in (
+        "worst_a_peak_pct=",
+        "worst_accel_scale_pct=",
+        "worst_misalignment_deg=",
+        "worst_drag_pct=",
+    ):
+        assert field in last
     model = load_model(tmp_path / "tinyphoon-seed3.calibrated.model.yaml")
     robot = model.robot_parameters()
     assert robot.radius_R != robot.radius_L and robot.radius_R == pytest.approx(0.015, rel=0.012)
-    assert set(model.standard_errors) >= {"wheel_radius_R", "track_width", "gyro_scale_error"}
+    assert set(model.standard_errors) >= {
+        "wheel_radius_R",
+        "track_width",
+        "gyro_scale_error",
+        "accel1_scale_error",
+        "accel2_misalignment",
+        "drag_acceleration",
+        "drag_per_speed",
+    }
+    assert model.calibration.accel1_scale_error != 0.0 and model.navigation.mixing.drag_per_speed > 0.0
     # replay with it: the odometry uses each wheel's radius
     assert main(["run", "corner", "--out", str(tmp_path), "--duration", "1.4", "--no-figures"]) == 0
     log = tmp_path / "corner-seed0.sensors.csv"
