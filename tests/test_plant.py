@@ -417,16 +417,15 @@ def test_launch_slip_follows_the_navigations_tyre_model(shoes, acceleration, nav
         assert model == pytest.approx(slip, rel=0.1, abs=1e-3), (speed, slip, model)
 
 
-def _coast(p, enable, plant_time_step=DEFAULT_TIME_STEP, duration=2.0, initial_speed=0.0):
-    """Open loop: 1 m/s reached in 0.5 s (or rolling at ``initial_speed`` from the start), held, the
-    table's enable rows (None: the input unconnected)."""
+def _coast(p, enable, plant_time_step=DEFAULT_TIME_STEP, duration=2.0):
+    """Open loop: 1 m/s reached in 0.5 s, held, the table's enable rows (None: the input unconnected)."""
     from slipnav.diagrams.open_loop import build_open_loop_diagram
     from slipnav.diagrams.robot import make_simulator
     from slipnav.scenarios.runner import collect_arrays
     from slipnav.systems.sensors import SensorParameters
 
     rates = SampleRates()
-    table = ramp(1.0, 0.5, duration) if initial_speed == 0.0 else ramp(initial_speed, 1e-9, duration)
+    table = ramp(1.0, 0.5, duration)
     built = build_open_loop_diagram(
         p,
         SensorParameters(),
@@ -434,7 +433,6 @@ def _coast(p, enable, plant_time_step=DEFAULT_TIME_STEP, duration=2.0, initial_s
         table,
         np.zeros((len(table), 3)),
         4,
-        initial_speed=initial_speed,
         plant_time_step=plant_time_step,
         motor_enable=None if enable is None else enable(len(table)),
     )
@@ -452,9 +450,10 @@ def _off_from(k_off):
     return rows
 
 
-def _check_coast(robot, m_eff, viscous, plant_time_step, rtol, initial_speed=0.0):
-    k_off = 0 if initial_speed else 50
-    a = _coast(robot, _off_from(k_off), plant_time_step, initial_speed=initial_speed)
+def _check_coast(robot, m_eff, viscous, plant_time_step, rtol):
+    """The motors switched off at row 50 (1 s): the deceleration against the hand formula."""
+    k_off = 50
+    a = _coast(robot, _off_from(k_off), plant_time_step)
     t, v = a["t"], a["true_v_t"]
     window = (t > k_off * T_C + 0.05) & (v > 0.1)
     assert window.sum() > 200  # rolls on for > 0.4 s
