@@ -6,7 +6,8 @@ import dataclasses as dc
 
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput, Multiplexer
+from pydrake.systems.primitives import LogVectorOutput, Multiplexer, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
 from slipnav.diagrams.navigation import add_navigation
 from slipnav.diagrams.robot import RobotHandles, add_robot_with_sensors
 from slipnav.systems.checks import (
@@ -114,6 +115,7 @@ def build_open_loop_diagram(
     nominal_sensors: SensorParameters | None = None,
     calibration: SensorCalibration | None = None,
     perturbation_monitor: PerturbationParameters | None = None,
+    motor_enable: np.ndarray | None = None,
 ) -> LoggedDiagram:
     """Feed-forward of a trajectory's wheel speeds driving the plant with its sensors (no feedback);
     the navigation diagram estimates the motion from the sensors (``navigation=None`` leaves it out).
@@ -123,7 +125,11 @@ def build_open_loop_diagram(
     between the sensors and the navigation; ``nominal_sensors``: the sensors' data sheet the navigation
     knows (default the robot's, systems.sensors.default_sensor_parameters); ``calibration``: the sensors'
     systematic errors a calibrated model states (SensorCalibration); ``perturbation_monitor``:
-    PerturbationParameters of the PerturbationMonitor on the commands, encoders and navigation."""
+    PerturbationParameters of the PerturbationMonitor on the commands, encoders and navigation.
+    ``motor_enable``: None (the
+    motors always driven, the plant's motor_enable input left unconnected) or one row [enable_R,
+    enable_L] of 0/1 per wheel_speeds row, held from that row's time on (a TrajectorySource): 0 switches
+    the motor off (systems.plant.MOTORS_ON; a coasting run)."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     if navigation is not None:
         require_instance("navigation", navigation, NavigationParameters)
@@ -136,6 +142,15 @@ def build_open_loop_diagram(
             f"({len(wheel_speeds)})"
         )
     check_start_time(start_time, rates.T_C)
+    if motor_enable is not None:
+        motor_enable = require_table("motor_enable", motor_enable, 2)
+        if len(motor_enable) != len(wheel_speeds):
+            raise ValueError(
+                f"motor_enable has {len(motor_enable)} rows: allowed one per wheel_speeds row "
+                f"({len(wheel_speeds)})"
+            )
+        if not np.all(np.isin(motor_enable, (0.0, 1.0))):
+            raise ValueError("motor_enable holds values other than 0 and 1: allowed 0 (off) or 1 (driven)")
     if start_time > 0.0 and initial_speed != 0.0:
         raise ValueError(
             f"start_time={start_time!r} needs a robot at rest: initial_speed={initial_speed!r}, allowed 0"
@@ -173,6 +188,12 @@ def build_open_loop_diagram(
         feedforward.GetOutputPort("wheel_speed_command"),
         handles.plant.GetInputPort("wheel_speed_command"),
     )
+    if motor_enable is not None:
+        times = start_time + rates.T_C * np.arange(len(motor_enable) + 1)
+        values = np.vstack([motor_enable, motor_enable[-1:]]).T
+        enable = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, values)))
+        enable.set_name("Motor enable")
+        builder.Connect(enable.get_output_port(0), handles.plant.GetInputPort("motor_enable"))
     ports = robot_ports(handles)
     ports["command"] = feedforward.GetOutputPort("wheel_speed_command")
     if nav is not None:

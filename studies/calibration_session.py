@@ -19,7 +19,8 @@ The session file::
 ``log`` is read from the session file's folder; ``measured_pose`` is the final pose measured by hand
 relative to the start (m, m, rad; the heading unwrapped: the whole revolutions counted), ``pose_std``
 the measurement's (position, heading) standard deviations, ``speed`` the cruise speed commanded (m/s),
-``turns`` the spot turn's revolutions.
+``turns`` the spot turn's revolutions, ``motors_off`` a coasting run's [start, end] (s from the log's
+first row) while the motors were switched off (from the lab's own command record).
 """
 
 import dataclasses as dc
@@ -51,6 +52,7 @@ class SessionManoeuvre:
     pose_std: list[float] = dc.field(default_factory=lambda: [POSITION_STD, HEADING_STD])
     speed: float = 0.0
     turns: float = 0.0
+    motors_off: list[float] | None = None
 
 
 @dc.dataclass
@@ -99,6 +101,18 @@ def _check_session(session: CalibrationSession, where: str) -> None:
             value = getattr(m, key)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ScenarioError(f"{at}.{key}={value!r} is out of range: allowed [0, inf)")
+        if m.kind == "coast" and m.motors_off is None:
+            raise ScenarioError(
+                f"{at}.motors_off is missing: a coast needs [start, end] of the motors off (s)"
+            )
+        if m.motors_off is not None and (
+            len(m.motors_off) != 2
+            or not all(math.isfinite(v) for v in m.motors_off)
+            or not 0.0 <= m.motors_off[0] < m.motors_off[1]
+        ):
+            raise ScenarioError(
+                f"{at}.motors_off={m.motors_off!r}: allowed [start, end] with 0 <= start < end (s)"
+            )
 
 
 def read_session(path) -> tuple[CalibrationSession, list[Manoeuvre]]:
@@ -129,7 +143,10 @@ def read_session(path) -> tuple[CalibrationSession, list[Manoeuvre]]:
         except SensorLogError as e:
             raise ScenarioError(f"{where}: manoeuvres[{i}].log: {e}") from None
         pose = None if m.measured_pose is None else tuple(float(v) for v in m.measured_pose)
-        manoeuvres.append(Manoeuvre(m.kind, log, pose, tuple(m.pose_std), speed=m.speed, turns=m.turns))
+        off = None if m.motors_off is None else tuple(float(v) for v in m.motors_off)
+        manoeuvres.append(
+            Manoeuvre(m.kind, log, pose, tuple(m.pose_std), speed=m.speed, turns=m.turns, motors_off=off)
+        )
     return session, manoeuvres
 
 
@@ -155,6 +172,7 @@ def write_session(manoeuvres: list[Manoeuvre], folder, robot: str, description: 
                     pose_std=[float(v) for v in m.pose_std],
                     speed=float(m.speed),
                     turns=float(m.turns),
+                    motors_off=None if m.motors_off is None else [float(v) for v in m.motors_off],
                 )
             )
         session = CalibrationSession(

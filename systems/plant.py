@@ -334,12 +334,23 @@ def motor_current(voltage: float, wheel_rate: float, p: RobotParameters) -> floa
     return min(max(current, -p.motor_current_limit), p.motor_current_limit)
 
 
+def motor_currents(loop_state, state, p: RobotParameters, motor_enable=(1.0, 1.0)) -> tuple:
+    """(i_R, i_L): motor_current at the loop's held voltages, zero for a switched-off motor."""
+    return tuple(
+        motor_current(loop_state[2 + i], state[8 + i], p) if motor_enable[i] else 0.0 for i in range(2)
+    )
+
+
 NO_DISTURBANCE = (1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 """The disturbance input when nothing acts: [contact_R, contact_L, held_R, held_L, torque_R, torque_L,
 force_t, force_n] (systems/faults.py's perturbations: a wheel lifted (contact 0), held by a hand, pushed
 with a torque (N m); a push on the body (N, body axes))."""
 HOLD_TIME_CONSTANT = 0.001
 """A hand holds a wheel against every torque on it: w_dot = -w / HOLD_TIME_CONSTANT (s) while held."""
+MOTORS_ON = (1.0, 1.0)
+"""The motor_enable input when nothing is switched off: [enable_R, enable_L], 1 driven, 0 switched off (the
+H-bridge open: no current, no back-EMF braking, the speed loop's integral and voltage cleared), so that the
+wheel free-wheels on its bearings (a coasting run, studies/calibration.py)."""
 
 
 def contact_forces(state, p: RobotParameters, disturbance=NO_DISTURBANCE):
@@ -408,7 +419,9 @@ def plant_derivatives(state, currents, p: RobotParameters, disturbance=NO_DISTUR
     return xdot, (a_t, a_n, omega_dot)
 
 
-def plant_substep(state, voltages, h: float, p: RobotParameters, disturbance=NO_DISTURBANCE):
+def plant_substep(
+    state, voltages, h: float, p: RobotParameters, disturbance=NO_DISTURBANCE, motor_enable=MOTORS_ON
+):
     """One semi-implicit Euler step of length h of the plant ODE (plant_derivatives) at fixed voltages.
 
     The wheel speeds take an exponential-Euler step in their own stiff slip mode: with the damping
@@ -417,7 +430,8 @@ def plant_substep(state, voltages, h: float, p: RobotParameters, disturbance=NO_
     mode reaches D ~ 4000 1/s at low speed). The body velocities step explicitly; positions and wheel
     angles use the new velocities (symplectic Euler) and the pose the mid-step heading. This mirrors the
     implicit treatment of stiff contact in Drake's discrete MultibodyPlant, reduced to a diagonal part.
-    A held wheel (disturbance) decays exactly as w_dot = -w / HOLD_TIME_CONSTANT.
+    A held wheel (disturbance) decays exactly as w_dot = -w / HOLD_TIME_CONSTANT. A switched-off motor
+    (``motor_enable`` 0, MOTORS_ON's layout) carries no current and adds no back-EMF damping.
     Returns (state+, (a_t, a_n, omega_dot) at state).
     """
     x, y, phi, v_t, v_n, omega, th_R, th_L, w_R, w_L = state
@@ -425,13 +439,15 @@ def plant_substep(state, voltages, h: float, p: RobotParameters, disturbance=NO_
     k, J, R_m, b = p.motor_constant, p.wheel_inertia, p.motor_resistance, p.bearing_drag
     w_new = []
     wheels = (
-        (w_R, fx_R, kx_R, voltages[0], p.radius_R, disturbance[2], disturbance[4]),
-        (w_L, fx_L, kx_L, voltages[1], p.radius_L, disturbance[3], disturbance[5]),
+        (w_R, fx_R, kx_R, voltages[0], p.radius_R, disturbance[2], disturbance[4], motor_enable[0]),
+        (w_L, fx_L, kx_L, voltages[1], p.radius_L, disturbance[3], disturbance[5], motor_enable[1]),
     )
-    for w, fx, kx, volts, r, held, torque in wheels:
+    for w, fx, kx, volts, r, held, torque, enabled in wheels:
         current = (volts - k * w) / R_m
         limited = abs(current) > p.motor_current_limit
         current = min(max(current, -p.motor_current_limit), p.motor_current_limit)
+        if not enabled:  # open circuit: no current, no back-EMF damping
+            current, limited = 0.0, True
         if held:
             w_new.append(w * math.exp(-h / HOLD_TIME_CONSTANT))
             continue
@@ -467,13 +483,16 @@ def kinetic_energy(state, p: RobotParameters) -> float:
     )
 
 
-def speed_loop_update(loop_state, wheel_speed_command, wheel_rates, p: RobotParameters):
+def speed_loop_update(
+    loop_state, wheel_speed_command, wheel_rates, p: RobotParameters, motor_enable=MOTORS_ON
+):
     """One sample of the PI wheel-speed loop with conditional-integration anti-windup.
 
     Args:
         loop_state: SpeedLoopState-ordered (integral_R, integral_L, voltage_R, voltage_L).
         wheel_speed_command: commanded circumferential speeds (v_R, v_L) (m/s).
         wheel_rates: measured wheel angular speeds (w_R, w_L) (rad/s).
+        motor_enable: MOTORS_ON's layout; a switched-off wheel's integral and voltage are cleared.
 
     Returns:
         the next loop state (list).
@@ -489,6 +508,8 @@ def speed_loop_update(loop_state, wheel_speed_command, wheel_rates, p: RobotPara
             voltage = p.speed_loop_kp * error + p.speed_loop_ki * integral
         out[i] = integral
         out[2 + i] = min(max(voltage, -limit), limit)
+        if not motor_enable[i]:
+            out[i] = out[2 + i] = 0.0
     return out
 
 
@@ -511,9 +532,10 @@ def plant_advance(
     time_step: float,
     p,
     disturbance=NO_DISTURBANCE,
+    motor_enable=MOTORS_ON,
 ):
     """Advance the discrete plant by ``num_steps`` semi-implicit steps of ``time_step`` (plant_substep),
-    the ``disturbance`` held over them.
+    the ``disturbance`` and ``motor_enable`` held over them.
 
     The PI speed loop samples (speed_loop_update) whenever the global step index ``step_index + i`` is a
     multiple of speed_loop_period / time_step, from the wheel rates at that instant, and its voltage
@@ -526,9 +548,11 @@ def plant_advance(
     per_loop = substeps_per(p.speed_loop_period, time_step, "speed_loop_period")
     for i in range(num_steps):
         if (step_index + i) % per_loop == 0:
-            loop_state = speed_loop_update(loop_state, command, (state[8], state[9]), p)
-        state, _ = plant_substep(state, (loop_state[2], loop_state[3]), time_step, p, disturbance)
-    currents = (motor_current(loop_state[2], state[8], p), motor_current(loop_state[3], state[9], p))
+            loop_state = speed_loop_update(loop_state, command, (state[8], state[9]), p, motor_enable)
+        state, _ = plant_substep(
+            state, (loop_state[2], loop_state[3]), time_step, p, disturbance, motor_enable
+        )
+    currents = motor_currents(loop_state, state, p, motor_enable)
     _, acceleration = plant_derivatives(state, currents, p, disturbance)
     return list(state), list(loop_state), list(acceleration)
 
@@ -554,6 +578,7 @@ class DifferentialDrivePlant(LeafSystem):
         input_ports:
         - wheel_speed_command
         - disturbance
+        - motor_enable
         output_ports:
         - state
         - body_acceleration
@@ -563,6 +588,8 @@ class DifferentialDrivePlant(LeafSystem):
 
     - wheel_speed_command: commanded circumferential wheel speeds [v_R, v_L] (m/s).
     - disturbance: perturbations in NO_DISTURBANCE's layout (optional: unconnected, nothing acts).
+    - motor_enable: [enable_R, enable_L] in MOTORS_ON's layout (optional: unconnected, both driven); 0
+      switches a motor off (open circuit, the wheel free-wheels; a coasting run).
     - state: PlantState [x, y, phi, v_t, v_n, omega, theta_R, theta_L, w_R, w_L].
     - body_acceleration: true absolute body-frame accelerations [a_t, a_n, omega_dot] (m/s^2, rad/s^2).
     - wheel_angles: [theta_R, theta_L] (rad), for the encoders.
@@ -608,6 +635,7 @@ class DifferentialDrivePlant(LeafSystem):
         x0[8], x0[9] = initial_speed / params.radius_R, initial_speed / params.radius_L
         self._command_port = self.DeclareVectorInputPort("wheel_speed_command", 2)
         self._disturbance_port = self.DeclareVectorInputPort("disturbance", len(NO_DISTURBANCE))
+        self._enable_port = self.DeclareVectorInputPort("motor_enable", len(MOTORS_ON))
         if time_step > 0.0:
             self._declare_discrete(x0, time_step, update_period)
         else:
@@ -634,7 +662,11 @@ class DifferentialDrivePlant(LeafSystem):
             "body_acceleration",
             3,
             self._calc_acceleration,
-            prerequisites_of_calc={self.all_state_ticket(), self._disturbance_port.ticket()},
+            prerequisites_of_calc={
+                self.all_state_ticket(),
+                self._disturbance_port.ticket(),
+                self._enable_port.ticket(),
+            },
         )
 
     def _declare_discrete(self, x0, time_step, update_period):
@@ -671,10 +703,13 @@ class DifferentialDrivePlant(LeafSystem):
         port = self._disturbance_port
         return port.Eval(context) if port.HasValue(context) else NO_DISTURBANCE
 
+    def _motor_enable(self, context):
+        port = self._enable_port
+        return port.Eval(context) if port.HasValue(context) else MOTORS_ON
+
     def _currents(self, context, x):
         loop = context.get_discrete_state(self._loop).get_value()
-        p = self._params
-        return (motor_current(loop[2], x[8], p), motor_current(loop[3], x[9], p))
+        return motor_currents(loop, x, self._params, self._motor_enable(context))
 
     def DoCalcTimeDerivatives(self, context, derivatives):  # noqa: N802 (Drake API)
         if self._time_step > 0.0:
@@ -687,7 +722,10 @@ class DifferentialDrivePlant(LeafSystem):
         x = context.get_continuous_state_vector().CopyToVector()
         command = self._command_port.Eval(context)
         loop = context.get_discrete_state(self._loop).get_value()
-        discrete_state.set_value(self._loop, speed_loop_update(loop, command, (x[8], x[9]), self._params))
+        discrete_state.set_value(
+            self._loop,
+            speed_loop_update(loop, command, (x[8], x[9]), self._params, self._motor_enable(context)),
+        )
 
     def _update_discrete(self, context, discrete_state):
         step_index = round(context.get_time() / self._time_step)
@@ -700,6 +738,7 @@ class DifferentialDrivePlant(LeafSystem):
             self._time_step,
             self._params,
             self._disturbance(context),
+            self._motor_enable(context),
         )
         discrete_state.set_value(self._x, state)
         discrete_state.set_value(self._loop, loop)

@@ -7,7 +7,17 @@ import numpy as np
 import pytest
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.model import load_model
-from slipnav.studies.calibration import allan_deviation, compare, simulated_calibration
+from slipnav.scenarios.sensor_log import SensorLog
+from slipnav.studies.calibration import (
+    Manoeuvre,
+    allan_deviation,
+    compare,
+    correct_accelerometers,
+    identify_drag,
+    simulated_calibration,
+)
+from slipnav.systems.plant import tinyphoon
+from slipnav.systems.sensors import SensorParameters, sensor_frame
 
 
 @pytest.fixture(scope="module", params=[3, 7])
@@ -40,15 +50,51 @@ def test_gyro_scale_and_bias_are_recovered(calibrated):
     )
 
 
-def test_peak_acceleration_within_six_percent(calibrated):
-    """a_peak = mu g f_w = 5.49 m/s^2. Not met (README: Calibration): the issue's 5 % on every seed (10
-    seeds: -5.2 % .. +5.3 %) and "within its standard error" (the four spirals' scatter understates the
-    lumped tyre model's error); this test holds what is reached, 6 %."""
+def test_peak_acceleration_within_five_percent(calibrated):
+    """a_peak = mu g f_w = 5.49 m/s^2 within the issue's 5 % (10 seeds: -3.0 .. +0.2 %, README,
+    Calibration). Its stated standard error (the four spirals' scatter) is not asserted: the lumped tyre
+    model reads ~1.5 % low on most seeds (up to 4.8 standard errors), which no scatter shows."""
     calibration, truth = calibrated
     value, true, error, _ = compare(calibration, truth)["tyre_peak_acceleration"]
     assert true == pytest.approx(0.7 * 9.81 * 0.8)
-    assert abs(error) < 0.06
+    assert abs(error) < 0.05
     assert calibration.model.navigation.mixing.tyre_peak_acceleration == value
+
+
+def test_accelerometer_scale_and_misalignment_are_recovered(calibrated):
+    """Each accelerometer's scale error and misalignment from the spins, within 4 standard errors (the
+    spin segments' scatter; 10 seeds: up to 4.3 and 2.9) and 1 % / 0.6 deg (10 seeds: 0.90 %, 0.36 deg;
+    the issue's 0.5 % and 0.1 deg are not met on every seed: README, Calibration). The written model
+    carries them."""
+    calibration, truth = calibrated
+    errors = compare(calibration, truth)
+    for i in (1, 2):
+        _, true_scale, scale_error, z_scale = errors[f"accel{i}_scale_error"]
+        _, true_angle, angle_error, z_angle = errors[f"accel{i}_misalignment"]
+        assert abs(scale_error) < 0.01 and abs(z_scale) < 4.0, (i, scale_error, z_scale)
+        assert abs(angle_error) < 0.6 and abs(z_angle) < 4.0, (i, angle_error, z_angle)
+        assert getattr(calibration.model.calibration, f"accel{i}_scale_error") == pytest.approx(
+            calibration.values[f"accel{i}_scale_error"]
+        )
+        assert getattr(calibration.model.calibration, f"accel{i}_misalignment") == pytest.approx(
+            calibration.values[f"accel{i}_misalignment"]
+        )
+    # the tolerance draw really moved them (not the nominal zeros back)
+    assert max(abs(truth["accel1_scale_error"]), abs(truth["accel2_scale_error"])) > 0.005
+
+
+def test_drag_from_coasting_is_recovered(calibrated):
+    """drag_acceleration and drag_per_speed from the coasting runs against the true shoes' mu_s (1 - f_w) g
+    and 2 c / m (mixing.py's 0.49, 0.25) within 0.5 % (10 seeds: 0.13 %); their stated standard errors
+    (encoder quantisation, the runs' scatter) are far smaller and not asserted. The model's mixing reads
+    them."""
+    calibration, truth = calibrated
+    errors = compare(calibration, truth)
+    assert truth["drag_acceleration"] == pytest.approx(0.25 * 0.2 * 9.81)
+    assert truth["drag_per_speed"] == pytest.approx(2 * 0.05 / 0.4)
+    for key in ("drag_acceleration", "drag_per_speed"):
+        assert abs(errors[key][2]) < 0.005, (key, errors[key])
+        assert getattr(calibration.model.navigation.mixing, key) == pytest.approx(calibration.values[key])
 
 
 def test_allan_deviation_of_white_noise_falls_as_one_over_root_tau():
@@ -61,11 +107,28 @@ def test_allan_deviation_of_white_noise_falls_as_one_over_root_tau():
 def test_calibrate_command_writes_a_model_that_replay_reads(tmp_path, capsys):
     assert main(["calibrate", "--simulate", "tinyphoon", "--seed", "3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert out.strip().splitlines()[-1].startswith("calibration worst_radius_pct=")
+    last = out.strip().splitlines()[-1]
+    assert last.startswith("calibration worst_radius_pct=")
+    for field in (
+        "worst_a_peak_pct=",
+        "worst_accel_scale_pct=",
+        "worst_misalignment_deg=",
+        "worst_drag_pct=",
+    ):
+        assert field in last
     model = load_model(tmp_path / "tinyphoon-seed3.calibrated.model.yaml")
     robot = model.robot_parameters()
     assert robot.radius_R != robot.radius_L and robot.radius_R == pytest.approx(0.015, rel=0.012)
-    assert set(model.standard_errors) >= {"wheel_radius_R", "track_width", "gyro_scale_error"}
+    assert set(model.standard_errors) >= {
+        "wheel_radius_R",
+        "track_width",
+        "gyro_scale_error",
+        "accel1_scale_error",
+        "accel2_misalignment",
+        "drag_acceleration",
+        "drag_per_speed",
+    }
+    assert model.calibration.accel1_scale_error != 0.0 and model.navigation.mixing.drag_per_speed > 0.0
     # replay with it: the odometry uses each wheel's radius
     assert main(["run", "corner", "--out", str(tmp_path), "--duration", "1.4", "--no-figures"]) == 0
     log = tmp_path / "corner-seed0.sensors.csv"
@@ -102,3 +165,56 @@ def test_kurt3d_calibrates_too():
         assert abs(errors[key][2]) < target, (key, errors[key])
     assert abs(errors["gyro_scale_error"][2]) < 0.002
     assert math.isfinite(calibration.values["tyre_peak_acceleration"])
+
+
+def test_correct_accelerometers_inverts_the_sensor_frame():
+    """By hand: sensors.sensor_frame scales and turns the true readings; correct_accelerometers with the
+    same (s1, gamma1, s2, gamma2) gives them back."""
+    params = SensorParameters(
+        accel1_scale_error=0.02,
+        accel2_scale_error=-0.015,
+        accel1_misalignment=0.017,
+        accel2_misalignment=-0.01,
+    )
+    truth = [1.0, -0.5, 0.25, 2.0]
+    read = np.array([sensor_frame(truth, params)])
+    # a turn of +gamma: the t axis reads sin(gamma) of a lateral n, the n axis -sin(gamma) of a tangential t
+    assert read[0, 0] == pytest.approx(1.02 * (math.cos(0.017) * 1.0 + math.sin(0.017) * -0.5))
+    back = correct_accelerometers(read, (0.02, 0.017, -0.015, -0.01))
+    np.testing.assert_allclose(back[0], truth, atol=1e-12)
+
+
+def _synthetic_coast(robot, d0, d1, v0, T_N=0.002, counts=6144):
+    """A coasting log by hand: 0.5 s at v0, then m_eff dv/dt = -(m (d0 + d1 v) + 2 b_w v / r^2) to rest,
+    both wheels rolling on the nominal radius, encoders quantised."""
+    r = robot.wheel_radius
+    m_eff = robot.mass + 2.0 * robot.wheel_inertia / r**2
+    A = robot.mass * d0 / m_eff
+    B = (robot.mass * d1 + 2.0 * robot.bearing_drag / r**2) / m_eff
+    t = np.arange(int(4.0 / T_N)) * T_N
+    t_off = 0.5
+    tau = np.maximum(t - t_off, 0.0)
+    t_stop = math.log(1.0 + B * v0 / A) / B
+    s = v0 * np.minimum(t, t_off)
+    rolled = (v0 + A / B) * (-np.expm1(-B * np.minimum(tau, t_stop))) / B - A / B * np.minimum(tau, t_stop)
+    theta = (s + rolled) / r
+    enc = np.floor(theta / (2.0 * math.pi / counts))
+    zeros = np.zeros_like(t)
+    columns = {"t": t, "gyro": zeros, "enc_R": enc, "enc_L": enc}
+    columns.update({k: zeros for k in ("acc1_t", "acc1_n", "acc2_t", "acc2_n")})
+    return Manoeuvre("coast", SensorLog(columns=columns), speed=v0, motors_off=(t_off, 4.0))
+
+
+def test_drag_fit_recovers_a_synthetic_roll_out_within_its_standard_error():
+    """identify_drag on two roll-outs computed by hand (the wheels' inertia and bearing drag of the nominal
+    robot acting, encoders quantised) recovers the drag per unit mass put in, within 3 standard errors and
+    0.5 %."""
+    robot = tinyphoon()
+    d0, d1 = 0.6, 0.18
+    runs = [_synthetic_coast(robot, d0, d1, v0) for v0 in (1.0, 0.8)]
+    r = robot.wheel_radius
+    values, errors, _ = identify_drag(runs, 0.002, robot, (r, r, robot.track_width), 6144)
+    for value, error, true in zip(values, errors, (d0, d1), strict=True):
+        assert abs(value - true) < 3.0 * error and abs(value / true - 1.0) < 0.005, (value, error, true)
+    with pytest.raises(ValueError, match="coasting run"):
+        identify_drag(runs[:0], 0.002, robot, (r, r, robot.track_width), 6144)

@@ -17,6 +17,7 @@ from slipnav.systems.plant import (
     DifferentialDrivePlant,
     PlantState,
     RobotParameters,
+    contact_forces,
     kinetic_energy,
     kurt3d,
     motor_current,
@@ -414,3 +415,93 @@ def test_launch_slip_follows_the_navigations_tyre_model(shoes, acceleration, nav
         model = longitudinal_slip_speed(x[8] * p.wheel_radius, a[0], a[1], tyres)
         assert slip > 0.001 or not (shoes or acceleration)  # a real creep
         assert model == pytest.approx(slip, rel=0.1, abs=1e-3), (speed, slip, model)
+
+
+def _coast(p, enable, plant_time_step=DEFAULT_TIME_STEP, duration=2.0):
+    """Open loop: 1 m/s reached in 0.5 s, held, the table's enable rows (None: the input unconnected)."""
+    from slipnav.diagrams.open_loop import build_open_loop_diagram
+    from slipnav.diagrams.robot import make_simulator
+    from slipnav.scenarios.runner import collect_arrays
+    from slipnav.systems.sensors import SensorParameters
+
+    rates = SampleRates()
+    table = ramp(1.0, 0.5, duration)
+    built = build_open_loop_diagram(
+        p,
+        SensorParameters(),
+        rates,
+        table,
+        np.zeros((len(table), 3)),
+        4,
+        plant_time_step=plant_time_step,
+        motor_enable=None if enable is None else enable(len(table)),
+    )
+    simulator = make_simulator(built.diagram, 4, p.speed_loop_period)
+    simulator.AdvanceTo(duration)
+    return collect_arrays(built.loggers, simulator.get_context(), p)
+
+
+def _off_from(k_off):
+    def rows(n):
+        enable = np.ones((n, 2))
+        enable[k_off:] = 0.0
+        return enable
+
+    return rows
+
+
+def _check_coast(robot, m_eff, viscous, plant_time_step, rtol):
+    """The motors switched off at row 50 (1 s): the deceleration against the hand formula."""
+    k_off = 50
+    a = _coast(robot, _off_from(k_off), plant_time_step)
+    t, v = a["t"], a["true_v_t"]
+    window = (t > k_off * T_C + 0.05) & (v > 0.1)
+    assert window.sum() > 200  # rolls on for > 0.4 s
+    deceleration = -np.gradient(v, t)[window]
+    coulomb = robot.shoe_friction * (1.0 - robot.wheel_load_fraction) * robot.mass * GRAVITY
+    expected = (coulomb + viscous * v[window]) / m_eff
+    np.testing.assert_allclose(deceleration, expected, rtol=rtol)
+
+
+def test_coasting_robot_decelerates_at_its_shoes_and_bearings_drag_per_mass():
+    """Motors switched off at 1 s (motor_enable 0): no current, the wheels free-wheel, and the robot on its
+    felt shoes decelerates by hand at (mu_s N_shoes + 2 c v + 2 b_w v / r^2) / (m + 2 J / r^2): the shoes'
+    Coulomb friction and viscous drag, the bearings' drag and the wheels' inertia seen at the ground. The
+    continuous plant meets it within 0.5 %; the semi-implicit 0.5 ms step coasts 3-8 % slower (more at
+    low speed; its exponential-Euler step lags the free wheel's stiff slip mode, J / (r^2 dF/dv) ~ 0.7 ms:
+    the tyres push ~7 mN too much, a slip of ~a h whatever J; first order; studies/calibration.py coasts on
+    the continuous plant). A wheel rolling without slip carries no tyre force: the body then decelerates
+    at the shoes' (mu_s N_shoes + 2 c v) / m exactly. With the motors driven all along the same table
+    holds 1 m/s."""
+    p = tinyphoon()
+    r, J, b_w = p.wheel_radius, p.wheel_inertia, p.bearing_drag
+    m_eff, viscous = p.mass + 2.0 * J / r**2, 2.0 * p.shoe_viscous_drag + 2.0 * b_w / r**2
+    _check_coast(p, m_eff, viscous, 0.0, 0.005)
+    _check_coast(p, m_eff, viscous, DEFAULT_TIME_STEP, 0.08)
+    coulomb = p.shoe_friction * (1.0 - p.wheel_load_fraction) * p.mass * GRAVITY
+    for v in (0.2, 0.6, 1.0):
+        (a_t, a_n, omega_dot), _, _ = contact_forces([0, 0, 0, v, 0, 0, 0, 0, v / r, v / r], p)
+        assert a_t == pytest.approx(-(coulomb + 2.0 * p.shoe_viscous_drag * v) / p.mass, rel=1e-9)
+        assert a_n == 0.0 and omega_dot == 0.0
+    on = _coast(p, None)
+    assert on["true_v_t"][on["t"] > 1.2].min() > 0.97  # driven: the speed holds
+
+
+def test_motor_enable_all_on_is_bit_identical_to_the_unconnected_input():
+    p = tinyphoon()
+    unconnected = _coast(p, None, duration=1.0)
+    ones = _coast(p, lambda n: np.ones((n, 2)), duration=1.0)
+    for key in ("true_v_t", "true_x", "true_phi", "meas_enc_R"):
+        np.testing.assert_array_equal(unconnected[key], ones[key])
+
+
+@pytest.mark.parametrize(
+    "enable, phrase",
+    [
+        (lambda n: np.ones((n - 1, 2)), "motor_enable has"),
+        (lambda n: np.full((n, 2), 0.5), "motor_enable holds"),
+    ],
+)
+def test_motor_enable_table_is_checked(enable, phrase):
+    with pytest.raises(ValueError, match=phrase):
+        _coast(tinyphoon(), enable, duration=0.1)
