@@ -61,17 +61,18 @@ def test_true_model_is_the_plant_as_belief():
     assert model.navigation.mixing.tyre_peak_acceleration == pytest.approx(0.5 * 9.81 * 0.8)
 
 
-def test_calibrated_model_beats_the_nominal_on_a_toleranced_robot(tmp_path):
-    """Corner, preset draw of seed 4: slipnav calibrate's model on that robot brings the fused error to
-    the matched model's (issue 17: <= 1.3 x; measured 0.127 % against 0.104 %), the baselines' systematic
-    errors away (odometry 17.3 -> 3.1 %, Gyrodometry 3.4 -> 0.9 %), and the calibrated fused estimate
-    stays below the calibrated baselines. (This seed's nominal fused error, 0.054 %, is below both by
-    chance: 1.5 mm of 2.8 m.)"""
+def test_calibrated_model_gives_the_matched_models_baselines(tmp_path):
+    """Corner, preset draw of seed 4: slipnav calibrate's model on that very robot gives the baselines
+    what the true robot as the model gives them (measured: odometry 3.28 % against 3.20 %, Gyrodometry
+    0.84 % against 0.86 %; the nominal model: 17.3 % and 3.4 %), and the calibrated fused estimate stays
+    below both calibrated baselines. (The fused estimate's own 1.3 x target is a mean over the draws:
+    slipnav robustness --calibrated; on one 2.8 m run its 0.1 % are 3 mm.)"""
     row = study.run_calibrated("corner", 4, tmp_path)
-    assert row["calibrated_fused_pct"] <= study.CALIBRATED_TARGET * row["matched_fused_pct"]
-    assert row["calibrated_odometry_pct"] < 0.5 * row["nominal_odometry_pct"]
+    for baseline in ("odometry", "gyrodometry"):
+        matched = row[f"matched_{baseline}_pct"]
+        assert abs(row[f"calibrated_{baseline}_pct"] - matched) < 0.1 * matched, baseline
+        assert row[f"nominal_{baseline}_pct"] > 3 * matched  # the draw's systematic errors are real
     assert row["calibrated_fused_pct"] < min(
         row["calibrated_odometry_pct"], row["calibrated_gyrodometry_pct"]
     )
-    assert row["calibrated_gyrodometry_pct"] < row["nominal_gyrodometry_pct"]  # the gyro scale removed
     assert len(list(tmp_path.glob("*.calibrated.model.yaml"))) == 1
