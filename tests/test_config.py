@@ -117,7 +117,8 @@ def test_readme_example_scenario_loads_and_builds():
     from slipnav.scenarios.runner import follower_path, reference_for
 
     readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
-    example = re.search(r"```yaml\n(.*?)```", readme, re.S).group(1)
+    blocks = re.findall(r"```yaml\n(.*?)```", readme, re.S)
+    example = next(b for b in blocks if "manoeuvres:" not in b)  # not a calibration session
     scenario = scenario_from_yaml(example, name="readme")
     assert scenario.follower.epsilon == 0.05 and scenario.slip_control.delta_min == 0.75
     reference, _ = reference_for(scenario)
