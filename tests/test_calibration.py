@@ -52,12 +52,13 @@ def test_gyro_scale_and_bias_are_recovered(calibrated):
 
 def test_peak_acceleration_within_five_percent(calibrated):
     """a_peak = mu g f_w = 5.49 m/s^2 within the issue's 5 % (10 seeds: -3.0 .. +0.2 %, README,
-    Calibration). Its stated standard error (the four spirals' scatter) is not asserted: the lumped tyre
-    model reads ~1.5 % low on most seeds (up to 4.8 standard errors), which no scatter shows."""
+    Calibration) and within 3 of its standard errors: the spirals' scatter with the lumped tyre model's
+    type-B 2 % (A_PEAK_MODEL_UNCERTAINTY; the model reads ~1.5 % low on most seeds, which no scatter
+    shows)."""
     calibration, truth = calibrated
-    value, true, error, _ = compare(calibration, truth)["tyre_peak_acceleration"]
+    value, true, error, z = compare(calibration, truth)["tyre_peak_acceleration"]
     assert true == pytest.approx(0.7 * 9.81 * 0.8)
-    assert abs(error) < 0.05
+    assert abs(error) < 0.05 and abs(z) < 3.0, (error, z)
     assert calibration.model.navigation.mixing.tyre_peak_acceleration == value
 
 
@@ -85,15 +86,14 @@ def test_accelerometer_scale_and_misalignment_are_recovered(calibrated):
 
 def test_drag_from_coasting_is_recovered(calibrated):
     """drag_acceleration and drag_per_speed from the coasting runs against the true shoes' mu_s (1 - f_w) g
-    and 2 c / m (mixing.py's 0.49, 0.25) within 0.5 % (10 seeds: 0.13 %); their stated standard errors
-    (encoder quantisation, the runs' scatter) are far smaller and not asserted. The model's mixing reads
-    them."""
+    and 2 c / m (mixing.py's 0.49, 0.25) within 0.5 % (10 seeds: 0.13 %) and 3 standard errors (the fit's
+    with the coasting model's type-B 0.2 %, DRAG_MODEL_UNCERTAINTY). The model's mixing reads them."""
     calibration, truth = calibrated
     errors = compare(calibration, truth)
     assert truth["drag_acceleration"] == pytest.approx(0.25 * 0.2 * 9.81)
     assert truth["drag_per_speed"] == pytest.approx(2 * 0.05 / 0.4)
     for key in ("drag_acceleration", "drag_per_speed"):
-        assert abs(errors[key][2]) < 0.005, (key, errors[key])
+        assert abs(errors[key][2]) < 0.005 and abs(errors[key][3]) < 3.0, (key, errors[key])
         assert getattr(calibration.model.navigation.mixing, key) == pytest.approx(calibration.values[key])
 
 
