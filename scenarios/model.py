@@ -18,8 +18,6 @@ with its ``plant:`` section.
 
 import dataclasses as dc
 import math
-import os
-import tempfile
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
@@ -171,15 +169,7 @@ def model_text(model: RobotModel) -> str:
 
 
 def write_model(model: RobotModel, path) -> FilePath:
-    """Write ``model`` to ``path`` atomically (a temporary file in the same folder, then os.replace)."""
-    path = FilePath(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.partial-")
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(model_text(model))
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    """Write ``model`` to ``path`` atomically (sensor_log.write_text_atomically)."""
+    from slipnav.scenarios.sensor_log import write_text_atomically
+
+    return write_text_atomically(path, [model_text(model)])

@@ -363,12 +363,18 @@ def sensor_log_text(log: SensorLog) -> str:
 
 
 def write_sensor_log(log: SensorLog, path) -> FilePath:
-    """Write ``log`` to ``path`` atomically (a temporary file in the same folder, then os.replace)."""
+    """Write ``log`` to ``path`` atomically (write_text_atomically)."""
+    return write_text_atomically(path, sensor_log_chunks(log))
+
+
+def write_text_atomically(path, chunks) -> FilePath:
+    """Write the text ``chunks`` to ``path`` through a temporary file in the same folder and os.replace:
+    an interrupted write leaves the previous file (or none), never half of one."""
     path = FilePath(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.partial-")
     try:
         with os.fdopen(fd, "w", newline="") as handle:
-            handle.writelines(sensor_log_chunks(log))
+            handle.writelines(chunks)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
