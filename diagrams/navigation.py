@@ -87,7 +87,6 @@ def build_navigation_diagram(
         - health
     """
     params.validate()
-    sensor_calibration = calibration
     initial = initial or NavigationInitialState()
     T_N, T_C = rates.T_N, rates.T_C
     b = DiagramBuilder()
@@ -110,7 +109,7 @@ def build_navigation_diagram(
     )
     c1 = add(MixerC1(params.mixing, T_C), "Mixer C1")
     c23 = add(MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
-    calibration = add(
+    yaw_calibration = add(
         YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
     )
     mixer = add(VelocityMixer(params.mixing), "Velocity mixer")
@@ -129,19 +128,19 @@ def build_navigation_diagram(
         check.GetOutputPort("gyro"),
         odometry.GetOutputPort("odometry"),
     )
-    if sensor_calibration is not None and not sensor_calibration.is_identity():
-        correction = add(SensorCorrection(sensor_calibration), "Sensor calibration")
+    if calibration is not None and not calibration.is_identity():
+        correction = add(SensorCorrection(calibration), "Sensor calibration")
         b.Connect(acc, correction.GetInputPort("accelerometers"))
         b.Connect(gyro, correction.GetInputPort("gyro"))
         acc, gyro = correction.GetOutputPort("accelerometers"), correction.GetOutputPort("gyro")
-    odo = calibration.GetOutputPort("odometry")  # what the fusion reads; the baselines read raw_odo
+    odo = yaw_calibration.GetOutputPort("odometry")  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
-    b.Connect(gyro, calibration.GetInputPort("gyro"))
-    b.Connect(raw_odo, calibration.GetInputPort("odometry"))
-    b.Connect(c1.GetOutputPort("C1"), calibration.GetInputPort("C1"))
-    b.Connect(check.GetOutputPort("inertial_fault"), calibration.GetInputPort("inertial_fault"))
-    b.Connect(check.GetOutputPort("encoder_fault"), calibration.GetInputPort("encoder_fault"))
-    b.Connect(calibration.GetOutputPort("gyro"), ekf.GetInputPort("gyro"))
+    b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
+    b.Connect(raw_odo, yaw_calibration.GetInputPort("odometry"))
+    b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))
+    b.Connect(check.GetOutputPort("inertial_fault"), yaw_calibration.GetInputPort("inertial_fault"))
+    b.Connect(check.GetOutputPort("encoder_fault"), yaw_calibration.GetInputPort("encoder_fault"))
+    b.Connect(yaw_calibration.GetOutputPort("gyro"), ekf.GetInputPort("gyro"))
     b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
     b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
     b.Connect(odo, detector.GetInputPort("odometry"))
@@ -176,8 +175,8 @@ def build_navigation_diagram(
     b.ExportOutput(check.GetOutputPort("inertial_fault"), "inertial_fault")
     b.ExportOutput(check.GetOutputPort("encoder_fault"), "encoder_fault")
     b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")
-    b.ExportOutput(calibration.GetOutputPort("bias"), "gyro_bias")
-    b.ExportOutput(calibration.GetOutputPort("parameters"), "yaw_calibration")
+    b.ExportOutput(yaw_calibration.GetOutputPort("bias"), "gyro_bias")
+    b.ExportOutput(yaw_calibration.GetOutputPort("parameters"), "yaw_calibration")
     b.ExportOutput(check.GetOutputPort("health"), "health")
     diagram = b.Build()
     diagram.set_name("navigation")

@@ -126,10 +126,9 @@ def build_open_loop_diagram(
     knows (default the robot's, systems.sensors.default_sensor_parameters); ``calibration``: the sensors'
     systematic errors a calibrated model states (SensorCalibration); ``perturbation_monitor``:
     PerturbationParameters of the PerturbationMonitor on the commands, encoders and navigation.
-    ``motor_enable``: None (the
-    motors always driven, the plant's motor_enable input left unconnected) or one row [enable_R,
-    enable_L] of 0/1 per wheel_speeds row, held from that row's time on (a TrajectorySource): 0 switches
-    the motor off (systems.plant.MOTORS_ON; a coasting run)."""
+    ``motor_enable``: None (the motors always driven, the plant's motor_enable input left unconnected) or
+    one row [enable_R, enable_L] of 0/1 per wheel_speeds row, held from that row's time on (a
+    TrajectorySource): 0 switches the motor off (systems.plant.MOTORS_ON; a coasting run)."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     if navigation is not None:
         require_instance("navigation", navigation, NavigationParameters)

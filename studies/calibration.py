@@ -58,6 +58,7 @@ from slipnav.scenarios.tolerances import plant_record
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.plant import GRAVITY
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensor_correction import corrected_accelerometers
 
 STANDSTILL_PREFIX = 1.0
 """s the robot is held still at the start of every manoeuvre (its biases)."""
@@ -668,13 +669,15 @@ def identify_accelerometers(manoeuvres, T_N: float, robot, geometry, gyro_scale:
 
 
 def correct_accelerometers(acc: np.ndarray, values) -> np.ndarray:
-    """De-biased readings [t1, n1, t2, n2] (rows) back to the body axes: z = z' exp(i gamma) / (1 + s)."""
-    out = np.empty_like(acc)
-    for i in range(2):
-        s, gamma = values[2 * i], values[2 * i + 1]
-        z = (acc[:, 2 * i] + 1j * acc[:, 2 * i + 1]) * np.exp(1j * gamma) / (1.0 + s)
-        out[:, 2 * i], out[:, 2 * i + 1] = z.real, z.imag
-    return out
+    """De-biased readings [t1, n1, t2, n2] (rows) back to the body axes, z = z' exp(i gamma) / (1 + s):
+    the navigation's own correction (systems.sensor_correction.corrected_accelerometers) on each row;
+    ``values``: (s1, gamma1, s2, gamma2)."""
+    s1, gamma1, s2, gamma2 = values
+    calibration = SensorCalibration(
+        accel1_scale_error=s1, accel1_misalignment=gamma1, accel2_scale_error=s2, accel2_misalignment=gamma2
+    )
+    rows = [corrected_accelerometers(calibration, row) for row in np.asarray(acc, float)]
+    return np.array(rows, float).reshape(np.shape(acc))
 
 
 COAST_MIN_SPEED = 0.1

@@ -31,6 +31,7 @@ trace in these sensors; that is no error of the estimate either.
 import dataclasses as dc
 import math
 
+import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
@@ -235,8 +236,6 @@ def add_perturbation_monitor(builder, params, command_port, encoders_port, navig
 def perturbation_report(t, arrays: dict) -> dict:
     """Per flagged channel of a run (``arrays[f"perturbation_{channel}"]``): the first flagged time (s),
     the flagged samples and, for a wheel, the samples braked and driven."""
-    import numpy as np
-
     report = {}
     for channel in PERTURBATION_CHANNELS:
         codes = np.asarray(arrays[f"perturbation_{channel}"])

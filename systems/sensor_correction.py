@@ -9,8 +9,8 @@ gains for each sample: omega = gyro / (1 + s_g), [t, n] = R(-gamma_i) reading / 
 The biases are not removed: they change at every power-up (the data sheets' turn-on repeatability, the
 simulated sensors draw them anew for every run), so the calibration day's b_g and b_i are a record of
 that day, and the navigation learns the gyro's at every run's standstill (systems/yaw_calibration.py).
-Removing a stale bias adds its repeatability to the error (corner, one seed: 2.4 -> 3.3 mm less by
-chance, the expectation worse by sqrt(2)).
+Removing a stale bias adds the turn-on repeatability to the bias error (sqrt(2) times the data sheet's
+residual in expectation; corner, one seed, happened to end 2.4 mm with it removed and 3.3 mm without).
 
 Where the navigation sits in Seyr & Jakubek's Fig. 3: between the sensor checks (systems/sensor_health.py,
 which judge the readings in the sensors' own units: their data-sheet range, a stuck value) and every
