@@ -16,10 +16,10 @@ still for STANDSTILL_PREFIX seconds, so that every log carries its own gyro and 
   de-biased reading (biases piecewise linear through the pauses) against the centripetal omega^2 p of
   the steady spin (gyro, calibrated; nominal mounting position p), one fit per segment, their mean and
   scatter (identify_accelerometers);
-- slowly tightening circles (two left, two right) at constant speed into the friction limit: the tyres'
-  peak acceleration a_peak, the median of the tops of parabolas fitted to the tyres' force per unit mass
-  (accelerometers corrected with their identified scale and misalignment) around its maximum
-  (identify_peak_acceleration), its standard error from the four runs' scatter;
+- slowly tightening circles (two left, two right) at constant speed (spiral_speed) into the friction
+  limit: the tyres' peak acceleration a_peak, the median of the tops of parabolas fitted to the tyres'
+  force per unit mass (accelerometers corrected with their identified scale and misalignment) around its
+  maximum (identify_peak_acceleration), its standard error from the four runs' scatter;
 - coasting runs (COAST_RUNS): straight to 1 m/s, then the motors switched off (the plant's motor_enable
   input; simulated with the continuous plant, COAST_PLANT_TIME_STEP), the robot rolls out on its felt
   shoes: the drag per unit mass the navigation's mixing uses (drag_acceleration + drag_per_speed |v|),
@@ -70,8 +70,8 @@ HEADING_STD = math.radians(0.25)
 """rad: hand measurement of a final heading (protractor / a line on the floor over the robot's length)."""
 A_PEAK_MODEL_UNCERTAINTY = 0.02
 """Relative standard uncertainty of a_peak from the lumped tyre model (type B, added to the spirals'
-scatter): against the simulated tyres the identified a_peak reads -3.0 .. +0.2 % over 10 seeds (mean
--1.4 %), which the four spirals' scatter does not show."""
+scatter): the identified a_peak's errors against the simulated tyres over 10 seeds (README.md:
+Calibration), which the four spirals' scatter does not show."""
 DRAG_MODEL_UNCERTAINTY = 0.002
 """Relative standard uncertainty of each drag term from the coasting model (type B): against the
 simulated shoes the drag is within 0.13 % over 10 seeds, while the fit's statistics (encoder
@@ -80,6 +80,10 @@ MEASUREMENT_STREAM = 17
 """Second entropy word of the simulated hand measurements' random stream (seed, 17)."""
 SPIRAL_DIRECTIONS = (1, -1, 1, -1)
 """The tightening circles into the friction limit: 1 left, -1 right."""
+SPIRAL_WHEEL_SPREAD = 0.2
+"""Largest (b/2) a_peak / v^2 of the tightening circles at the friction limit (spiral_speed)."""
+SPIRAL_SPEED_LIMIT = 0.6
+"""The tightening circles' speed at most this fraction of the wheel-speed limit (spiral_speed)."""
 SPIN_RATE = 0.85
 """The accelerometers' spins turn at this fraction of the gyro's 300 deg/s range (Tinyphoon: 4.45 rad/s, a
 centripetal 0.5 m/s^2 at accelerometer 1's 25 mm)."""
@@ -199,6 +203,18 @@ def coast_speed(robot) -> float:
     return min(1.0, 0.25 * robot.wheel_speed_limit)
 
 
+def spiral_speed(robot) -> float:
+    """Cruise speed (m/s) of the tightening circles: fast enough that at the friction limit the wheels'
+    kinematic speed difference is at most SPIRAL_WHEEL_SPREAD of the speed ((b/2) a_peak / v^2, so both
+    tyres slide alike and their forces add up to the lumped tyre's peak; at 1.5 m/s Kurt3D's inner wheel
+    stands still there and the two forces' directions differ: the true net force peaks 4 % below
+    mu g), at most SPIRAL_SPEED_LIMIT of the wheel-speed limit (the commotion grows with speed and biases
+    the peak of its noisy reading up). Tinyphoon 0.97 m/s; Kurt3D 2.46 m/s, at the cap (spread 0.26)."""
+    b, a_limit = robot.track_width, robot.traction_limit_acceleration
+    spread_speed = math.sqrt(0.5 * b * a_limit / SPIRAL_WHEEL_SPREAD)
+    return min(spread_speed, SPIRAL_SPEED_LIMIT * robot.wheel_speed_limit)
+
+
 def manoeuvre_plan(robot, T_C: float) -> list[tuple[str, np.ndarray, float, float]]:
     """(kind, wheel-speed rows, cruise speed, revolutions) of every manoeuvre for the nominal ``robot``;
     distances scale with its track width (Tinyphoon: 1 m square sides, 3 m straights). The coasting runs'
@@ -224,7 +240,7 @@ def manoeuvre_plan(robot, T_C: float) -> list[tuple[str, np.ndarray, float, floa
         plan.append(("square", np.vstack(legs), v_lin, 0.0))
     plan.append(("spin", spin_rows(robot, T_C), 0.0, 0.0))
     a_limit = robot.traction_limit_acceleration
-    v_spiral = min(1.5, 0.4 * robot.wheel_speed_limit)
+    v_spiral = spiral_speed(robot)
     for direction in SPIRAL_DIRECTIONS:
         plan.append(("spiral", spiral_rows(v_spiral, a_limit, b, T_C, direction=direction), v_spiral, 0.0))
     for _ in range(COAST_RUNS):

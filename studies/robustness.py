@@ -257,14 +257,16 @@ def true_model(scenario, plant, sensors):
 def calibrated_model_path(scenario, seed: int, model_dir) -> FilePath:
     """Calibrate the scenario's robot drawn from the preset by ``seed`` (studies/calibration.py: its
     manoeuvres on that robot, identified from their logs), once per robot and draw: the model file is
-    kept in ``model_dir`` and reused (corner and square share Tinyphoon's)."""
+    kept in ``model_dir`` and reused (corner and square share Tinyphoon's) while the robot, its draw and
+    the calibration procedure (studies/calibration.py's source) are unchanged."""
     import hashlib
 
     from slipnav.scenarios.model import RobotModel, write_model
+    from slipnav.studies import calibration as procedure
     from slipnav.studies.calibration import calibrate, simulate_manoeuvres
 
     world = repr((scenario.robot, scenario.robot_overrides, scenario.sensor_overrides, scenario.plant))
-    key = hashlib.sha1(world.encode()).hexdigest()[:8]
+    key = hashlib.sha1(world.encode() + FilePath(procedure.__file__).read_bytes()).hexdigest()[:8]
     path = FilePath(model_dir) / f"{scenario.robot}-{key}-seed{seed}.calibrated.model.yaml"
     if not path.is_file():
         manoeuvres, _ = simulate_manoeuvres(scenario, seed)
