@@ -84,6 +84,8 @@ SPIRAL_WHEEL_SPREAD = 0.2
 """Largest (b/2) a_peak / v^2 of the tightening circles at the friction limit (spiral_speed)."""
 SPIRAL_SPEED_LIMIT = 0.6
 """The tightening circles' speed at most this fraction of the wheel-speed limit (spiral_speed)."""
+SPIRAL_MIN_SPEED = 1.5
+"""m/s: the tightening circles' speed at least this (spiral_speed)."""
 SPIN_RATE = 0.85
 """The accelerometers' spins turn at this fraction of the gyro's 300 deg/s range (Tinyphoon: 4.45 rad/s, a
 centripetal 0.5 m/s^2 at accelerometer 1's 25 mm)."""
@@ -204,15 +206,17 @@ def coast_speed(robot) -> float:
 
 
 def spiral_speed(robot) -> float:
-    """Cruise speed (m/s) of the tightening circles: fast enough that at the friction limit the wheels'
-    kinematic speed difference is at most SPIRAL_WHEEL_SPREAD of the speed ((b/2) a_peak / v^2, so both
-    tyres slide alike and their forces add up to the lumped tyre's peak; at 1.5 m/s Kurt3D's inner wheel
-    stands still there and the two forces' directions differ: the true net force peaks 4 % below
-    mu g), at most SPIRAL_SPEED_LIMIT of the wheel-speed limit (the commotion grows with speed and biases
-    the peak of its noisy reading up). Tinyphoon 0.97 m/s; Kurt3D 2.46 m/s, at the cap (spread 0.26)."""
+    """Cruise speed (m/s) of the tightening circles: SPIRAL_MIN_SPEED, or faster where needed so that at
+    the friction limit the wheels' kinematic speed difference is at most SPIRAL_WHEEL_SPREAD of the speed
+    ((b/2) a_peak / v^2: both tyres then slide alike and their forces add up to the lumped tyre's peak;
+    at 1.5 m/s Kurt3D's inner wheel stands still there, the two forces' directions differ, the true net
+    force peaks 4 % below mu g and a_peak read 3.5 % low), at most SPIRAL_SPEED_LIMIT of the wheel-speed
+    limit (the commotion grows with speed and biases the peak of its noisy reading up). Tinyphoon 1.5 m/s
+    (spread 0.08; at 0.97 m/s its a_peak read +1.4 .. +4.3 % over 10 seeds, at 1.5 m/s -3.0 .. +0.2 %);
+    Kurt3D 2.46 m/s, at the cap (spread 0.26)."""
     b, a_limit = robot.track_width, robot.traction_limit_acceleration
     spread_speed = math.sqrt(0.5 * b * a_limit / SPIRAL_WHEEL_SPREAD)
-    return min(spread_speed, SPIRAL_SPEED_LIMIT * robot.wheel_speed_limit)
+    return min(max(SPIRAL_MIN_SPEED, spread_speed), SPIRAL_SPEED_LIMIT * robot.wheel_speed_limit)
 
 
 def manoeuvre_plan(robot, T_C: float) -> list[tuple[str, np.ndarray, float, float]]:

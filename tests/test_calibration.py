@@ -236,8 +236,9 @@ def test_spiral_speed_keeps_both_tyres_sliding_alike(monkeypatch):
         spread = 0.5 * robot.track_width * robot.traction_limit_acceleration / v**2
         capped = v == pytest.approx(procedure.SPIRAL_SPEED_LIMIT * robot.wheel_speed_limit)
         assert spread <= procedure.SPIRAL_WHEEL_SPREAD + 1e-12 or (capped and spread < 0.3), robot.name
+        assert v >= procedure.SPIRAL_MIN_SPEED
         assert v * (1.0 + 1.4 * spread) < robot.wheel_speed_limit
-    np.testing.assert_allclose(procedure.spiral_speed(tinyphoon()), 0.966, atol=1e-3)
+    np.testing.assert_allclose(procedure.spiral_speed(tinyphoon()), procedure.SPIRAL_MIN_SPEED)
     np.testing.assert_allclose(procedure.spiral_speed(kurt3d()), 0.6 * 4.1)
 
     scenario = Scenario(robot="kurt3d", mode="trajectory", trajectory=None)
