@@ -16,8 +16,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 from slipnav.scenarios.config import ScenarioError, load_scenario
-from slipnav.scenarios.plain_loop import diagram_noise, run_scenario_plain_loop
+from slipnav.scenarios.plain_loop import run_scenario_plain_loop
 from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.sensors import sensor_noise
 
 
 class _PassThrough(LeafSystem):
@@ -71,7 +72,7 @@ def bench(name: str = "corner", repeat: int = 3, stream=None) -> dict:
     # of the simulation alone (building the diagram, collecting the arrays and writing files excluded).
     simulated = float(arrays["t"][-1])
     rates = scenario.rates()
-    noise = diagram_noise(seed, rates.T_N, steps)
+    noise = sensor_noise(seed, steps)
     loop_wall, parts = [], {}
     for _ in range(repeat):
         timings = {}
