@@ -166,8 +166,8 @@ class SensorNoise:
 
 
 def sensor_noise(seed: int, num_steps: int) -> np.ndarray:
-    """The (num_steps, NOISE_CHANNELS) draws the sensors of a run with ``seed`` read at t_0 ... t_{num_steps-1}
-    (SensorNoise; the plain loop's and the diagram's noise)."""
+    """The (num_steps, NOISE_CHANNELS) draws the sensors of a run with ``seed`` read at t_0 ...
+    t_{num_steps-1} (SensorNoise; the plain loop's and the diagram's noise)."""
     return SensorNoise(seed).rows(0, num_steps)
 
 
@@ -317,12 +317,8 @@ class ProprioceptiveSensors(LeafSystem):
         self.DeclareStateOutputPort("accelerometers", self._accel)
         self.DeclareStateOutputPort("gyro", self._gyro)
         self.DeclareStateOutputPort("encoders", self._enc)
-        self.DeclareVectorOutputPort(
-            "gyro_bias",
-            1,
-            lambda c, o: o.SetFromVector(c.get_discrete_state(self._internal).get_value()[4:5]),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
+        self._gyro_bias = self.DeclareDiscreteState(internal0[4:5].copy())  # internal[4], as an output
+        self.DeclareStateOutputPort("gyro_bias", self._gyro_bias)
 
     @property
     def params(self) -> SensorParameters:
@@ -346,3 +342,4 @@ class ProprioceptiveSensors(LeafSystem):
         discrete_state.set_value(self._accel, accel)
         discrete_state.set_value(self._gyro, gyro)
         discrete_state.set_value(self._enc, enc)
+        discrete_state.set_value(self._gyro_bias, internal[4:5])
