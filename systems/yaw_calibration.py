@@ -217,8 +217,9 @@ class YawRateCalibration(LeafSystem):
     - bias: [b_g] (rad/s, state).
     - parameters: calibration_parameters (state).
 
-    Update every T_N: yaw_calibration_step (the Kalman update at each batch's end); the update also
-    stores the new state's bias and calibration_parameters, which the outputs hold (no Python call).
+    Update every T_N: yaw_calibration_step (the Kalman update at each batch's end); at a batch's end the
+    update also stores the new state's bias and calibration_parameters, which the outputs hold (no Python
+    call; theta, P and the batch counts change only there).
 
     Args:
         params: YawCalibrationParameters. track_width: the nominal track (m). T_N, T_C: periods (s).
@@ -267,7 +268,8 @@ class YawRateCalibration(LeafSystem):
             self._T_N,
             self._n,
         )
-        parameters = calibration_parameters(state)
         discrete_state.set_value(self._state, state)
-        discrete_state.set_value(self._bias, parameters[0:1])
-        discrete_state.set_value(self._parameters, parameters)
+        if state[_COUNT] == 0.0:  # a batch ended (or calibration is off): theta, P and the counts moved
+            parameters = calibration_parameters(state)
+            discrete_state.set_value(self._bias, parameters[0:1])
+            discrete_state.set_value(self._parameters, parameters)
