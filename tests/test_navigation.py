@@ -226,12 +226,9 @@ def test_c3_residual_pt1_filters_the_encoder_quantisation():
         block.GetInputPort("inertial_estimate").FixValue(context, [1.0, 0.0, inertial, 0.0, 0.1])
         residual += gain * (w - inertial - residual)
         assert residual == pytest.approx(c3_residual(filtered[-1] if filtered else 0.0, w, inertial, p, T_N))
-        np.testing.assert_allclose(block.GetOutputPort("C3_residual").Eval(context), [residual], atol=1e-15)
-        np.testing.assert_allclose(
-            block.GetOutputPort("C2_C3").Eval(context),
-            [mixing_c2(0.1, p), mixing_c3(residual, p)],
-            atol=1e-15,
-        )
+        step_out = block.GetOutputPort("step").Eval(context)  # C2C3_STEP_LAYOUT: [C2, C3], [residual]
+        np.testing.assert_allclose(step_out[2:3], [residual], atol=1e-15)
+        np.testing.assert_allclose(step_out[0:2], [mixing_c2(0.1, p), mixing_c3(residual, p)], atol=1e-15)
         filtered.append(residual)
         simulator.AdvanceTo((k + 1) * T_N)  # the update at t_k stores r_k
     settled = np.array(filtered[50:])
