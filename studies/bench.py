@@ -2,8 +2,9 @@
 
 Runs the scenario's closed loop as the Drake diagram (``run_scenario``, loggers included, as ``slipnav
 run`` does) and as the plain sequential loop over the same pure functions (scenarios/plain_loop.py, fed
-the seed's sensor noise, as the diagram's sensors read it, so both compute the same samples), best of
-``repeat`` runs each. Prints the wall times, real-time factors, the plain loop's cost per part, the
+the seed's sensor noise, as the diagram's sensors read it, so both compute the same samples); each of
+``repeat`` rounds runs the diagram, the plain loop and the floor (below) back to back, and the best time
+of each counts. Prints the wall times, real-time factors, the plain loop's cost per part, the
 Python callbacks the diagram makes per sample (counted in one more, profiled run), and the Drake
 framework's overhead: the diagram's wall time per sample less the plain loop's, in units of a measured
 floor, the cost of one trivial Python LeafSystem update (``python_block_floor``) on the same machine at
@@ -94,30 +95,30 @@ def bench(name: str = "corner", repeat: int = 3, stream=None) -> dict:
     if scenario.plant_time_step <= 0.0:
         raise ScenarioError("bench needs the discrete plant (plant_time_step > 0): the plain loop has none")
     seed = scenario.seed
-    diagram_wall, arrays = [], None
+    rates = scenario.rates()
+    # Each repeat runs the diagram, the plain loop and the floor back to back, so that on a shared machine
+    # whose load moves the three best times come from the same quiet minutes.
+    diagram_wall, loop_wall, floor_wall, parts, arrays, noise = [], [], [], {}, None, None
     for _ in range(repeat):
         result = run_scenario(scenario, seed=seed)
         diagram_wall.append(result.summary["wall_time_s"])
         arrays = result.arrays
-    steps = len(arrays["t"])
-    # Real-time factor as slipnav run's summary: simulated time (the last sample's t) over the wall time
-    # of the simulation alone (building the diagram, collecting the arrays and writing files excluded).
-    simulated = float(arrays["t"][-1])
-    rates = scenario.rates()
-    noise = sensor_noise(seed, steps)
-    loop_wall, parts = [], {}
-    for _ in range(repeat):
+        steps = len(arrays["t"])
+        noise = sensor_noise(seed, steps) if noise is None else noise
         timings = {}
         start = time.perf_counter()
         plain = run_scenario_plain_loop(scenario, seed, steps, noise=noise, timings=timings)
         loop_wall.append(time.perf_counter() - start)
         if loop_wall[-1] == min(loop_wall):
             parts = timings
+        floor_wall.append(python_block_floor(rates.T_N))
+    # Real-time factor as slipnav run's summary: simulated time (the last sample's t) over the wall time
+    # of the simulation alone (building the diagram, collecting the arrays and writing files excluded).
+    simulated = float(arrays["t"][-1])
     same = float(
         np.max(np.abs(plain["true_x"] - arrays["true_x"]) + np.abs(plain["true_y"] - arrays["true_y"]))
     )
-    diagram, loop = min(diagram_wall), min(loop_wall)
-    floor = min(python_block_floor(rates.T_N) for _ in range(repeat))
+    diagram, loop, floor = min(diagram_wall), min(loop_wall), min(floor_wall)
     callbacks, _ = python_callbacks_per_sample(scenario, seed)
     per_step = 1e6 / steps
     # The framework's overhead per sample in units of the floor (one trivial Python update), measured
