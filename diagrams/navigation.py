@@ -9,19 +9,20 @@ import math
 import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
+from slipnav.diagrams.split import split_port
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from slipnav.systems.gyrodometry import Gyrodometry
-from slipnav.systems.mixing import MixerC1, MixerC2C3, VelocityMixer
+from slipnav.systems.mixing import C2C3_STEP_LAYOUT, MIXER_LAYOUT, MixerC1, MixerC2C3, VelocityMixer
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters, health_geometry
-from slipnav.systems.odometry import Odometry
+from slipnav.systems.odometry import ODOMETRY_STEP_LAYOUT, Odometry
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
-from slipnav.systems.sensor_health import SensorHealthMonitor
+from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector
-from slipnav.systems.yaw_calibration import YawRateCalibration
+from slipnav.systems.yaw_calibration import CALIBRATED_LAYOUT, YawRateCalibration
 
 NAVIGATION_OUTPUTS = (
     "pose",
@@ -96,8 +97,10 @@ def build_navigation_diagram(
         return b.AddSystem(system)
 
     geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed)
-    check = add(SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
-    odometry = add(Odometry(wheel_radius, track_width, T_N, initial.speed), "Odometry")
+    monitor = add(SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
+    check = split_port(b, monitor.GetOutputPort("step"), HEALTH_STEP_LAYOUT, "Sensor checks' signals")
+    odometry_block = add(Odometry(wheel_radius, track_width, T_N, initial.speed), "Odometry")
+    odometry = split_port(b, odometry_block.GetOutputPort("step"), ODOMETRY_STEP_LAYOUT, "Odometry's signals")
     ekf = add(InertialEkf(params.ekf, T_N, initial.ekf_state()), "EKF")
     Q, _, P0 = params.ekf.matrices()
     gain = add(
@@ -108,76 +111,81 @@ def build_navigation_diagram(
         "Tangential slip detector",
     )
     c1 = add(MixerC1(params.mixing, T_C), "Mixer C1")
-    c23 = add(MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
+    c23_block = add(MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
+    c23 = split_port(b, c23_block.GetOutputPort("step"), C2C3_STEP_LAYOUT, "Mixer C2 C3's signals")
     yaw_calibration = add(
         YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
     )
-    mixer = add(VelocityMixer(params.mixing), "Velocity mixer")
+    mixer_block = add(VelocityMixer(params.mixing), "Velocity mixer")
+    mixer = split_port(b, mixer_block.GetOutputPort("mixing"), MIXER_LAYOUT, "Velocity mixer's signals")
     sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
     pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
     odo_pose = add(PoseIntegrator(T_N, initial.pose), "Odometry dead reckoning")
     gyrodometry = add(Gyrodometry(params.gyrodometry, T_N, initial.pose), "Gyrodometry")
 
-    b.ExportInput(check.GetInputPort("accelerometers"), "accelerometers")
-    b.ExportInput(check.GetInputPort("gyro"), "gyro")
-    b.ExportInput(check.GetInputPort("encoders"), "encoders")
-    b.Connect(check.GetOutputPort("encoders"), odometry.GetInputPort("encoders"))
+    b.ExportInput(monitor.GetInputPort("accelerometers"), "accelerometers")
+    b.ExportInput(monitor.GetInputPort("gyro"), "gyro")
+    b.ExportInput(monitor.GetInputPort("encoders"), "encoders")
+    b.Connect(check["encoders"], odometry_block.GetInputPort("encoders"))
 
     acc, gyro, raw_odo = (
-        check.GetOutputPort("accelerometers"),
-        check.GetOutputPort("gyro"),
-        odometry.GetOutputPort("odometry"),
+        check["accelerometers"],
+        check["gyro"],
+        odometry["odometry"],
     )
     if calibration is not None and not calibration.is_identity():
         correction = add(SensorCorrection(calibration), "Sensor calibration")
         b.Connect(acc, correction.GetInputPort("accelerometers"))
         b.Connect(gyro, correction.GetInputPort("gyro"))
         acc, gyro = correction.GetOutputPort("accelerometers"), correction.GetOutputPort("gyro")
-    odo = yaw_calibration.GetOutputPort("odometry")  # what the fusion reads; the baselines read raw_odo
+    calibrated = split_port(
+        b, yaw_calibration.GetOutputPort("calibrated"), CALIBRATED_LAYOUT, "Calibrated gyro and odometry"
+    )
+    odo = calibrated["odometry"]  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
     b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
     b.Connect(raw_odo, yaw_calibration.GetInputPort("odometry"))
     b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))
-    b.Connect(check.GetOutputPort("inertial_fault"), yaw_calibration.GetInputPort("inertial_fault"))
-    b.Connect(check.GetOutputPort("encoder_fault"), yaw_calibration.GetInputPort("encoder_fault"))
-    b.Connect(yaw_calibration.GetOutputPort("gyro"), ekf.GetInputPort("gyro"))
+    b.Connect(check["inertial_fault"], yaw_calibration.GetInputPort("inertial_fault"))
+    b.Connect(check["encoder_fault"], yaw_calibration.GetInputPort("encoder_fault"))
+    b.Connect(calibrated["gyro"], ekf.GetInputPort("gyro"))
     b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
     b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
     b.Connect(odo, detector.GetInputPort("odometry"))
     b.Connect(acc, detector.GetInputPort("accelerometers"))
-    b.Connect(check.GetOutputPort("sensor_fault"), detector.GetInputPort("sensor_fault"))
+    b.Connect(check["sensor_fault"], detector.GetInputPort("sensor_fault"))
     b.Connect(detector.GetOutputPort("delta_v"), c1.GetInputPort("delta_v"))
-    b.Connect(ekf.GetOutputPort("inertial_estimate"), c23.GetInputPort("inertial_estimate"))
-    b.Connect(odo, c23.GetInputPort("odometry"))
-    b.Connect(odo, mixer.GetInputPort("odometry"))
-    b.Connect(ekf.GetOutputPort("inertial_estimate"), mixer.GetInputPort("inertial_estimate"))
-    b.Connect(c1.GetOutputPort("C1"), mixer.GetInputPort("C1"))
-    b.Connect(c23.GetOutputPort("C2_C3"), mixer.GetInputPort("C2_C3"))
-    b.Connect(ekf.GetOutputPort("estimate"), mixer.GetInputPort("previous_estimate"))
-    b.Connect(mixer.GetOutputPort("mixed_estimate"), ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
-    b.Connect(mixer.GetOutputPort("mixing_gain"), ekf.GetInputPort("mixing_gain"))  # the mixing in P
-    b.Connect(mixer.GetOutputPort("body_velocity"), sideslip.GetInputPort("body_velocity"))
-    b.Connect(mixer.GetOutputPort("body_velocity"), pose.GetInputPort("body_velocity"))
-    b.Connect(odometry.GetOutputPort("body_velocity"), odo_pose.GetInputPort("body_velocity"))
+    b.Connect(ekf.GetOutputPort("inertial_estimate"), c23_block.GetInputPort("inertial_estimate"))
+    b.Connect(odo, c23_block.GetInputPort("odometry"))
+    b.Connect(odo, mixer_block.GetInputPort("odometry"))
+    b.Connect(ekf.GetOutputPort("inertial_estimate"), mixer_block.GetInputPort("inertial_estimate"))
+    b.Connect(c1.GetOutputPort("C1"), mixer_block.GetInputPort("C1"))
+    b.Connect(c23["C2_C3"], mixer_block.GetInputPort("C2_C3"))
+    b.Connect(ekf.GetOutputPort("estimate"), mixer_block.GetInputPort("previous_estimate"))
+    b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
+    b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P
+    b.Connect(mixer["body_velocity"], sideslip.GetInputPort("body_velocity"))
+    b.Connect(mixer["body_velocity"], pose.GetInputPort("body_velocity"))
+    b.Connect(odometry["body_velocity"], odo_pose.GetInputPort("body_velocity"))
     b.Connect(raw_odo, gyrodometry.GetInputPort("odometry"))
     b.Connect(gyro, gyrodometry.GetInputPort("gyro"))
 
     b.ExportOutput(pose.GetOutputPort("pose"), "pose")
-    b.ExportOutput(mixer.GetOutputPort("mixed_estimate"), "mixed_estimate")
+    b.ExportOutput(mixer["mixed_estimate"], "mixed_estimate")
     b.ExportOutput(sideslip.GetOutputPort("side_slip_angle"), "side_slip_angle")
     b.ExportOutput(sideslip.GetOutputPort("track_speed"), "track_speed")
     b.ExportOutput(c1.GetOutputPort("C1"), "C1")
-    b.ExportOutput(c23.GetOutputPort("C2_C3"), "C2_C3")
+    b.ExportOutput(c23["C2_C3"], "C2_C3")
     b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")
     b.ExportOutput(raw_odo, "odometry")
     b.ExportOutput(odo_pose.GetOutputPort("pose"), "odometry_pose")
     b.ExportOutput(gyrodometry.GetOutputPort("pose"), "gyrodometry_pose")
-    b.ExportOutput(check.GetOutputPort("inertial_fault"), "inertial_fault")
-    b.ExportOutput(check.GetOutputPort("encoder_fault"), "encoder_fault")
+    b.ExportOutput(check["inertial_fault"], "inertial_fault")
+    b.ExportOutput(check["encoder_fault"], "encoder_fault")
     b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")
     b.ExportOutput(yaw_calibration.GetOutputPort("bias"), "gyro_bias")
     b.ExportOutput(yaw_calibration.GetOutputPort("parameters"), "yaw_calibration")
-    b.ExportOutput(check.GetOutputPort("health"), "health")
+    b.ExportOutput(check["health"], "health")
     diagram = b.Build()
     diagram.set_name("navigation")
     return diagram

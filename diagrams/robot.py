@@ -1,14 +1,13 @@
-"""The physical side of every diagram: plant, seeded sensor noise and sensors."""
+"""The physical side of every diagram: plant and sensors with their seeded noise."""
 
 from __future__ import annotations
 
 import dataclasses as dc
 
 import numpy as np
-from pydrake.common import RandomDistribution, RandomGenerator
+from pydrake.common import RandomGenerator
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import RandomSource
 from slipnav.systems.checks import require_seed
 from slipnav.systems.faults import (
     PlantDisturbance,
@@ -18,14 +17,14 @@ from slipnav.systems.faults import (
     has_sensor_faults,
 )
 from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
-from slipnav.systems.sensors import NOISE_CHANNELS, ProprioceptiveSensors, SensorParameters, initial_biases
+from slipnav.systems.sensors import ProprioceptiveSensors, SensorNoise, SensorParameters, initial_biases
 
 
 @dc.dataclass
 class RobotHandles:
     plant: DifferentialDrivePlant
     sensors: ProprioceptiveSensors
-    noise: RandomSource
+    noise: SensorNoise
     readings: object = None
     """What the navigation reads: the sensors, or the SensorFaultInjector after them."""
 
@@ -41,11 +40,11 @@ def add_robot_with_sensors(
     plant_time_step: float = DEFAULT_TIME_STEP,
     faults=(),
 ) -> RobotHandles:
-    """Add the plant, a Gaussian RandomSource (seeded through SetRandomContext) and the sensors.
+    """Add the plant and the sensors with the seed's noise.
 
     The initial sensor biases are drawn from ``numpy.random.default_rng(seed)``; the white noise, drift
-    and vibration draws come from the RandomSource, whose state the caller must seed with
-    ``diagram.SetRandomContext(context, RandomGenerator(seed))`` (see ``make_simulator``).
+    and vibration draws are the seed's SensorNoise (systems/sensors.py), which the sensors read row k at
+    t_k: a run is a function of the seed alone.
     ``plant_time_step`` > 0 makes the plant discrete, updated with the sensors every T_N; 0: continuous.
     ``faults``: FaultEvents (systems/faults.py); with sensor faults a SensorFaultInjector sits after the
     sensors and ``readings`` is it; with plant perturbations a PlantDisturbance feeds the plant's
@@ -56,15 +55,13 @@ def add_robot_with_sensors(
         DifferentialDrivePlant(robot, initial_pose, initial_speed, plant_time_step, update_period=T_N)
     )
     plant.set_name("Robot plant")
-    noise = builder.AddSystem(RandomSource(RandomDistribution.kGaussian, NOISE_CHANNELS, T_N))
-    noise.set_name("Sensor noise")
+    noise = SensorNoise(seed)
     bias0 = initial_biases(sensor_params, np.random.default_rng(seed))
     rates0 = (initial_speed / robot.radius_R, initial_speed / robot.radius_L)
-    sensors = builder.AddSystem(ProprioceptiveSensors(sensor_params, T_N, bias0, rates0))
+    sensors = builder.AddSystem(ProprioceptiveSensors(sensor_params, T_N, bias0, rates0, noise))
     sensors.set_name("Sensors")
     builder.Connect(plant.GetOutputPort("state"), sensors.GetInputPort("plant_state"))
     builder.Connect(plant.GetOutputPort("body_acceleration"), sensors.GetInputPort("body_acceleration"))
-    builder.Connect(noise.get_output_port(0), sensors.GetInputPort("noise"))
     if has_plant_events(faults):
         disturbance = builder.AddSystem(PlantDisturbance(faults, T_N))
         disturbance.set_name("Plant perturbations")
@@ -84,10 +81,11 @@ position error 7e-5 m, velocity error 4e-4 m/s (far below the sensors' resolutio
 
 
 def make_simulator(diagram, seed: int, max_step: float) -> Simulator:
-    """A Simulator with the plant's integrator settings and all random sources seeded from ``seed``.
+    """A Simulator with the plant's integrator settings, any random sources seeded from ``seed``.
 
-    The same seed gives a bit-identical run: the RandomSource state is set with
-    ``SetRandomContext(context, RandomGenerator(seed))`` and nothing else draws random numbers.
+    The same seed gives a bit-identical run: the sensor noise is the seed's SensorNoise (fixed when the
+    diagram is built); ``SetRandomContext(context, RandomGenerator(seed))`` seeds any Drake random source
+    a diagram may hold (the built-in ones hold none).
     """
     require_seed(seed)
     simulator = Simulator(diagram)

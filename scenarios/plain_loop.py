@@ -4,18 +4,15 @@
 every T_N, the discrete plant (plant_advance), the sensors (sensor_update), the navigation
 (systems.navigation.NavigationLoop) and, every T_C, the control blocks (follower_step, the speed law,
 step_size, interpolate), in the order Drake's pre-update semantics imply: every block that updates at
-t_k reads the values all blocks held at t_k. With the diagram's sensor noise sequence it reproduces the
-diagram sample for sample (tests/test_plain_loop.py); it is also the baseline of ``slipnav bench``.
+t_k reads the values all blocks held at t_k. With the seed's sensor noise (systems.sensors.sensor_noise,
+which the diagram's sensors read too) it reproduces the diagram sample for sample
+(tests/test_plain_loop.py); it is also the baseline of ``slipnav bench``.
 """
 
 import math
 import time
 
 import numpy as np
-from pydrake.common import RandomDistribution, RandomGenerator
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput, RandomSource
 from slipnav.diagrams.closed_loop import ControlSettings
 from slipnav.systems.faults import (
     apply_sensor_faults,
@@ -52,6 +49,7 @@ from slipnav.systems.sensors import (
     SensorParameters,
     default_sensor_parameters,
     initial_biases,
+    sensor_noise,
     sensor_update,
 )
 from slipnav.systems.slip_control import interpolate, step_size
@@ -96,8 +94,8 @@ def run_plain_loop(
         as build_closed_loop_diagram, plus:
         num_steps: number of T_N samples.
         plant_time_step: the discrete plant's step (> 0; the continuous plant has no plain-loop twin).
-        noise: (num_steps, NOISE_CHANNELS) standard-normal draws that the sensors read at t_k (e.g. the
-            diagram's RandomSource output); None draws them from numpy.random.default_rng(seed).
+        noise: (num_steps, NOISE_CHANNELS) standard-normal draws that the sensors read at t_k; None: the
+            seed's, ``sensor_noise(seed, num_steps)``, which the diagram's sensors read too.
         timings: if given, receives the wall time (s) spent in ``plant``, ``sensors``, ``navigation``
             and ``control``.
         plant: the simulated robot as it really is (default ``robot``); navigation and control read
@@ -118,10 +116,11 @@ def run_plain_loop(
     k_start = int(round(control.start_time / T_N))  # the controller's first instant (the standstill before)
     plant_steps = substeps_per(T_N, plant_time_step, "T_N")
     if noise is None:
-        noise = np.random.default_rng(seed).standard_normal((num_steps, NOISE_CHANNELS))
+        noise = sensor_noise(seed, num_steps)
     noise = np.asarray(noise, float)
     if noise.shape != (num_steps, NOISE_CHANNELS):
         raise ValueError(f"noise must have shape ({num_steps}, {NOISE_CHANNELS}), got {noise.shape}")
+    noise = noise.tolist()  # floats, as the diagram's sensors read them
 
     # Plant (DifferentialDrivePlant, discrete).
     w0 = [initial_speed / world.radius_R, initial_speed / world.radius_L]
@@ -251,24 +250,6 @@ def localisation_reader(source: str):
     first = LOOP_KEYS.index(f"{prefix}_x")
     speed = LOOP_KEYS.index("est_v_t" if source == "fused" else "odo_v_t")
     return lambda row, x: (row[first : first + 3], row[speed])
-
-
-def diagram_noise(seed: int, T_N: float, num_steps: int) -> np.ndarray:
-    """The (num_steps, NOISE_CHANNELS) draws the diagram's sensors read at t_0 ... t_{num_steps-1}.
-
-    Drake's RandomSource draws with an unrestricted update, which the simulator applies before the
-    discrete updates of the same instant: the sensors' update at t_k reads the draw of t_k, which a logger
-    (publishing before the updates) records at t_k+1. Seeded as diagrams.robot.make_simulator seeds it.
-    """
-    builder = DiagramBuilder()
-    source = builder.AddSystem(RandomSource(RandomDistribution.kGaussian, NOISE_CHANNELS, T_N))
-    logger = LogVectorOutput(source.get_output_port(0), builder, T_N)
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    diagram.SetRandomContext(simulator.get_mutable_context(), RandomGenerator(seed))
-    simulator.Initialize()
-    simulator.AdvanceTo(num_steps * T_N)
-    return logger.FindLog(simulator.get_context()).data().T[1 : num_steps + 1].copy()
 
 
 def run_scenario_plain_loop(

@@ -249,12 +249,13 @@ class InertialEkf(LeafSystem):
       (VelocityMixer); P sees the mixing through them (ekf_mixing_covariance).
     - inertial_estimate: ^I x_k = S(8) applied to the prediction S(2) of the state (direct feedthrough of
       the sensor sample and the gain).
-    - prior_covariance: P_{k|k-1}, S(6), from the state (for the gain block).
+    - prior_covariance: P_{k|k-1}, S(6), of the state (for the gain block; state).
     - estimate: the state x_{k-1} (the previous mixed estimate; the mixer reads v_n,k-1 from it for S(17)).
     - covariance: P_{k-1}.
 
     Update every T_N (offset 0): x <- mixed_estimate, P <- ekf_covariance_update: S(9)(P_{k|k-1}, L_K),
-    then the mixing's pseudo-measurements, then the velocity variance limit.
+    then the mixing's pseudo-measurements, then the velocity variance limit; then the next prior
+    covariance S(6) of the new x and P, which the update stores (so that reading it costs no Python call).
 
     Args:
         params: EkfParameters.
@@ -274,6 +275,7 @@ class InertialEkf(LeafSystem):
         self._mixing_gain_port = self.DeclareVectorInputPort("mixing_gain", 2)
         self._x = self.DeclareDiscreteState(x0)
         self._P = self.DeclareDiscreteState(P0.ravel())
+        self._prior = self.DeclareDiscreteState(ekf_prior_covariance(P0, x0, self._Q, T_N).ravel())
         self._inertial_port = self.DeclareVectorOutputPort(
             "inertial_estimate",
             5,
@@ -285,32 +287,26 @@ class InertialEkf(LeafSystem):
                 self._gain_port.ticket(),
             },
         )
-        self._prior_port = self.DeclareVectorOutputPort(
-            "prior_covariance", 25, self._calc_prior, prerequisites_of_calc={self.xd_ticket()}
-        )
+        self.DeclareStateOutputPort("prior_covariance", self._prior)
         self.DeclareStateOutputPort("estimate", self._x)
         self.DeclareStateOutputPort("covariance", self._P)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc_inertial(self, context, output):
         x = context.get_discrete_state(self._x).get_value()
-        y = ekf_measurement(self._accel_port.Eval(context), self._gyro_port.Eval(context))
+        y = ekf_measurement(self._accel_port.Eval(context).tolist(), self._gyro_port.Eval(context).tolist())
         L = self._gain_port.Eval(context).reshape(5, 3)
         output.SetFromVector(ekf_update(ekf_predict(x, self._T_N), L, y))
 
-    def _calc_prior(self, context, output):
-        x = context.get_discrete_state(self._x).get_value()
-        P = context.get_discrete_state(self._P).get_value().reshape(5, 5)
-        output.SetFromVector(ekf_prior_covariance(P, x, self._Q, self._T_N).ravel())
-
     def _update(self, context, discrete_state):
-        P_prior = self._prior_port.Eval(context).reshape(5, 5)
+        P_prior = discrete_state.get_value(self._prior).reshape(5, 5)
         L = self._gain_port.Eval(context).reshape(5, 3)
-        discrete_state.set_value(self._x, self._mixed_port.Eval(context))
-        gain = self._mixing_gain_port.Eval(context)
-        discrete_state.set_value(
-            self._P, ekf_covariance_update(P_prior, L, self._R, gain, self._params).ravel()
-        )
+        x = self._mixed_port.Eval(context).copy()
+        gain = self._mixing_gain_port.Eval(context).tolist()
+        P = ekf_covariance_update(P_prior, L, self._R, gain, self._params)
+        discrete_state.set_value(self._x, x)
+        discrete_state.set_value(self._P, P.ravel())
+        discrete_state.set_value(self._prior, ekf_prior_covariance(P, x, self._Q, self._T_N).ravel())
 
 
 class KalmanGain(LeafSystem):

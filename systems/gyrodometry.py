@@ -108,13 +108,14 @@ class Gyrodometry(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        odo = self._odo.Eval(context)
+        odo = self._odo.Eval(context).tolist()
         state = [
-            *context.get_discrete_state(self._pose).get_value(),
-            context.get_discrete_state(self._drift).get_value()[0],
-            context.get_discrete_state(self._rate).get_value()[0],
+            *discrete_state.get_value(self._pose).tolist(),
+            *discrete_state.get_value(self._drift).tolist(),
+            *discrete_state.get_value(self._rate).tolist(),
         ]
-        new = gyrodometry_step(state, odo[0], odo[1], self._gyro.Eval(context)[0], self._p, self._T_N)
+        gyro = float(self._gyro.Eval(context)[0])
+        new = gyrodometry_step(state, odo[0], odo[1], gyro, self._p, self._T_N)
         discrete_state.set_value(self._pose, new[0:3])
         discrete_state.set_value(self._drift, new[3:4])
         discrete_state.set_value(self._rate, new[4:5])

@@ -377,6 +377,12 @@ class MixerC1(LeafSystem):
         discrete_state.set_value(self._dv_sum, [dv_sum])
 
 
+C2C3_STEP_LAYOUT = (("C2_C3", 2), ("C3_residual", 1))
+"""MixerC2C3's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
+MIXER_LAYOUT = (("mixed_estimate", 5), ("body_velocity", 3), ("mixing_gain", 2))
+"""VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
+
+
 class MixerC2C3(LeafSystem):
     """Mixing parameters C2 S(13) (lateral acceleration) and C3 S(14) (yaw-rate disagreement), at T_N.
 
@@ -387,12 +393,12 @@ class MixerC2C3(LeafSystem):
         - inertial_estimate
         - odometry
         output_ports:
-        - C2_C3
-        - C3_residual
+        - step
 
-    - C2_C3: [C2, C3] of this sample's EKF estimate and odometry (direct feedthrough; C3 of the residual
-      below).
-    - C3_residual: ^O omega - ^I omega, PT1-filtered up to this sample (c3_residual; direct feedthrough).
+    - step (direct feedthrough), in C2C3_STEP_LAYOUT's order: C2_C3, [C2, C3] of this sample's EKF
+      estimate and odometry (C3 of the residual below); C3_residual, ^O omega - ^I omega, PT1-filtered up
+      to this sample (c3_residual). One vector, one Python call per sample; the navigation diagram slices
+      it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: the filtered residual (state).
 
@@ -406,22 +412,19 @@ class MixerC2C3(LeafSystem):
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._residual = self.DeclareDiscreteState(1)
-        self._residual_out = self.DeclareVectorOutputPort("C3_residual", 1, self._calc_residual)
-        self.DeclareVectorOutputPort("C2_C3", 2, self._calc)
+        prereq = {self.xd_ticket(), self._inertial.ticket(), self._odo.ticket()}
+        self._step = self.DeclareVectorOutputPort("step", 3, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
-    def _calc_residual(self, context, output):
-        previous = context.get_discrete_state(self._residual).get_value()[0]
-        omega_i, omega_o = self._inertial.Eval(context)[2], self._odo.Eval(context)[1]
-        output.SetFromVector([c3_residual(previous, omega_o, omega_i, self._p, self._T_N)])
-
     def _calc(self, context, output):
-        a_n = self._inertial.Eval(context)[4]
-        residual = self._residual_out.Eval(context)[0]
-        output.SetFromVector([mixing_c2(a_n, self._p), mixing_c3(residual, self._p)])
+        previous = context.get_discrete_state(self._residual).get_value()[0]
+        inertial = self._inertial.Eval(context).tolist()
+        omega_o = self._odo.Eval(context)[1]
+        residual = c3_residual(float(previous), float(omega_o), inertial[2], self._p, self._T_N)
+        output.SetFromVector([mixing_c2(inertial[4], self._p), mixing_c3(residual, self._p), residual])
 
     def _update(self, context, discrete_state):
-        discrete_state.set_value(self._residual, self._residual_out.Eval(context))
+        discrete_state.set_value(self._residual, self._step.Eval(context)[2:3])
 
 
 class VelocityMixer(LeafSystem):
@@ -437,15 +440,15 @@ class VelocityMixer(LeafSystem):
         - C2_C3
         - previous_estimate
         output_ports:
-        - mixed_estimate
-        - body_velocity
-        - mixing_gain
+        - mixing
 
     - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 and the tyre
       model's previous value in S(17).
-    - mixed_estimate: [v_t, v_n, omega, ^I a_t, ^I a_n] (direct feedthrough).
-    - body_velocity: [v_t, v_n, omega] for pose integration and the side-slip angle.
-    - mixing_gain: [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P.
+    - mixing (direct feedthrough), in MIXER_LAYOUT's order: mixed_estimate [v_t, v_n, omega, ^I a_t,
+      ^I a_n]; body_velocity [v_t, v_n, omega] for pose integration and the side-slip angle; mixing_gain
+      [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P. One vector,
+      one Python call per sample; the navigation diagram slices it with a Demultiplexer
+      (diagrams/split.py).
     """
 
     def __init__(self, params: MixingParameters):
@@ -456,27 +459,19 @@ class VelocityMixer(LeafSystem):
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._c23 = self.DeclareVectorInputPort("C2_C3", 2)
         self._prev = self.DeclareVectorInputPort("previous_estimate", 5)
-        self._mixed = self.DeclareVectorOutputPort("mixed_estimate", 5, self._calc)
-        self.DeclareVectorOutputPort(
-            "body_velocity", 3, lambda c, o: o.SetFromVector(self._mixed.Eval(c)[0:3])
-        )
-        self.DeclareVectorOutputPort("mixing_gain", 2, self._calc_gain)
-
-    def _calc_gain(self, context, output):
-        c2 = self._c23.Eval(context)[0]
-        c1 = self._c1.Eval(context)[0]
-        output.SetFromVector(mixing_gain(self._mixed.Eval(context), c1, c2, self._p))
+        self.DeclareVectorOutputPort("mixing", 10, self._calc)
 
     def _calc(self, context, output):
-        c2, c3 = self._c23.Eval(context)
-        output.SetFromVector(
-            mix(
-                self._odo.Eval(context),
-                self._inertial.Eval(context),
-                self._c1.Eval(context)[0],
-                c2,
-                c3,
-                self._prev.Eval(context),
-                self._p,
-            )
+        c2, c3 = self._c23.Eval(context).tolist()
+        c1 = float(self._c1.Eval(context)[0])
+        mixed = mix(
+            self._odo.Eval(context).tolist(),
+            self._inertial.Eval(context).tolist(),
+            c1,
+            c2,
+            c3,
+            self._prev.Eval(context).tolist(),
+            self._p,
         )
+        gain = mixing_gain(mixed, c1, c2, self._p)
+        output.SetFromVector([*mixed.tolist(), *mixed[0:3].tolist(), *gain])

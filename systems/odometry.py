@@ -49,6 +49,10 @@ def odometry_step(state, encoders, wheel_radius, track_width: float, T_N: float)
     return [theta_R, theta_L, 0.0, v_t, omega, v_R, v_L], [v_t, omega, v_R, v_L], 0.0
 
 
+ODOMETRY_STEP_LAYOUT = (("state", 7), ("odometry", 4), ("fault", 1), ("body_velocity", 3))
+"""The Odometry block's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
+
+
 class Odometry(LeafSystem):
     """Wheel speeds from encoder differences and S(10), every T_N.
 
@@ -58,14 +62,14 @@ class Odometry(LeafSystem):
         input_ports:
         - encoders
         output_ports:
-        - odometry
-        - body_velocity
-        - fault
+        - step
 
     - encoders: quantised wheel angles [theta_R, theta_L] (rad).
-    - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample (direct feedthrough).
-    - body_velocity: [^O v_t, 0, ^O omega] for dead reckoning (odometry has no v_n, §IV-B).
-    - fault: 1 when the current encoder sample is not finite (the previous output is held).
+    - step (direct feedthrough), in ODOMETRY_STEP_LAYOUT's order: the next state; odometry
+      [^O v_t, ^O omega, v_R, v_L] of the current sample; fault: 1 when the current encoder sample is not
+      finite (the previous output is held); body_velocity [^O v_t, 0, ^O omega] for dead reckoning
+      (odometry has no v_n, §IV-B). One vector, one Python call per sample; the navigation diagram
+      slices it with a Demultiplexer (diagrams/split.py).
 
     Args:
         wheel_radius, track_width: calibrated geometry (m); wheel_radius one number for both wheels or
@@ -83,32 +87,19 @@ class Odometry(LeafSystem):
         v0 = float(initial_speed)
         self._state = self.DeclareDiscreteState(np.array([np.nan, np.nan, 0.0, v0, 0.0, v0, v0]))
         prereq = {self.xd_ticket(), self._enc.ticket()}
-        self._step = self.DeclareVectorOutputPort("step", 12, self._calc_step, prerequisites_of_calc=prereq)
-        after = prereq
-        self.DeclareVectorOutputPort(
-            "odometry", 4, lambda c, o: o.SetFromVector(self._step.Eval(c)[7:11]), prerequisites_of_calc=after
-        )
-        self.DeclareVectorOutputPort(
-            "body_velocity", 3, self._calc_body_velocity, prerequisites_of_calc=after
-        )
-        self.DeclareVectorOutputPort(
-            "fault", 1, lambda c, o: o.SetFromVector(self._step.Eval(c)[11:12]), prerequisites_of_calc=after
-        )
+        size = sum(n for _, n in ODOMETRY_STEP_LAYOUT)
+        self._step = self.DeclareVectorOutputPort("step", size, self._calc_step, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc_step(self, context, output):
         state, out, fault = odometry_step(
-            context.get_discrete_state(self._state).get_value(),
-            self._enc.Eval(context),
+            context.get_discrete_state(self._state).get_value().tolist(),
+            self._enc.Eval(context).tolist(),
             self._r,
             self._b,
             self._T_N,
         )
-        output.SetFromVector(np.concatenate([state, out, [fault]]))
-
-    def _calc_body_velocity(self, context, output):
-        odo = self._step.Eval(context)[7:11]
-        output.SetFromVector([odo[0], 0.0, odo[1]])
+        output.SetFromVector([*state, *out, fault, out[0], 0.0, out[1]])
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:7])

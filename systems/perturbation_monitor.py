@@ -32,7 +32,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
 """Output layout: [wheel_R, wheel_L, yaw, body]; a wheel's code is 1 braked, 2 driven; yaw, body 0/1."""
@@ -178,8 +178,8 @@ class PerturbationMonitor(LeafSystem):
     - wheel_speed_command: the commands [v_R, v_L] (m/s) the motors get.
     - encoders: the wheel angles [theta_R, theta_L] (rad) the navigation reads.
     - mixed_estimate: the navigation's [v_t, v_n, omega, a_t, a_n].
-    - perturbation: [wheel_R, wheel_L, yaw, body] (state): a wheel 1 braked, 2 driven; yaw and body 1
-      when flagged.
+    - perturbation: [wheel_R, wheel_L, yaw, body] (state, a copy of the flags that the update stores):
+      a wheel 1 braked, 2 driven; yaw and body 1 when flagged.
 
     Update every T_N: perturbation_step.
 
@@ -195,29 +195,27 @@ class PerturbationMonitor(LeafSystem):
         self._command = self.DeclareVectorInputPort("wheel_speed_command", 2)
         self._encoders = self.DeclareVectorInputPort("encoders", 2)
         self._estimate = self.DeclareVectorInputPort("mixed_estimate", 5)
-        self._state = self.DeclareDiscreteState(perturbation_initial_state())
+        state0 = perturbation_initial_state()
+        self._state = self.DeclareDiscreteState(state0)
+        self._flags = self.DeclareDiscreteState(
+            np.array(state0[_FLAGS:], float)
+        )  # state[_FLAGS:], as an output
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
-        self.DeclareVectorOutputPort(
-            "perturbation",
-            BasicVector(4),
-            lambda c, o: o.SetFromVector(c.get_discrete_state(self._state).get_value()[_FLAGS:]),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
+        self.DeclareStateOutputPort("perturbation", self._flags)
 
     def _update(self, context, discrete_state):
-        discrete_state.set_value(
-            self._state,
-            perturbation_step(
-                context.get_discrete_state(self._state).get_value(),
-                self._command.Eval(context),
-                self._encoders.Eval(context),
-                self._estimate.Eval(context),
-                self._p,
-                self._radii,
-                self._b,
-                self._T_N,
-            ),
+        state = perturbation_step(
+            discrete_state.get_value(self._state).tolist(),
+            self._command.Eval(context).tolist(),
+            self._encoders.Eval(context).tolist(),
+            self._estimate.Eval(context).tolist(),
+            self._p,
+            self._radii,
+            self._b,
+            self._T_N,
         )
+        discrete_state.set_value(self._state, state)
+        discrete_state.set_value(self._flags, state[_FLAGS:])
 
 
 def add_perturbation_monitor(builder, params, command_port, encoders_port, navigation, robot, T_N):

@@ -701,11 +701,11 @@ class DifferentialDrivePlant(LeafSystem):
 
     def _disturbance(self, context):
         port = self._disturbance_port
-        return port.Eval(context) if port.HasValue(context) else NO_DISTURBANCE
+        return port.Eval(context).tolist() if port.HasValue(context) else NO_DISTURBANCE
 
     def _motor_enable(self, context):
         port = self._enable_port
-        return port.Eval(context) if port.HasValue(context) else MOTORS_ON
+        return port.Eval(context).tolist() if port.HasValue(context) else MOTORS_ON
 
     def _currents(self, context, x):
         loop = context.get_discrete_state(self._loop).get_value()
@@ -729,10 +729,12 @@ class DifferentialDrivePlant(LeafSystem):
 
     def _update_discrete(self, context, discrete_state):
         step_index = round(context.get_time() / self._time_step)
+        # Floats, not numpy scalars, into the pure functions (numpy scalar arithmetic is several times
+        # slower); the update's buffer holds the block's own state at t_k.
         state, loop, acc = plant_advance(
-            context.get_discrete_state(self._x).get_value().tolist(),
-            context.get_discrete_state(self._loop).get_value().tolist(),
-            self._command_port.Eval(context),
+            discrete_state.get_value(self._x).tolist(),
+            discrete_state.get_value(self._loop).tolist(),
+            self._command_port.Eval(context).tolist(),
             step_index,
             self._steps_per_update,
             self._time_step,

@@ -40,6 +40,6 @@ class PoseIntegrator(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        v_t, v_n, omega = self._vel.Eval(context)
-        pose = context.get_discrete_state(self._pose).get_value()
+        v_t, v_n, omega = self._vel.Eval(context).tolist()
+        pose = discrete_state.get_value(self._pose).tolist()
         discrete_state.set_value(self._pose, pose_step(pose, v_t, v_n, omega, self._T_N))

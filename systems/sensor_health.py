@@ -424,6 +424,27 @@ def health_report(t, arrays: dict, channels) -> dict:
     return report
 
 
+HEALTH_STEP_LAYOUT = (
+    ("state", STATE_SIZE),
+    ("accelerometers", 4),
+    ("gyro", 1),
+    ("encoders", 2),
+    ("health", NUM_CHANNELS),
+    ("inertial_fault", 1),
+    ("encoder_fault", 1),
+    ("sensor_fault", 1),
+)
+"""The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
+
+
+def health_flags(codes) -> list:
+    """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder, any
+    channel is excluded (codes > 0)."""
+    inertial = 1.0 if any(c > 0 for c in codes[0:5]) else 0.0
+    encoder = 1.0 if any(c > 0 for c in codes[5:7]) else 0.0
+    return [inertial, encoder, max(inertial, encoder)]
+
+
 class SensorHealthMonitor(LeafSystem):
     """Checks every sensor channel, excludes and replaces the faulty ones (module docstring).
 
@@ -435,20 +456,16 @@ class SensorHealthMonitor(LeafSystem):
         - gyro
         - encoders
         output_ports:
-        - accelerometers
-        - gyro
-        - encoders
-        - health
-        - inertial_fault
-        - encoder_fault
-        - sensor_fault
+        - step
 
-    - inputs: the samples as read; accelerometers, gyro, encoders (out): the accepted or replaced
-      samples (direct feedthrough).
-    - health: the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
-      k: HEALTH_CLASSES[k - 1]).
-    - inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any encoder channel is excluded (the
-      yaw calibration does not learn from the sample); sensor_fault: either (nor does S(11)'s sum).
+    - inputs: the samples as read.
+    - step (direct feedthrough), in HEALTH_STEP_LAYOUT's order: the next state; the accepted or replaced
+      samples accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]; health,
+      the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
+      k: HEALTH_CLASSES[k - 1]); inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any
+      encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
+      either (nor does S(11)'s sum). One vector, so that one Python call per sample computes them all;
+      the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
 
@@ -466,39 +483,16 @@ class SensorHealthMonitor(LeafSystem):
         ]
         self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
         prereq = {self.xd_ticket()} | {port.ticket() for port in self._inputs}
-        n = STATE_SIZE
-        self._step = self.DeclareVectorOutputPort("step", n + 14, self._calc, prerequisites_of_calc=prereq)
-        for name, cols in (
-            ("accelerometers", slice(n, n + 4)),
-            ("gyro", slice(n + 4, n + 5)),
-            ("encoders", slice(n + 5, n + 7)),
-            ("health", slice(n + 7, n + 14)),
-        ):
-            self.DeclareVectorOutputPort(
-                name,
-                cols.stop - cols.start,
-                lambda c, o, cols=cols: o.SetFromVector(self._step.Eval(c)[cols]),
-                prerequisites_of_calc=prereq,
-            )
-        for name, cols in (
-            ("inertial_fault", slice(n + 7, n + 12)),
-            ("encoder_fault", slice(n + 12, n + 14)),
-            ("sensor_fault", slice(n + 7, n + 14)),
-        ):
-            self.DeclareVectorOutputPort(
-                name,
-                1,
-                lambda c, o, cols=cols: o.SetFromVector([float(np.any(self._step.Eval(c)[cols] > 0))]),
-                prerequisites_of_calc=prereq,
-            )
+        size = sum(n for _, n in HEALTH_STEP_LAYOUT)
+        self._step = self.DeclareVectorOutputPort("step", size, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
 
     def _calc(self, context, output):
-        raw = np.concatenate([port.Eval(context) for port in self._inputs])
+        raw = [v for port in self._inputs for v in port.Eval(context).tolist()]
         state, out, codes = health_step(
             context.get_discrete_state(self._state).get_value(), raw, self._p, self._g
         )
-        output.SetFromVector(np.concatenate([state, out, codes]))
+        output.SetFromVector([*state.tolist(), *out, *codes, *health_flags(codes)])
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

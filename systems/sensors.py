@@ -28,6 +28,11 @@ from pydrake.systems.framework import LeafSystem
 
 NOISE_CHANNELS = 14
 """Standard-normal inputs per sample: 4 accel white, 4 accel drift, 4 vibration, gyro white, gyro drift."""
+NOISE_BLOCK = 1024
+"""Samples per block of the sensor noise stream (SensorNoise)."""
+NOISE_STREAM = 1
+"""Second entropy word of the noise stream's seed ([seed, NOISE_STREAM, block]), apart from the initial
+biases' ``default_rng(seed)`` and the tolerances' draws."""
 
 
 @dc.dataclass(frozen=True)
@@ -126,6 +131,46 @@ def initial_biases(params: SensorParameters, rng: np.random.Generator) -> np.nda
     )
 
 
+class SensorNoise:
+    """The sensors' standard-normal draws of a run, a pure function of (seed, sample index).
+
+    Row k (the draws the sensors' update at t_k reads) is row ``k % NOISE_BLOCK`` of block
+    ``k // NOISE_BLOCK``, drawn as ``numpy.random.default_rng([seed, NOISE_STREAM, block])
+    .standard_normal((NOISE_BLOCK, NOISE_CHANNELS))``: deterministic per seed, independent of the order
+    in which rows are read, and drawn a block at a time (one block held), so that a run of any length
+    needs no random number generator in the diagram and no state for it.
+    """
+
+    def __init__(self, seed: int):
+        self.seed = int(seed)
+        self._block, self._rows = None, None
+
+    def rows(self, start: int, stop: int) -> np.ndarray:
+        """Rows start ... stop-1 as a (stop - start, NOISE_CHANNELS) array."""
+        first, last = start // NOISE_BLOCK, max(stop - 1, start) // NOISE_BLOCK
+        blocks = [self._draw(b) for b in range(first, last + 1)]
+        table = np.concatenate(blocks) if blocks else np.empty((0, NOISE_CHANNELS))
+        offset = first * NOISE_BLOCK
+        return table[start - offset : stop - offset].copy()
+
+    def row(self, k: int) -> list:
+        """Row k as a list of floats (the sensors' update reads one per sample)."""
+        block = k // NOISE_BLOCK
+        if block != self._block:
+            self._rows, self._block = self._draw(block).tolist(), block
+        return self._rows[k - block * NOISE_BLOCK]
+
+    def _draw(self, block: int) -> np.ndarray:
+        rng = np.random.default_rng([self.seed, NOISE_STREAM, block])
+        return rng.standard_normal((NOISE_BLOCK, NOISE_CHANNELS))
+
+
+def sensor_noise(seed: int, num_steps: int) -> np.ndarray:
+    """The (num_steps, NOISE_CHANNELS) draws the sensors of a run with ``seed`` read at t_0 ...
+    t_{num_steps-1} (SensorNoise; the plain loop's and the diagram's noise)."""
+    return SensorNoise(seed).rows(0, num_steps)
+
+
 def accelerometer_truth(body_acceleration, omega: float, position) -> list:
     """True readings [a_t1, a_n1, a_t2, a_n2] of the two accelerometers at +/- position.
 
@@ -213,7 +258,6 @@ class ProprioceptiveSensors(LeafSystem):
         input_ports:
         - plant_state
         - body_acceleration
-        - noise
         output_ports:
         - accelerometers
         - gyro
@@ -222,7 +266,6 @@ class ProprioceptiveSensors(LeafSystem):
 
     - plant_state: true PlantState (10).
     - body_acceleration: true [a_t, a_n, omega_dot].
-    - noise: NOISE_CHANNELS standard-normal samples (from a seeded Drake RandomSource).
     - accelerometers: [a_t1, a_n1, a_t2, a_n2] (m/s^2).
     - gyro: [omega] (rad/s).
     - encoders: quantised wheel angles [theta_R, theta_L] (rad).
@@ -242,18 +285,28 @@ class ProprioceptiveSensors(LeafSystem):
         T_N: sampling period (s).
         bias0: initial [accel biases (4), gyro bias] (see initial_biases()).
         initial_wheel_rates: wheel angular speeds (rad/s) before t = 0.
+        noise: the SensorNoise whose row k the update at t_k = k T_N reads (the noise is drawn from the
+            seed, not by a Drake RandomSource, whose unrestricted update would copy the whole diagram
+            state every sample); default SensorNoise(0).
     """
 
-    def __init__(self, params: SensorParameters, T_N: float, bias0=None, initial_wheel_rates=(0.0, 0.0)):
+    def __init__(
+        self,
+        params: SensorParameters,
+        T_N: float,
+        bias0=None,
+        initial_wheel_rates=(0.0, 0.0),
+        noise: SensorNoise | None = None,
+    ):
         super().__init__()
         self._params = params
         self._T_N = T_N
+        self._noise = noise if noise is not None else SensorNoise(0)
         internal0 = np.zeros(9)
         if bias0 is not None:
             internal0[0:5] = bias0
         self._plant_state_port = self.DeclareVectorInputPort("plant_state", 10)
         self._acceleration_port = self.DeclareVectorInputPort("body_acceleration", 3)
-        self._noise_port = self.DeclareVectorInputPort("noise", NOISE_CHANNELS)
         self._internal = self.DeclareDiscreteState(internal0)
         step = params.encoder_step
         theta_before = -np.asarray(initial_wheel_rates, float) * T_N
@@ -264,23 +317,24 @@ class ProprioceptiveSensors(LeafSystem):
         self.DeclareStateOutputPort("accelerometers", self._accel)
         self.DeclareStateOutputPort("gyro", self._gyro)
         self.DeclareStateOutputPort("encoders", self._enc)
-        self.DeclareVectorOutputPort(
-            "gyro_bias",
-            1,
-            lambda c, o: o.SetFromVector(c.get_discrete_state(self._internal).get_value()[4:5]),
-            prerequisites_of_calc={self.xd_ticket()},
-        )
+        self._gyro_bias = self.DeclareDiscreteState(internal0[4:5].copy())  # internal[4], as an output
+        self.DeclareStateOutputPort("gyro_bias", self._gyro_bias)
 
     @property
     def params(self) -> SensorParameters:
         return self._params
 
+    @property
+    def noise(self) -> SensorNoise:
+        return self._noise
+
     def _update(self, context, discrete_state):
+        k = round(context.get_time() / self._T_N)
         internal, accel, gyro, enc = sensor_update(
-            context.get_discrete_state(self._internal).get_value(),
-            self._plant_state_port.Eval(context),
-            self._acceleration_port.Eval(context),
-            self._noise_port.Eval(context),
+            discrete_state.get_value(self._internal).tolist(),
+            self._plant_state_port.Eval(context).tolist(),
+            self._acceleration_port.Eval(context).tolist(),
+            self._noise.row(k),
             self._params,
             self._T_N,
         )
@@ -288,3 +342,4 @@ class ProprioceptiveSensors(LeafSystem):
         discrete_state.set_value(self._accel, accel)
         discrete_state.set_value(self._gyro, gyro)
         discrete_state.set_value(self._enc, enc)
+        discrete_state.set_value(self._gyro_bias, internal[4:5])

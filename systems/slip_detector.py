@@ -94,9 +94,9 @@ class TangentialSlipDetector(LeafSystem):
 
     def _calc_step(self, context, output):
         state, total = slip_detector_step(
-            context.get_discrete_state(self._state).get_value(),
-            self._odo.Eval(context)[0],
-            self._acc.Eval(context),
+            context.get_discrete_state(self._state).get_value().tolist(),
+            float(self._odo.Eval(context)[0]),
+            self._acc.Eval(context).tolist(),
             self._T_N,
             self._running,
             self._fault.Eval(context)[0] > 0.5,
@@ -107,7 +107,7 @@ class TangentialSlipDetector(LeafSystem):
         step = self._step.Eval(context)
         k = int(round(context.get_time() / self._T_N))
         if k % self._n == 0:
-            _, state = slip_detector_batch_end(step[3], self._odo.Eval(context)[0], self._n)
+            _, state = slip_detector_batch_end(float(step[3]), float(self._odo.Eval(context)[0]), self._n)
         else:
             state = step[0:3]
         discrete_state.set_value(self._state, state)

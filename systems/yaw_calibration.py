@@ -186,6 +186,10 @@ def calibration_parameters(state) -> list:
     return [*state[_THETA], math.sqrt(P[0, 0]), math.sqrt(P[1, 1]), state[_LEARNED], state[_REJECTED]]
 
 
+CALIBRATED_LAYOUT = (("gyro", 1), ("odometry", 4))
+"""YawRateCalibration's ``calibrated`` output, in order: (name, size); diagrams/split.py slices it."""
+
+
 class YawRateCalibration(LeafSystem):
     """Gyro bias and rolling-radius difference learned online (module docstring); outputs the calibrated
     gyro for the EKF and the calibrated odometry for the fusion.
@@ -200,20 +204,22 @@ class YawRateCalibration(LeafSystem):
         - inertial_fault
         - encoder_fault
         output_ports:
-        - gyro
-        - odometry
+        - calibrated
         - bias
         - parameters
 
     - gyro: the checked gyro sample [omega] (rad/s); odometry: the nominal S(10) [^O v_t, ^O omega, v_R,
       v_L]; C1: the C1 in force; inertial_fault, encoder_fault: 1 when this sample's reading was replaced
       (its batch is not learned from).
-    - gyro (out): [omega - b_g] (direct feedthrough, theta from the state).
-    - odometry (out): calibrated_odometry (direct feedthrough).
+    - calibrated (direct feedthrough, theta from the state), in CALIBRATED_LAYOUT's order: gyro
+      [omega - b_g]; odometry, calibrated_odometry. One vector, one Python call per sample; the
+      navigation diagram slices it with a Demultiplexer (diagrams/split.py).
     - bias: [b_g] (rad/s, state).
     - parameters: calibration_parameters (state).
 
-    Update every T_N: yaw_calibration_step (the Kalman update at each batch's end).
+    Update every T_N: yaw_calibration_step (the Kalman update at each batch's end); at a batch's end the
+    update also stores the new state's bias and calibration_parameters, which the outputs hold (no Python
+    call; theta, P and the batch counts change only there).
 
     Args:
         params: YawCalibrationParameters. track_width: the nominal track (m). T_N, T_C: periods (s).
@@ -227,45 +233,35 @@ class YawRateCalibration(LeafSystem):
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._faults = [self.DeclareVectorInputPort(name, 1) for name in ("inertial_fault", "encoder_fault")]
-        self._state = self.DeclareDiscreteState(yaw_calibration_initial_state(params))
-        state_only = {self.xd_ticket()}
+        state0 = yaw_calibration_initial_state(params)
+        self._state = self.DeclareDiscreteState(state0)
+        parameters0 = calibration_parameters(state0)
+        self._bias = self.DeclareDiscreteState(np.array(parameters0[0:1], float))
+        self._parameters = self.DeclareDiscreteState(np.array(parameters0, float))
         self.DeclareVectorOutputPort(
-            "gyro", 1, self._calc_gyro, prerequisites_of_calc={self.xd_ticket(), self._gyro.ticket()}
+            "calibrated",
+            5,
+            self._calc_calibrated,
+            prerequisites_of_calc={self.xd_ticket(), self._gyro.ticket(), self._odo.ticket()},
         )
-        self.DeclareVectorOutputPort(
-            "odometry", 4, self._calc_odometry, prerequisites_of_calc={self.xd_ticket(), self._odo.ticket()}
-        )
-        self.DeclareVectorOutputPort(
-            "bias", 1, lambda c, o: o.SetFromVector(self._theta(c)[0:1]), prerequisites_of_calc=state_only
-        )
-        self.DeclareVectorOutputPort(
-            "parameters",
-            6,
-            lambda c, o: o.SetFromVector(
-                calibration_parameters(c.get_discrete_state(self._state).get_value())
-            ),
-            prerequisites_of_calc=state_only,
-        )
+        self.DeclareStateOutputPort("bias", self._bias)
+        self.DeclareStateOutputPort("parameters", self._parameters)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
-    def _theta(self, context):
-        return context.get_discrete_state(self._state).get_value()[_THETA]
-
-    def _calc_gyro(self, context, output):
-        output.SetFromVector([calibrated_gyro(self._gyro.Eval(context)[0], self._theta(context), self._p)])
-
-    def _calc_odometry(self, context, output):
+    def _calc_calibrated(self, context, output):
+        theta = context.get_discrete_state(self._state).get_value()[_THETA].tolist()
+        gyro = calibrated_gyro(float(self._gyro.Eval(context)[0]), theta, self._p)
         output.SetFromVector(
-            calibrated_odometry(self._odo.Eval(context), self._theta(context), self._b, self._p)
+            [gyro, *calibrated_odometry(self._odo.Eval(context).tolist(), theta, self._b, self._p)]
         )
 
     def _update(self, context, discrete_state):
         fault = any(port.Eval(context)[0] > 0.5 for port in self._faults)
         state = yaw_calibration_step(
-            context.get_discrete_state(self._state).get_value(),
-            self._gyro.Eval(context)[0],
-            self._odo.Eval(context),
-            self._c1.Eval(context)[0],
+            discrete_state.get_value(self._state),
+            float(self._gyro.Eval(context)[0]),
+            self._odo.Eval(context).tolist(),
+            float(self._c1.Eval(context)[0]),
             fault,
             self._b,
             self._p,
@@ -273,3 +269,7 @@ class YawRateCalibration(LeafSystem):
             self._n,
         )
         discrete_state.set_value(self._state, state)
+        if state[_COUNT] == 0.0:  # a batch ended (or calibration is off): theta, P and the counts moved
+            parameters = calibration_parameters(state)
+            discrete_state.set_value(self._bias, parameters[0:1])
+            discrete_state.set_value(self._parameters, parameters)

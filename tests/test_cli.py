@@ -164,8 +164,12 @@ def test_bench_prints_the_contract_line(capsys):
     lines = capsys.readouterr().out.strip().splitlines()
     assert "same samples: max position difference 0.0e+00 m" in "\n".join(lines)
     last = dict(item.split("=") for item in lines[-1].split())
-    assert set(last) == {"realtime_factor", "diagram_over_loop"}
+    assert list(last) == ["realtime_factor", "diagram_over_loop", "overhead_in_floors"]
     assert float(last["realtime_factor"]) > 0.0 and float(last["diagram_over_loop"]) > 0.0
+    float(last["overhead_in_floors"])  # a number (negative only if the diagram beat the plain loop)
+    # The Python callbacks per sample: 19 per T_N sample and the control's every T_C (corner: T_C = 5 T_N).
+    callbacks = next(line for line in lines if "Python callbacks per T_N" in line)
+    assert "19.9 Python callbacks per T_N" in callbacks
 
 
 @pytest.mark.parametrize(

@@ -112,9 +112,9 @@ def test_system_matches_the_pure_function():
     state = perturbation_initial_state()
     for _ in range(3):
         update = system.EvalUniquePeriodicDiscreteUpdate(context)
-        context.SetDiscreteState(update.value())
+        context.SetDiscreteState(update)  # the state and the flags it outputs
         state = perturbation_step(state, [1.0, 1.0], [0.3, 0.2], [1.0, 0.0, 0.5, 0.0, 3.0], P, (R, R), B, T_N)
-    np.testing.assert_array_equal(context.get_discrete_state_vector().value(), state)
+    np.testing.assert_array_equal(context.get_discrete_state(0).value(), state)
     np.testing.assert_array_equal(system.GetOutputPort("perturbation").Eval(context), state[-4:])
 
 

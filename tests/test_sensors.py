@@ -8,10 +8,13 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.plant import tinyphoon
 from slipnav.systems.sensors import (
+    NOISE_BLOCK,
     NOISE_CHANNELS,
+    SensorNoise,
     SensorParameters,
     accelerometer_truth,
     initial_biases,
+    sensor_noise,
     sensor_update,
 )
 
@@ -112,3 +115,20 @@ def test_same_seed_gives_bit_identical_runs_and_seeds_differ():
         np.testing.assert_array_equal(a[key], b[key])
     assert not np.array_equal(a["meas_gyro"], c["meas_gyro"])
     assert not np.array_equal(a["meas_a_t1"], c["meas_a_t1"])
+
+
+def test_sensor_noise_is_a_function_of_seed_and_sample():
+    """SensorNoise: row k is the same however the rows are read (across block boundaries, backwards),
+    standard normal, and a stream apart from the initial biases' default_rng(seed)."""
+    whole = sensor_noise(5, 3 * NOISE_BLOCK)
+    assert whole.shape == (3 * NOISE_BLOCK, NOISE_CHANNELS)
+    noise = SensorNoise(5)
+    np.testing.assert_array_equal(
+        noise.rows(NOISE_BLOCK - 3, NOISE_BLOCK + 4), whole[NOISE_BLOCK - 3 : NOISE_BLOCK + 4]
+    )
+    for k in (2 * NOISE_BLOCK + 7, 3, NOISE_BLOCK, NOISE_BLOCK - 1, 3):  # any order
+        assert noise.row(k) == whole[k].tolist()
+        assert all(type(v) is float for v in noise.row(k))
+    assert abs(np.mean(whole)) < 0.01 and abs(np.std(whole) - 1.0) < 0.01  # 43 008 draws
+    assert not np.array_equal(sensor_noise(6, 10), whole[:10])
+    assert not np.array_equal(np.random.default_rng(5).standard_normal(10), whole[:10, 0])

@@ -117,11 +117,11 @@ def test_block_equals_the_step_function():
         state = yaw_calibration_step(state, 0.013, [1.2, -0.05, 1.2, 1.2], 1.0, False, TRACK, p, T_N, N_BATCH)
     np.testing.assert_allclose(context.get_discrete_state(0).get_value(), state, atol=1e-15)
     theta = state[0:2]
-    np.testing.assert_allclose(block.GetOutputPort("gyro").Eval(context), [0.013 - theta[0]])
-    np.testing.assert_allclose(
-        block.GetOutputPort("odometry").Eval(context),
-        calibrated_odometry([1.2, -0.05, 1.2, 1.2], theta, TRACK, p),
-    )
+    calibrated = block.GetOutputPort("calibrated").Eval(context)  # [gyro, odometry (4)]
+    np.testing.assert_allclose(calibrated[0:1], [0.013 - theta[0]])
+    np.testing.assert_allclose(calibrated[1:5], calibrated_odometry([1.2, -0.05, 1.2, 1.2], theta, TRACK, p))
+    np.testing.assert_allclose(block.GetOutputPort("bias").Eval(context), theta[0:1])
+    np.testing.assert_allclose(block.GetOutputPort("parameters").Eval(context), calibration_parameters(state))
 
 
 def test_parameter_validation():
