@@ -300,7 +300,8 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n].
 
     v_t = C1 (^O v_t - s) + (1 - C1) ^I v_t, s = longitudinal_slip_speed(^O v_t, ^I a_t, ^I a_n) (0 in the
-    paper's S(15)); omega = C3 ^O omega + (1 - C3) ^I omega;
+    paper's S(15), and while neither wheel turned this sample: a tyre at rest creeps not, whatever the
+    biased accelerometers say; 0.1 mm/s of v_t, 0.4 m an hour at a standstill otherwise); omega = C3 ^O omega + (1 - C3) ^I omega;
     v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) [f_k + q_I (^I v_n - f_k)]: below the a_n threshold v_n
     follows the steady-turn model m = lateral_velocity_model(v_t, omega) and relaxes towards it by q2;
     above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^O v_t, ^I a_t, ^I a_n)
@@ -310,7 +311,10 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
     """
-    rolling = odo[0] - longitudinal_slip_speed(odo[0], inertial[3], inertial[4], p)
+    # Wheels that did not turn this sample do not creep: their tyres hold the force (at a standstill
+    # only the accelerometers' bias) by static friction.
+    at_rest = odo[0] == 0.0 and odo[1] == 0.0
+    rolling = 0.0 if at_rest else odo[0] - longitudinal_slip_speed(odo[0], inertial[3], inertial[4], p)
     v_t = c1 * rolling + (1.0 - c1) * inertial[0]
     omega = c3 * odo[1] + (1.0 - c3) * inertial[2]
     model = lateral_velocity_model(v_t, omega, p)

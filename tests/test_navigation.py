@@ -324,6 +324,22 @@ def test_mixing_laws_S15_to_S17():
     )
 
 
+def test_wheels_at_rest_do_not_creep():
+    """A standstill's accelerometer bias (here 0.05 m/s^2) is no tyre force: with neither wheel turning
+    the mixed v_t is C1 * 0 + (1 - C1) ^I v_t (no creep s), while the same reading on rolling wheels is
+    taken as the tyres' pull (s = kappa max(|v|, 0.3 m/s), v_t = -s at C1 = 1 below 0.3 m/s)."""
+    p = MixingParameters()
+    inertial = [1e-4, 0.0, 0.0, 0.05, 0.0]
+    previous = [0.0, 0.0, 0.0, 0.05, 0.0]
+    at_rest = mix([0.0, 0.0, 0.0, 0.0], inertial, 0.99, 0.99, 1.0, previous, p)
+    assert at_rest[0] == pytest.approx(0.01 * 1e-4, rel=1e-12)
+    creep = longitudinal_slip_speed(1e-3, 0.05, 0.0, p)
+    pull = 0.05 + (0.49 + 0.25e-3) * math.tanh(0.1)  # a_t plus the shoes' drag at 1 mm/s
+    assert creep == pytest.approx(0.3 * tyre_curve_side_slip(pull), rel=1e-6)
+    rolling = mix([1e-3, 0.0, 1e-3, 1e-3], inertial, 1.0, 0.99, 1.0, previous, p)
+    assert rolling[0] == pytest.approx(1e-3 - creep, rel=1e-12)
+
+
 def test_longitudinal_slip_speed_by_hand():
     """The tyres' creep in the linear range, braking, below the reference speed, without drag."""
     p = MixingParameters()  # Tinyphoon: a_peak 5.49, B 15, C 1.3, drag 0.49 + 0.25 v, floor 0.3 m/s
