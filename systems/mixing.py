@@ -301,7 +301,8 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
 
     v_t = C1 (^O v_t - s) + (1 - C1) ^I v_t, s = longitudinal_slip_speed(^O v_t, ^I a_t, ^I a_n) (0 in the
     paper's S(15), and while neither wheel turned this sample: a tyre at rest creeps not, whatever the
-    biased accelerometers say; 0.1 mm/s of v_t, 0.4 m an hour at a standstill otherwise); omega = C3 ^O omega + (1 - C3) ^I omega;
+    biased accelerometers say; 0.1 mm/s of v_t, 0.4 m an hour at a standstill otherwise);
+    omega = C3 ^O omega + (1 - C3) ^I omega;
     v_n = C2 [m_k + q2 (v_n,k-1 - m_k-1)] + (1 - C2) [f_k + q_I (^I v_n - f_k)]: below the a_n threshold v_n
     follows the steady-turn model m = lateral_velocity_model(v_t, omega) and relaxes towards it by q2;
     above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^O v_t, ^I a_t, ^I a_n)
