@@ -224,9 +224,9 @@ def test_spiral_speed_keeps_both_tyres_sliding_alike(monkeypatch):
     """spiral_speed: at the friction limit the wheels' kinematic spread (b/2) a_peak / v^2 is at most
     SPIRAL_WHEEL_SPREAD (Kurt3D, at its speed cap: 0.26) and the outer wheel at the spiral's 1.4 x
     curvature stays below the wheel-speed limit. Kurt3D's four spirals at that speed (true geometry and
-    accelerometer errors) give a_peak within 3 % of mu g (seeds 0-3: -0.3 .. +2.5 %, the commotion at
-    2.5 m/s); at the former 1.5 m/s its inner wheel stands still at the limit, the true net tyre force
-    peaks 4 % low and the spirals read -4.0 .. +0.4 %."""
+    accelerometer errors) give a_peak within 2 % of mu g (draw 0: -1.0 .. +0.6 %, median -0.7 %); at the
+    former 1.5 m/s its inner wheel stands still at the limit, the true net tyre force peaks 4 % below
+    mu g and the spirals read -4.1 .. -3.4 % (0.5 s means, draws 0-3)."""
     from slipnav.scenarios.config import Scenario
     from slipnav.studies import calibration as procedure
     from slipnav.systems.plant import kurt3d, tinyphoon
@@ -264,4 +264,4 @@ def test_spiral_speed_keeps_both_tyres_sliding_alike(monkeypatch):
     ]
     assert len(peaks) == 4
     assert truth["traction_limit_acceleration"] == pytest.approx(0.8 * 9.81)
-    assert abs(np.median(peaks) / truth["traction_limit_acceleration"] - 1.0) < 0.03, peaks
+    assert abs(np.median(peaks) / truth["traction_limit_acceleration"] - 1.0) < 0.02, peaks

@@ -169,7 +169,8 @@ def test_bench_prints_the_contract_line(capsys):
     float(last["overhead_in_floors"])  # a number (negative only if the diagram beat the plain loop)
     # The Python callbacks per sample: 19 per T_N sample and the control's every T_C (corner: T_C = 5 T_N).
     callbacks = next(line for line in lines if "Python callbacks per T_N" in line)
-    assert "19.9 Python callbacks per T_N" in callbacks
+    count = float(callbacks.split("Python callbacks per T_N")[0].split(";")[-1])
+    assert 19.5 < count < 20.5, callbacks  # the exact figure moves with the run's events (19.9, 20.0)
 
 
 @pytest.mark.parametrize(
