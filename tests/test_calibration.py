@@ -51,10 +51,10 @@ def test_gyro_scale_and_bias_are_recovered(calibrated):
 
 
 def test_peak_acceleration_within_five_percent(calibrated):
-    """a_peak = mu g f_w = 5.49 m/s^2 within the issue's 5 % (10 seeds: -3.0 .. +0.2 %, README,
+    """a_peak = mu g f_w = 5.49 m/s^2 within the issue's 5 % (10 seeds: -3.9 .. -0.8 %, README,
     Calibration) and within 3 of its standard errors: the spirals' scatter with the lumped tyre model's
-    type-B 2 % (A_PEAK_MODEL_UNCERTAINTY; the model reads ~1.5 % low on most seeds, which no scatter
-    shows)."""
+    type-B 2 % (A_PEAK_MODEL_UNCERTAINTY; on the felt-shoed Tinyphoon it reads ~3 % low, which no
+    scatter shows)."""
     calibration, truth = calibrated
     value, true, error, z = compare(calibration, truth)["tyre_peak_acceleration"]
     assert true == pytest.approx(0.7 * 9.81 * 0.8)
