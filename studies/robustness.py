@@ -263,15 +263,14 @@ def calibrated_model_path(scenario, seed: int, model_dir) -> FilePath:
 
     from slipnav.scenarios.model import RobotModel, write_model
     from slipnav.studies import calibration as procedure
-    from slipnav.studies.calibration import calibrate, simulate_manoeuvres
 
     world = repr((scenario.robot, scenario.robot_overrides, scenario.sensor_overrides, scenario.plant))
     key = hashlib.sha1(world.encode() + FilePath(procedure.__file__).read_bytes()).hexdigest()[:8]
     path = FilePath(model_dir) / f"{scenario.robot}-{key}-seed{seed}.calibrated.model.yaml"
     if not path.is_file():
-        manoeuvres, _ = simulate_manoeuvres(scenario, seed)
+        manoeuvres, _ = procedure.simulate_manoeuvres(scenario, seed)
         base = RobotModel(robot=scenario.robot, T_N=scenario.T_N, T_C=scenario.T_C)
-        write_model(calibrate(manoeuvres, scenario.robot, base).model, path)
+        write_model(procedure.calibrate(manoeuvres, scenario.robot, base).model, path)
     return path
 
 

@@ -60,20 +60,18 @@ def test_a_pushed_wheel_is_driven_and_a_wheel_moving_against_a_stop_command_too(
 def test_a_current_limited_run_up_is_in_the_band():
     """A command step 0 -> 3 m/s followed at 2.5 m/s^2 (above reference_acceleration): never flagged;
     followed at 1 m/s^2 it falls behind the band's reference and is braked."""
-    state, theta, flags = perturbation_initial_state(), [0.0, 0.0], []
-    for k in range(1000):
-        v = min(2.5 * k * T_N, 3.0)
-        state = perturbation_step(state, (3.0, 3.0), theta, (v, 0, 0, 0, 0), P, (R, R), B, T_N)
-        flags.append(state[-4:])
-        theta = [t + v * T_N / R for t in theta]
-    assert not np.any(flags)
-    state, theta, flags = perturbation_initial_state(), [0.0, 0.0], []
-    for k in range(1000):
-        v = min(1.0 * k * T_N, 3.0)
-        state = perturbation_step(state, (3.0, 3.0), theta, (v, 0, 0, 0, 0), P, (R, R), B, T_N)
-        flags.append(state[-4:])
-        theta = [t + v * T_N / R for t in theta]
-    assert np.array(flags)[:, 0].max() == WHEEL_BRAKED
+
+    def run_up(acceleration):
+        state, theta, flags = perturbation_initial_state(), [0.0, 0.0], []
+        for k in range(1000):
+            v = min(acceleration * k * T_N, 3.0)
+            state = perturbation_step(state, (3.0, 3.0), theta, (v, 0, 0, 0, 0), P, (R, R), B, T_N)
+            flags.append(state[-4:])
+            theta = [t + v * T_N / R for t in theta]
+        return np.array(flags)
+
+    assert not np.any(run_up(2.5))
+    assert run_up(1.0)[:, 0].max() == WHEEL_BRAKED
 
 
 def test_yaw_flag_on_a_turn_the_wheels_do_not_make_but_not_on_a_turns_understeer():
