@@ -502,8 +502,12 @@ MAX_DURATION = 3600.0
 """Longest simulated time (s), for the YAML ``duration`` and ``--duration`` alike."""
 MIN_CONTROL_PERIODS = 5
 """Shortest simulated time, in control periods T_C."""
-INFINITY_ALLOWED = {"navigation.mixing.tyre_peak_acceleration", "navigation.gyro_bias.averaging_time"}
-"""Float keys where .inf means something (no tyre curve; a never-forgetting average)."""
+INFINITY_ALLOWED = {
+    "navigation.mixing.tyre_peak_acceleration",
+    "navigation.mixing.gyro_turn_rate",
+    "navigation.gyro_bias.averaging_time",
+}
+"""Float keys where .inf means something (no tyre curve; no gyro turn rule; a never-forgetting average)."""
 
 
 def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:

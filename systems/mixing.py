@@ -49,7 +49,14 @@ class MixingParameters:
             (systems/gyro_bias.py) the turn is the gyro's (square, 10 seeds: fused heading error RMS
             1.5 -> 0.3 deg open loop).
         c3_residual_time_constant: PT1 of ^O omega - ^I omega before S(14) (s): 0.02 (one T_C, the
-            batch of S(11)); 0: the paper's per-sample residual.
+            batch of S(11)); 0: the paper's per-sample residual. The turn rate below is filtered alike.
+        gyro_turn_rate: |^I omega| (PT1-filtered as the residual) above which the yaw rate is the gyro's
+            whatever the disagreement (rad/s; mixing_c3): a turn's heading change is scaled by the
+            odometric yaw rate's error (the track's tolerance, +-3 %: the tyres' contact patches) or by
+            the gyro's (its sensitivity's, +-1 %), and the smaller bound wins (Gyrodometry's rule, I
+            Algorithm 1). Needed where the disagreement cannot tell a turn (Kurt3D: its encoders' 0.15 rad/s
+            steps set b3 above a 3 % track error); inf: S(14) alone (default: Tinyphoon's scrub already
+            hands its turns to the gyro).
         q2: geometric relaxation of v_n towards the tyre model per T_N while |a_n| < b2, S(17): as small
             as possible but large enough for consistent velocity (0.99 -> 0.2 s time constant).
         q2_inertial: the same for the inertial v_n, weighted 1 - C2 (|a_n| > b2), at zero tyre force;
@@ -94,6 +101,7 @@ class MixingParameters:
     a3: float = 200.0
     b3: float = 0.02
     c3_residual_time_constant: float = 0.02
+    gyro_turn_rate: float = math.inf
     q2: float = 0.99
     q2_inertial: float = 0.95
     side_slip_from_accelerations: bool = True
@@ -118,6 +126,10 @@ class MixingParameters:
         tau = self.c3_residual_time_constant
         if not (math.isfinite(tau) and tau >= 0.0):
             raise ValueError(f"mixing.c3_residual_time_constant={tau!r} is out of range: allowed [0, inf) s")
+        if not self.gyro_turn_rate >= 0.0:  # also rejects NaN; inf: S(14) alone
+            raise ValueError(
+                f"mixing.gyro_turn_rate={self.gyro_turn_rate!r} is out of range: allowed [0, inf] rad/s"
+            )
         if not 0.0 < self.q2_inertial <= 1.0:
             raise ValueError(f"mixing.q2_inertial={self.q2_inertial!r} is out of range: allowed (0, 1]")
         a = self.tyre_peak_acceleration
@@ -178,9 +190,19 @@ def c3_residual(
     return pt1_step(previous, odometric_omega - inertial_omega, p.c3_residual_time_constant, T_N)
 
 
-def mixing_c3(residual: float, p: MixingParameters) -> float:
-    """S(14): C3 = logsig(a3 (|^O omega - ^I omega| - b3)), on the (filtered) residual of c3_residual."""
-    return logsig(p.a3, abs(residual), p.b3)
+def c3_turn_rate(previous: float, inertial_omega: float, p: MixingParameters, T_N: float) -> float:
+    """^I omega, PT1-filtered with c3_residual_time_constant: the turn rate mixing_c3 tests."""
+    return pt1_step(previous, inertial_omega, p.c3_residual_time_constant, T_N)
+
+
+def mixing_c3(residual: float, p: MixingParameters, turn_rate: float = 0.0) -> float:
+    """S(14): C3 = logsig(a3 (|^O omega - ^I omega| - b3)), on the (filtered) residual of c3_residual;
+    in a turn (|turn_rate| above gyro_turn_rate, c3_turn_rate) times logsig(a3 (|turn_rate| -
+    gyro_turn_rate)), which hands the turn to the gyro."""
+    c3 = logsig(p.a3, abs(residual), p.b3)
+    if math.isinf(p.gyro_turn_rate):
+        return c3
+    return c3 * logsig(p.a3, abs(turn_rate), p.gyro_turn_rate)
 
 
 def tyre_utilisation(v_t: float, omega: float, p: MixingParameters) -> float:
@@ -382,7 +404,7 @@ class MixerC1(LeafSystem):
         discrete_state.set_value(self._dv_sum, [dv_sum])
 
 
-C2C3_STEP_LAYOUT = (("C2_C3", 2), ("C3_residual", 1))
+C2C3_STEP_LAYOUT = (("C2_C3", 2), ("C3_filters", 2))
 """MixerC2C3's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 MIXER_LAYOUT = (("mixed_estimate", 5), ("body_velocity", 3), ("mixing_gain", 2))
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
@@ -401,11 +423,11 @@ class MixerC2C3(LeafSystem):
         - step
 
     - step (direct feedthrough), in C2C3_STEP_LAYOUT's order: C2_C3, [C2, C3] of this sample's EKF
-      estimate and odometry (C3 of the residual below); C3_residual, ^O omega - ^I omega, PT1-filtered up
-      to this sample (c3_residual). One vector, one Python call per sample; the navigation diagram slices
-      it with a Demultiplexer (diagrams/split.py).
+      estimate and odometry (C3 of the filters below); C3_filters, [^O omega - ^I omega, ^I omega], each
+      PT1-filtered up to this sample (c3_residual, c3_turn_rate). One vector, one Python call per sample;
+      the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
-    Update every T_N: the filtered residual (state).
+    Update every T_N: the filters (state).
 
     Args:
         params: MixingParameters. T_N: navigation period (s).
@@ -416,20 +438,22 @@ class MixerC2C3(LeafSystem):
         self._p, self._T_N = params, T_N
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._odo = self.DeclareVectorInputPort("odometry", 4)
-        self._residual = self.DeclareDiscreteState(1)
+        self._filters = self.DeclareDiscreteState(2)
         prereq = {self.xd_ticket(), self._inertial.ticket(), self._odo.ticket()}
-        self._step = self.DeclareVectorOutputPort("step", 3, self._calc, prerequisites_of_calc=prereq)
+        self._step = self.DeclareVectorOutputPort("step", 4, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc(self, context, output):
-        previous = context.get_discrete_state(self._residual).get_value()[0]
+        previous_residual, previous_turn = context.get_discrete_state(self._filters).get_value().tolist()
         inertial = self._inertial.Eval(context).tolist()
-        omega_o = self._odo.Eval(context)[1]
-        residual = c3_residual(float(previous), float(omega_o), inertial[2], self._p, self._T_N)
-        output.SetFromVector([mixing_c2(inertial[4], self._p), mixing_c3(residual, self._p), residual])
+        omega_o = float(self._odo.Eval(context)[1])
+        residual = c3_residual(previous_residual, omega_o, inertial[2], self._p, self._T_N)
+        turn = c3_turn_rate(previous_turn, inertial[2], self._p, self._T_N)
+        c3 = mixing_c3(residual, self._p, turn)
+        output.SetFromVector([mixing_c2(inertial[4], self._p), c3, residual, turn])
 
     def _update(self, context, discrete_state):
-        discrete_state.set_value(self._residual, self._step.Eval(context)[2:3])
+        discrete_state.set_value(self._filters, self._step.Eval(context)[2:4])
 
 
 class VelocityMixer(LeafSystem):

@@ -41,6 +41,7 @@ from slipnav.systems.mixing import (
     MixingParameters,
     accumulate_delta_v,
     c3_residual,
+    c3_turn_rate,
     mix,
     mixing_c1,
     mixing_c2,
@@ -171,7 +172,7 @@ class NavigationLoop:
         self.odo_pose = list(initial.pose)
         self.gyro_state = [*initial.pose, 0.0, 0.0]
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
-        self.c3_residual = 0.0
+        self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.k = 0
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
@@ -208,7 +209,8 @@ class NavigationLoop:
         )
         c2 = mixing_c2(inertial[4], mp)
         residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
-        c3 = mixing_c3(residual, mp)
+        turn = c3_turn_rate(self.c3_turn_rate, inertial[2], mp, T_N)
+        c3 = mixing_c3(residual, mp, turn)
         mixed = self.velocity_mix(odo, inertial, c2, c3, x)
         row = (
             *self.pose,
@@ -239,7 +241,7 @@ class NavigationLoop:
         self.calibration = yaw_calibration_step(
             self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n
         )
-        self.c3_residual = residual
+        self.c3_residual, self.c3_turn_rate = residual, turn
         self.odo_state = odo_next
         self.det_state = det_next
         if self.k % self.n == 0:

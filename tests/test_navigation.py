@@ -226,7 +226,7 @@ def test_c3_residual_pt1_filters_the_encoder_quantisation():
         block.GetInputPort("inertial_estimate").FixValue(context, [1.0, 0.0, inertial, 0.0, 0.1])
         residual += gain * (w - inertial - residual)
         assert residual == pytest.approx(c3_residual(filtered[-1] if filtered else 0.0, w, inertial, p, T_N))
-        step_out = block.GetOutputPort("step").Eval(context)  # C2C3_STEP_LAYOUT: [C2, C3], [residual]
+        step_out = block.GetOutputPort("step").Eval(context)  # [C2, C3], [residual, turn rate]
         np.testing.assert_allclose(step_out[2:3], [residual], atol=1e-15)
         np.testing.assert_allclose(step_out[0:2], [mixing_c2(0.1, p), mixing_c3(residual, p)], atol=1e-15)
         filtered.append(residual)
@@ -239,6 +239,40 @@ def test_c3_residual_pt1_filters_the_encoder_quantisation():
     for _ in range(30):
         r = c3_residual(r, 2.06, 2.0, p, T_N)
     assert mixing_c3(r, p) < 0.01
+
+
+def test_gyro_turn_rate_hands_a_turn_to_the_gyro():
+    """mixing_c3 with gyro_turn_rate (Kurt3D's long path: b3 = 0.4 above its encoders' 0.15 rad/s steps):
+    a robot whose track is 3 % wider than believed reads ^O omega = 1.03 rad/s in a 1 rad/s turn, a
+    disagreement S(14) alone leaves with the odometry (C3 ~ 1, 3 % of the turn lost); with the turn rule
+    the PT1 of ^I omega (r_k = r_k-1 + (1 - exp(-T_N / tau)) (omega_k - r_k-1)) passes 0.05 rad/s within
+    a few samples and C3 = logsig(a3 (|r| - b3)) logsig(a3 (|turn| - 0.05)) < 1e-3: the mixed yaw rate is
+    the gyro's. Driving straight (|omega| <= 0.02 rad/s) C3 stays the odometry's (> 0.99)."""
+    s14 = MixingParameters(a3=200.0, b3=0.4)
+    p = MixingParameters(a3=200.0, b3=0.4, gyro_turn_rate=0.05)
+    gain = 1.0 - math.exp(-T_N / p.c3_residual_time_constant)
+    block = MixerC2C3(p, T_N)
+    simulator = Simulator(block)
+    context = simulator.get_mutable_context()
+    turn_by_hand, c3_of = 0.0, []
+    for k in range(60):
+        block.GetInputPort("odometry").FixValue(context, [1.0, 1.03, 1.0, 1.0])
+        block.GetInputPort("inertial_estimate").FixValue(context, [1.0, 0.0, 1.0, 0.0, 0.1])
+        turn_by_hand += gain * (1.0 - turn_by_hand)
+        out = block.GetOutputPort("step").Eval(context)
+        np.testing.assert_allclose(out[3], turn_by_hand, rtol=1e-14)
+        np.testing.assert_allclose(out[1], mixing_c3(out[2], p, out[3]), rtol=1e-14)
+        assert mixing_c3(out[2], s14) > 0.999  # S(14) alone: the odometry keeps the turn
+        c3_of.append(out[1])
+        simulator.AdvanceTo((k + 1) * T_N)
+    first = next(k for k, c3 in enumerate(c3_of) if c3 < 1e-3)
+    assert first <= 3 and max(c3_of[first:]) < 1e-3
+    mixed = mix([1.0, 1.03, 1.0, 1.0], [1.0, 0.0, 1.0, 0.0, 0.1], 1.0, 1.0, c3_of[-1], np.zeros(5), p)
+    assert mixed[2] == pytest.approx(1.0, abs=1e-4)
+    for straight in (0.0, 0.01, -0.02):
+        assert mixing_c3(0.0, p, straight) > 0.99
+    # inf (the default) is S(14) alone, whatever the turn rate.
+    assert mixing_c3(0.01, MixingParameters(), 3.0) == mixing_c3(0.01, MixingParameters())
 
 
 def test_tyre_model_inverts_the_magic_formula():
@@ -417,6 +451,9 @@ def test_mixing_parameter_validation():
     for bad in (-0.01, math.inf, math.nan):
         with pytest.raises(ValueError, match=r"mixing.c3_residual_time_constant=.* allowed \[0, inf\) s"):
             MixingParameters(c3_residual_time_constant=bad)
+    for bad in (-0.01, math.nan):
+        with pytest.raises(ValueError, match=r"mixing.gyro_turn_rate=.* allowed \[0, inf\] rad/s"):
+            MixingParameters(gyro_turn_rate=bad)
     for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed"):
         for bad in (-0.1, math.inf, math.nan):
             with pytest.raises(ValueError, match=rf"mixing.{name}=.* allowed \[0, inf\)"):
