@@ -305,17 +305,27 @@ def mixing_utilisation(v_t: float, omega: float, a_t: float, a_n: float, p: Mixi
     return math.hypot(a_x, a_n) / p.tyre_peak_acceleration
 
 
-def mixing_gain(mixed, c1: float, c2: float, p: MixingParameters) -> np.ndarray:
+def wheels_at_rest(odo) -> bool:
+    """Neither wheel turned this sample: the odometric v_t and omega are both exactly 0."""
+    return odo[0] == 0.0 and odo[1] == 0.0
+
+
+def mixing_gain(mixed, c1: float, c2: float, p: MixingParameters, at_rest: bool = False) -> np.ndarray:
     """[w_t, w_n]: how much the mixed estimate ``mixed`` (mix's output) took from outside the EKF.
 
     S(15): w_t = C1, the weight of odometry in v_t. S(17): v_n = C2 q2 v_n,k-1 + (1 - C2) q_I ^I v_n +
     (the tyre model's terms); with v_n,k-1 = ^I v_n to first order in T_N, w_n = 1 - C2 q2 - (1 - C2) q_I
     is the weight of the tyre model (the paper's S(17): w_n = C2 (1 - q2), relaxation towards zero).
+    With the wheels at rest (wheels_at_rest) mix scales that v_n by 1 - C1 (the wheels' v_n = 0 weighs
+    C1): w_n = 1 - (1 - C1)(1 - w_n).
     The EKF's covariance takes the mixing as updates with these gains (ekf.ekf_mixing_covariance).
     """
     utilisation = mixing_utilisation(mixed[0], mixed[2], mixed[3], mixed[4], p)
     q_inertial = inertial_relaxation(utilisation, p)
-    return np.array([c1, 1.0 - c2 * p.q2 - (1.0 - c2) * q_inertial])
+    w_n = 1.0 - c2 * p.q2 - (1.0 - c2) * q_inertial
+    if at_rest:
+        w_n = 1.0 - (1.0 - c1) * (1.0 - w_n)
+    return np.array([c1, w_n])
 
 
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
@@ -330,13 +340,16 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^O v_t, ^I a_t, ^I a_n)
     (m with side_slip_from_accelerations = False) by q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u the
     tyres' utilisation capped at 1. The paper's S(17) for a_peak = inf (m = f = 0) and q2_inertial = 1.
+    With the wheels at rest (wheels_at_rest) that v_n is scaled by 1 - C1: tyres that hold the body by
+    static friction hold it sideways too, as far as C1 trusts the wheels (a locked slide drops C1); the
+    inertial branch would otherwise integrate the a_n bias (0.07 mm/s after an hour at rest).
 
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
     """
     # Wheels that did not turn this sample do not creep: their tyres hold the force (at a standstill
     # only the accelerometers' bias) by static friction.
-    at_rest = odo[0] == 0.0 and odo[1] == 0.0
+    at_rest = wheels_at_rest(odo)
     rolling = 0.0 if at_rest else odo[0] - longitudinal_slip_speed(odo[0], inertial[3], inertial[4], p)
     v_t = c1 * rolling + (1.0 - c1) * inertial[0]
     omega = c3 * odo[1] + (1.0 - c3) * inertial[2]
@@ -347,16 +360,12 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     else:
         target, utilisation = model, tyre_utilisation(v_t, omega, p)
     q_inertial = inertial_relaxation(utilisation, p)
-    return np.array(
-        [
-            v_t,
-            c2 * (model + p.q2 * (previous[1] - model_prev))
-            + (1.0 - c2) * (target + q_inertial * (inertial[1] - target)),
-            omega,
-            inertial[3],
-            inertial[4],
-        ]
+    v_n = c2 * (model + p.q2 * (previous[1] - model_prev)) + (1.0 - c2) * (
+        target + q_inertial * (inertial[1] - target)
     )
+    if at_rest:
+        v_n *= 1.0 - c1
+    return np.array([v_t, v_n, omega, inertial[3], inertial[4]])
 
 
 class MixerC1(LeafSystem):
@@ -493,8 +502,9 @@ class VelocityMixer(LeafSystem):
     def _calc(self, context, output):
         c2, c3 = self._c23.Eval(context).tolist()
         c1 = float(self._c1.Eval(context)[0])
+        odo = self._odo.Eval(context).tolist()
         mixed = mix(
-            self._odo.Eval(context).tolist(),
+            odo,
             self._inertial.Eval(context).tolist(),
             c1,
             c2,
@@ -502,5 +512,5 @@ class VelocityMixer(LeafSystem):
             self._prev.Eval(context).tolist(),
             self._p,
         )
-        gain = mixing_gain(mixed, c1, c2, self._p)
+        gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo))
         output.SetFromVector([*mixed.tolist(), *mixed[0:3].tolist(), *gain])

@@ -47,6 +47,7 @@ from slipnav.systems.mixing import (
     mixing_c2,
     mixing_c3,
     mixing_gain,
+    wheels_at_rest,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.pose import pose_step
@@ -230,7 +231,7 @@ class NavigationLoop:
             *codes,
         )
         self.x = mixed
-        gain = mixing_gain(mixed, self.c1, c2, mp)
+        gain = mixing_gain(mixed, self.c1, c2, mp, wheels_at_rest(odo))
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)

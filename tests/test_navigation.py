@@ -374,6 +374,36 @@ def test_wheels_at_rest_do_not_creep():
     assert rolling[0] == pytest.approx(1e-3 - creep, rel=1e-12)
 
 
+def test_wheels_at_rest_hold_the_body_sideways():
+    """At rest S(17)'s v_n is scaled by 1 - C1 (the wheels' v_n = 0 weighs C1), and mixing_gain's w_n
+    becomes 1 - (1 - C1)(1 - w_n). Ten seconds at a standstill with an a_n bias of 0.05 m/s^2 (the inertial
+    v_n integrates it: + a_n T_N per sample): at C1 = 1 v_n stays exactly 0; at C1 = 0 (a locked slide) the
+    mixing keeps S(17), whose fixed point, by hand, solves v (1 - C2 q2 - (1 - C2) q_I) = (1 - C2)
+    (f (1 - q_I) + q_I a_n T_N) with f the tyre curve's slip at the force (m = 0 at v_t = 0)."""
+    p = MixingParameters()
+    a_n, T_N = 0.05, 0.002
+    c2 = mixing_c2(a_n, p)
+    rest = [0.0, 0.0, 0.0, 0.0]
+    v_n_rest, v_n_slide = 0.0, 0.0
+    for _ in range(5000):
+        inertial = [0.0, v_n_rest + a_n * T_N, 0.0, 0.0, a_n]
+        v_n_rest = mix(rest, inertial, 1.0, c2, 1.0, [0.0, v_n_rest, 0.0, 0.0, a_n], p)[1]
+        inertial = [0.0, v_n_slide + a_n * T_N, 0.0, 0.0, a_n]
+        v_n_slide = mix(rest, inertial, 0.0, c2, 1.0, [0.0, v_n_slide, 0.0, 0.0, a_n], p)[1]
+    assert v_n_rest == 0.0
+    f, u = side_slip_from_accelerations(0.0, 0.0, 0.0, a_n, p)
+    q_i = 1.0 - (1.0 - p.q2_inertial) * math.sqrt(1.0 - u * u)
+    fixed = (1.0 - c2) * (f * (1.0 - q_i) + q_i * a_n * T_N) / (1.0 - c2 * p.q2 - (1.0 - c2) * q_i)
+    assert abs(v_n_slide) > 1e-6
+    assert v_n_slide == pytest.approx(fixed, rel=1e-9)
+    mixed = [0.0, 0.0, 0.0, 0.0, 0.0]
+    w_rolling = mixing_gain(mixed, 0.7, 0.4, p)
+    w_rest = mixing_gain(mixed, 0.7, 0.4, p, at_rest=True)
+    assert w_rest[0] == w_rolling[0] == 0.7
+    assert w_rest[1] == pytest.approx(1.0 - 0.3 * (1.0 - w_rolling[1]), rel=1e-15)
+    assert mixing_gain(mixed, 1.0, 0.4, p, at_rest=True)[1] == 1.0
+
+
 def test_longitudinal_slip_speed_by_hand():
     """The tyres' creep in the linear range, braking, below the reference speed, without drag."""
     p = MixingParameters()  # Tinyphoon: a_peak 5.49, B 15, C 1.3, drag 0.49 + 0.25 v, floor 0.3 m/s
