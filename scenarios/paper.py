@@ -17,7 +17,7 @@ PER_SAMPLE_C3 = {"a3": 60.0, "b3": 0.05}
 """S(14)'s steepness and threshold for the single sample's yaw-rate residual (the defaults a3 = 200,
 b3 = 0.02 suit the residual's PT1; one encoder count is 0.11 rad/s of yaw rate per 2 ms sample on
 Tinyphoon): the error budget's "paper's heading" (studies/error_budget.papers_heading). A scenario
-that sets its own a3 or b3 keeps them (the Kurt3D scenarios: 15, 0.4)."""
+that sets its own a3 or b3 keeps them (the Kurt3D scenarios: 200, 0.4)."""
 
 
 def _nav(scenario, part: str, **changes):
@@ -72,6 +72,13 @@ DEVIATIONS = (
         _per_sample_c3,
     ),
     Deviation(
+        "gyro_turn",
+        "a turn's yaw rate the gyro's: C3 times logsig(a3 (|PT1 of ^I omega| - gyro_turn_rate))",
+        "S(14): the disagreement alone",
+        "navigation.mixing.gyro_turn_rate: .inf",
+        lambda s: _nav(s, "mixing", gyro_turn_rate=math.inf),
+    ),
+    Deviation(
         "s11",
         "S(11)'s acceleration term integrated since the batch start",
         "S(11): (a_t1,k + a_t2,k) T_N/2",
@@ -100,6 +107,13 @@ DEVIATIONS = (
         lambda s: _nav(
             s, "mixing", tyre_peak_acceleration=math.inf, q2_inertial=1.0, side_slip_from_accelerations=False
         ),
+    ),
+    Deviation(
+        "rest_hold",
+        "wheels at rest hold the body sideways: S(17)'s v_n scaled by 1 - C1",
+        "S(17) at rest as while rolling",
+        "navigation.mixing.hold_at_rest: false",
+        lambda s: _nav(s, "mixing", hold_at_rest=False),
     ),
     Deviation(
         "gyrodometry",

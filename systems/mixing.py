@@ -89,6 +89,9 @@ class MixingParameters:
             0.4 kg = 0.25; 0 without shoes.
         tyre_reference_speed: the slip ratio's reference speed floor (m/s): below it the slip speed is
             kappa times this speed (a regularised slip, as the tyre curve was identified). Default 0.3.
+        hold_at_rest: while neither wheel turned (wheels_at_rest), S(17)'s v_n is scaled by 1 - C1: tyres
+            that hold the body by static friction hold it sideways too, and the inertial branch does not
+            integrate the a_n bias at a standstill (mix). False: S(17) as while rolling.
     """
 
     a1: float = 150.0
@@ -112,6 +115,7 @@ class MixingParameters:
     drag_acceleration: float = 0.49
     drag_per_speed: float = 0.25
     tyre_reference_speed: float = 0.3
+    hold_at_rest: bool = True
 
     def __post_init__(self):
         for name in ("a1", "b1", "a2", "b2", "a3", "b3", "tyre_stiffness_factor"):
@@ -142,6 +146,7 @@ class MixingParameters:
             "odometry_slip_compensation",
             "side_slip_from_accelerations",
             "delta_v_running_integral",
+            "hold_at_rest",
         ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(
@@ -316,14 +321,14 @@ def mixing_gain(mixed, c1: float, c2: float, p: MixingParameters, at_rest: bool 
     S(15): w_t = C1, the weight of odometry in v_t. S(17): v_n = C2 q2 v_n,k-1 + (1 - C2) q_I ^I v_n +
     (the tyre model's terms); with v_n,k-1 = ^I v_n to first order in T_N, w_n = 1 - C2 q2 - (1 - C2) q_I
     is the weight of the tyre model (the paper's S(17): w_n = C2 (1 - q2), relaxation towards zero).
-    With the wheels at rest (wheels_at_rest) mix scales that v_n by 1 - C1 (the wheels' v_n = 0 weighs
-    C1): w_n = 1 - (1 - C1)(1 - w_n).
+    With the wheels at rest (wheels_at_rest) and hold_at_rest mix scales that v_n by 1 - C1 (the wheels'
+    v_n = 0 weighs C1): w_n = 1 - (1 - C1)(1 - w_n).
     The EKF's covariance takes the mixing as updates with these gains (ekf.ekf_mixing_covariance).
     """
     utilisation = mixing_utilisation(mixed[0], mixed[2], mixed[3], mixed[4], p)
     q_inertial = inertial_relaxation(utilisation, p)
     w_n = 1.0 - c2 * p.q2 - (1.0 - c2) * q_inertial
-    if at_rest:
+    if at_rest and p.hold_at_rest:
         w_n = 1.0 - (1.0 - c1) * (1.0 - w_n)
     return np.array([c1, w_n])
 
@@ -340,9 +345,9 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^O v_t, ^I a_t, ^I a_n)
     (m with side_slip_from_accelerations = False) by q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u the
     tyres' utilisation capped at 1. The paper's S(17) for a_peak = inf (m = f = 0) and q2_inertial = 1.
-    With the wheels at rest (wheels_at_rest) that v_n is scaled by 1 - C1: tyres that hold the body by
-    static friction hold it sideways too, as far as C1 trusts the wheels (a locked slide drops C1); the
-    inertial branch would otherwise integrate the a_n bias (0.07 mm/s after an hour at rest).
+    With the wheels at rest (wheels_at_rest) and hold_at_rest that v_n is scaled by 1 - C1: tyres that
+    hold the body by static friction hold it sideways too, as far as C1 trusts the wheels (a locked slide
+    drops C1); the inertial branch would otherwise integrate the a_n bias (0.07 mm/s after an hour).
 
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
@@ -363,7 +368,7 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     v_n = c2 * (model + p.q2 * (previous[1] - model_prev)) + (1.0 - c2) * (
         target + q_inertial * (inertial[1] - target)
     )
-    if at_rest:
+    if at_rest and p.hold_at_rest:
         v_n *= 1.0 - c1
     return np.array([v_t, v_n, omega, inertial[3], inertial[4]])
 

@@ -396,6 +396,15 @@ def test_wheels_at_rest_hold_the_body_sideways():
     fixed = (1.0 - c2) * (f * (1.0 - q_i) + q_i * a_n * T_N) / (1.0 - c2 * p.q2 - (1.0 - c2) * q_i)
     assert abs(v_n_slide) > 1e-6
     assert v_n_slide == pytest.approx(fixed, rel=1e-9)
+    printed = dc.replace(p, hold_at_rest=False)  # S(17) at rest as while rolling, whatever C1
+    inertial, previous = [0.0, v_n_slide + a_n * T_N, 0.0, 0.0, a_n], [0.0, v_n_slide, 0.0, 0.0, a_n]
+    assert (
+        mix(rest, inertial, 1.0, c2, 1.0, previous, printed)[1]
+        == mix(rest, inertial, 0.0, c2, 1.0, previous, p)[1]
+    )
+    assert (
+        mixing_gain([0.0] * 5, 0.7, 0.4, printed, at_rest=True)[1] == mixing_gain([0.0] * 5, 0.7, 0.4, p)[1]
+    )
     mixed = [0.0, 0.0, 0.0, 0.0, 0.0]
     w_rolling = mixing_gain(mixed, 0.7, 0.4, p)
     w_rest = mixing_gain(mixed, 0.7, 0.4, p, at_rest=True)
