@@ -30,10 +30,9 @@ from slipnav.systems.ekf import (
     EkfParameters,
     ekf_covariance_update,
     ekf_gain,
+    ekf_inertial_estimate,
     ekf_measurement,
-    ekf_predict,
     ekf_prior_covariance,
-    ekf_update,
 )
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
@@ -200,7 +199,7 @@ class NavigationLoop:
         bias = theta[0]
         x = self.x
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
-        inertial = ekf_update(ekf_predict(x, T_N), self.L, measurement)
+        inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         excluded = fault_imu > 0.5 or fault_enc > 0.5
         det_next, total = slip_detector_step(
