@@ -138,7 +138,8 @@ def _velocity_split(P):
     measured states' errors (B = P_vm P_mm^-1, v: v_t, v_n; m: omega, a_t, a_n) and the Schur complement S,
     the velocities' covariance given the measured states."""
     P_vm = P[0:2, 2:5].copy()  # contiguous, as numba's @ prefers
-    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], P_vm.T)
+    # P_mm^-1 as numpy's inv computes it (LAPACK gesv on the identity; numba's inv rounds otherwise)
+    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], np.eye(3)) @ P_vm.T
     return explained, P[0:2, 0:2] - explained
 
 
