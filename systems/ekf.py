@@ -25,6 +25,7 @@ import math
 import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.compiled import compiled, jitable
 
 EkfState = namedview("EkfState", ["v_t", "v_n", "omega", "a_t", "a_n"])
 
@@ -85,12 +86,14 @@ def ekf_measurement(accelerometers, gyro) -> np.ndarray:
     return np.array([gyro[0], 0.5 * (a[0] + a[2]), 0.5 * (a[1] + a[3])])
 
 
+@jitable
 def ekf_predict(x, T_N: float) -> np.ndarray:
     """S(2): v_t += (a_t + v_n*omega)*T_N, v_n += (a_n - v_t*omega)*T_N; omega, a_t, a_n constant."""
     v_t, v_n, omega, a_t, a_n = x
     return np.array([v_t + (a_t + v_n * omega) * T_N, v_n + (a_n - v_t * omega) * T_N, omega, a_t, a_n])
 
 
+@jitable
 def ekf_jacobian(x, T_N: float) -> np.ndarray:
     """S(5): G = d(S(2))/dx at x."""
     v_t, v_n, omega, _, _ = x
@@ -100,6 +103,7 @@ def ekf_jacobian(x, T_N: float) -> np.ndarray:
     return G
 
 
+@compiled
 def ekf_prior_covariance(P, x, Q, T_N: float) -> np.ndarray:
     """S(6): P_{k|k-1} = G P G^T + Q."""
     G = ekf_jacobian(x, T_N)
@@ -113,11 +117,13 @@ def ekf_gain(P_prior, R) -> np.ndarray:
     return np.linalg.solve(S, C @ P_prior).T
 
 
+@jitable
 def ekf_update(x_prior, L, y) -> np.ndarray:
     """S(8): x = x_{k|k-1} + L (y - C x_{k|k-1}); C selects [omega, a_t, a_n] = x[2:5]."""
     return x_prior + L @ (y - x_prior[2:5])
 
 
+@jitable
 def ekf_joseph(P_prior, L, R) -> np.ndarray:
     """S(9): P = (I - L C) P_{k|k-1} (I - L C)^T + L R L^T (Joseph form, stays symmetric PSD)."""
     A = np.eye(5)
@@ -126,15 +132,18 @@ def ekf_joseph(P_prior, L, R) -> np.ndarray:
     return 0.5 * (P + P.T)
 
 
+@jitable
 def _velocity_split(P):
     """(B P_mm B^T, S): the velocity block P_vv = B P_mm B^T + S split into the part explained by the
     measured states' errors (B = P_vm P_mm^-1, v: v_t, v_n; m: omega, a_t, a_n) and the Schur complement S,
     the velocities' covariance given the measured states."""
-    P_vm = P[0:2, 2:5]
-    explained = P_vm @ np.linalg.inv(P[2:5, 2:5]) @ P_vm.T
+    P_vm = P[0:2, 2:5].copy()  # contiguous, as numba's @ prefers
+    # P_mm^-1 as numpy's inv computes it (LAPACK gesv on the identity; numba's inv rounds otherwise)
+    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], np.eye(3)) @ P_vm.T
     return explained, P[0:2, 0:2] - explained
 
 
+@jitable
 def _with_velocity_block(P, explained, S) -> np.ndarray:
     P = P.copy()
     block = explained + S
@@ -142,6 +151,7 @@ def _with_velocity_block(P, explained, S) -> np.ndarray:
     return P
 
 
+@jitable
 def ekf_mixing_covariance(P, gain, R_mixing) -> np.ndarray:
     """The mixing S(15), S(17) as pseudo-measurement updates of P (after S(9)).
 
@@ -167,6 +177,7 @@ def ekf_mixing_covariance(P, gain, R_mixing) -> np.ndarray:
     return _with_velocity_block(P, explained, _mixing_update(S, gain, R_mixing))
 
 
+@jitable
 def _mixing_update(S, gain, R_mixing):
     """(I - W) S (I - W) + W diag(R_mixing) W, W = diag(gain) (2 x 2)."""
     a_t, a_n = 1.0 - gain[0], 1.0 - gain[1]
@@ -179,15 +190,17 @@ def _mixing_update(S, gain, R_mixing):
     )
 
 
+@jitable
 def _bound(S, limit: float):
     """D S D, D = diag(min(1, sqrt(limit / S_ii))) (2 x 2)."""
     s_t, s_n = float(S[0, 0]), float(S[1, 1])
     if s_t <= limit and s_n <= limit:
         return S
-    d = np.array([min(1.0, math.sqrt(limit / s)) for s in (s_t, s_n)])
+    d = np.array([min(1.0, math.sqrt(limit / s_t)), min(1.0, math.sqrt(limit / s_n))])
     return S * np.outer(d, d)
 
 
+@jitable
 def ekf_bound_velocity_variance(P, limit: float) -> np.ndarray:
     """Caps the variances of v_t and v_n given the measured states (S of ekf_mixing_covariance) at
     ``limit``: S <- D S D with D = diag(min(1, sqrt(limit / S_ii))), a congruence that keeps S positive
@@ -201,22 +214,39 @@ def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters) -> np.ndar
     """P_k: S(9) (R: the 3 x 3 measurement covariance of ``params``), then the mixing S(15), S(17)
     (ekf_mixing_covariance), then the velocity limit (ekf_bound_velocity_variance). ``gain``: [C1, w_n]
     of this sample's mixing (mixing.mixing_gain)."""
+    R_mixing = (float(params.R_mixing[0]), float(params.R_mixing[1]))
+    gain = (float(gain[0]), float(gain[1]))
+    return _covariance_update(P_prior, L, R, gain, R_mixing, float(params.velocity_variance_limit))
+
+
+@compiled
+def _covariance_update(P_prior, L, R, gain, R_mixing, limit: float) -> np.ndarray:
+    """ekf_covariance_update with the parameters it reads (compiled with numba when available)."""
     P = ekf_joseph(P_prior, L, R)
     explained, S = _velocity_split(P)
-    S = _bound(_mixing_update(S, gain, params.R_mixing), params.velocity_variance_limit)
-    return _with_velocity_block(*_bound_cross_covariance(P, explained, S, params.velocity_variance_limit))
+    S = _bound(_mixing_update(S, gain, R_mixing), limit)
+    return _with_velocity_block(*_bound_cross_covariance(P, explained, S, limit))
 
 
+@compiled
+def ekf_inertial_estimate(x, L, y, T_N: float) -> np.ndarray:
+    """^I x_k = S(8) applied to the prediction S(2) of x: ekf_update(ekf_predict(x, T_N), L, y)."""
+    return ekf_update(ekf_predict(x, T_N), L, y)
+
+
+@jitable
 def _bound_cross_covariance(P, explained, S, limit: float):
     """(P, explained, S) with the velocities' cross-covariance with the measured states P_vm scaled by
     c = min_i sqrt((limit - S_ii) / E_ii) where the whole variance E_ii + S_ii (E = P_vm P_mm^-1 P_mv)
     exceeds ``limit``. P_vm grows as S(5)'s rotation when the odometry is not trusted for long in a fast
     spin (C1 = 0: no pseudo-measurement). The Schur complement stays S, so P stays positive definite;
     inactive below the limit (every built-in run: the gains S(7) are the paper's there)."""
-    excess = [explained[i, i] + S[i, i] > limit and explained[i, i] > 0.0 for i in (0, 1)]
-    if not any(excess):
+    c = math.inf
+    for i in range(2):
+        if explained[i, i] + S[i, i] > limit and explained[i, i] > 0.0:
+            c = min(c, math.sqrt(max(limit - S[i, i], 0.0) / explained[i, i]))
+    if c == math.inf:
         return P, explained, S
-    c = min(math.sqrt(max(limit - S[i, i], 0.0) / explained[i, i]) for i in (0, 1) if excess[i])
     P = P.copy()
     P[0:2, 2:5] *= c
     P[2:5, 0:2] *= c
@@ -296,7 +326,7 @@ class InertialEkf(LeafSystem):
         x = context.get_discrete_state(self._x).get_value()
         y = ekf_measurement(self._accel_port.Eval(context).tolist(), self._gyro_port.Eval(context).tolist())
         L = self._gain_port.Eval(context).reshape(5, 3)
-        output.SetFromVector(ekf_update(ekf_predict(x, self._T_N), L, y))
+        output.SetFromVector(ekf_inertial_estimate(x, L, y, self._T_N))
 
     def _update(self, context, discrete_state):
         P_prior = discrete_state.get_value(self._prior).reshape(5, 5)

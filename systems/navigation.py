@@ -30,10 +30,9 @@ from slipnav.systems.ekf import (
     EkfParameters,
     ekf_covariance_update,
     ekf_gain,
+    ekf_inertial_estimate,
     ekf_measurement,
-    ekf_predict,
     ekf_prior_covariance,
-    ekf_update,
 )
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
@@ -55,8 +54,9 @@ from slipnav.systems.sensor_correction import SensorCalibration, corrected_accel
 from slipnav.systems.sensor_health import (
     HealthGeometry,
     SensorHealthParameters,
+    health_check,
+    health_constants,
     health_initial_state,
-    health_step,
 )
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
@@ -160,6 +160,7 @@ class NavigationLoop:
         self.sensor_calibration = None if identity else calibration
         self.geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed)
         self.health = health_initial_state(self.geometry, initial.speed)
+        self.health_constants = health_constants(params.health, self.geometry)
         self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
         self.params, self.track_width, self.T_N = params, track_width, T_N
         self.n = int(round(T_C / T_N))
@@ -185,9 +186,8 @@ class NavigationLoop:
         """Process sample k; returns the values the blocks output at t_k, in LOOP_KEYS order (the covariance
         P_k-1 is ``self.P`` before the call)."""
         mp, T_N = self.params.mixing, self.T_N
-        self.health, sample, codes = health_step(
-            self.health, [*accelerometers, gyro, *encoders], self.params.health, self.geometry
-        )
+        raw = tuple([float(v) for v in (*accelerometers, gyro, *encoders)])
+        self.health, sample, codes = health_check(self.health, raw, self.health_constants)
         acc, g = sample[0:4], sample[4]
         if self.sensor_calibration is not None:  # SensorCorrection
             cal = self.sensor_calibration
@@ -202,7 +202,7 @@ class NavigationLoop:
         bias = theta[0]
         x = self.x
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
-        inertial = ekf_update(ekf_predict(x, T_N), self.L, measurement)
+        inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         excluded = fault_imu > 0.5 or fault_enc > 0.5
         det_next, total = slip_detector_step(

@@ -25,12 +25,15 @@ without slip gives omega = (v_R - v_L)/track_width (Seyr's b, Indiveri's 2b). Ce
 
 from __future__ import annotations
 
+import collections
 import dataclasses as dc
+import functools
 import math
 
 import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import BasicVector, LeafSystem
+from slipnav.systems.compiled import compiled, jitable
 
 GRAVITY = 9.81
 
@@ -185,6 +188,23 @@ class RobotParameters:
     def replace(self, **changes) -> RobotParameters:
         return dc.replace(self, **changes)
 
+    @functools.cached_property
+    def constants(self) -> tuple:
+        """The floats the plant's arithmetic reads, in PlantConstants' order (computed once; the
+        compiled plant_advance takes them as one tuple)."""
+        return tuple(float(getattr(self, name)) for name in PlantConstants._fields)
+
+
+PlantConstants = collections.namedtuple(
+    "PlantConstants",
+    "mass yaw_inertia track_width wheel_radius wheel_inertia tyre_friction tyre_stiffness_factor "
+    "tyre_shape_factor slip_speed_floor shoe_offset shoe_friction shoe_viscous_drag shoe_slip_speed "
+    "motor_constant motor_resistance motor_current_limit supply_voltage bearing_drag speed_loop_period "
+    "speed_loop_kp speed_loop_ki radius_R radius_L wheel_normal_load shoe_normal_load",
+)
+"""RobotParameters' numbers as the plant's pure functions read them (``p.mass``, ``p.radius_R``, ...):
+every one of them takes either."""
+
 
 def tinyphoon() -> RobotParameters:
     """Seyr & Jakubek's Tinyphoon (§II): 75 mm cube, ~0.4 kg, 22.5 W/kg, ~4 m/s, rubber tyres.
@@ -273,6 +293,7 @@ def robot_parameters(name: str) -> RobotParameters:
 # Pure maths
 
 
+@jitable
 def tyre_force(v_x: float, v_y: float, wheel_speed: float, normal_load: float, p: RobotParameters):
     """Tyre force on the body at one contact point, in body axes (Pacejka combined slip, see module).
 
@@ -287,7 +308,7 @@ def tyre_force(v_x: float, v_y: float, wheel_speed: float, normal_load: float, p
     v_ref = max(abs(v_x), abs(wheel_speed), p.slip_speed_floor)
     kappa = (wheel_speed - v_x) / v_ref
     tan_alpha = v_y / v_ref
-    sigma = math.hypot(kappa, tan_alpha)
+    sigma = math.sqrt(kappa * kappa + tan_alpha * tan_alpha)  # not hypot: the same bits compiled (numba)
     if sigma < 1e-15:
         return 0.0, 0.0, kappa, tan_alpha
     force = (
@@ -298,6 +319,7 @@ def tyre_force(v_x: float, v_y: float, wheel_speed: float, normal_load: float, p
     return force * kappa / sigma, -force * tan_alpha / sigma, kappa, tan_alpha
 
 
+@jitable
 def tyre_force_and_stiffness(
     v_x: float, v_y: float, wheel_speed: float, normal_load: float, p: RobotParameters
 ):
@@ -306,21 +328,22 @@ def tyre_force_and_stiffness(
     v_ref = max(abs(v_x), abs(wheel_speed), p.slip_speed_floor)
     kappa = (wheel_speed - v_x) / v_ref
     tan_alpha = v_y / v_ref
-    sigma = math.hypot(kappa, tan_alpha)
+    sigma = math.sqrt(kappa * kappa + tan_alpha * tan_alpha)
     B, C = p.tyre_stiffness_factor, p.tyre_shape_factor
     peak = p.tyre_friction * normal_load
     if sigma < 1e-12:
         return 0.0, 0.0, peak * C * B / v_ref
     angle = C * math.atan(B * sigma)
     force = peak * math.sin(angle)
-    slope = peak * math.cos(angle) * C * B / (1.0 + (B * sigma) ** 2)  # dF/dsigma
+    slope = peak * math.cos(angle) * C * B / (1.0 + (B * sigma) * (B * sigma))  # dF/dsigma
     ck, ca = kappa / sigma, tan_alpha / sigma
     return force * ck, -force * ca, (slope * ck * ck + force / sigma * ca * ca) / v_ref
 
 
+@jitable
 def shoe_force(v_x: float, v_y: float, normal_load: float, p: RobotParameters):
     """Felt-shoe force: tanh-regularised Coulomb friction plus viscous drag, opposing the sliding velocity."""
-    speed = math.hypot(v_x, v_y)
+    speed = math.sqrt(v_x * v_x + v_y * v_y)
     if speed < 1e-15:
         return 0.0, 0.0
     coulomb = p.shoe_friction * normal_load * math.tanh(speed / p.shoe_slip_speed) / speed
@@ -328,17 +351,19 @@ def shoe_force(v_x: float, v_y: float, normal_load: float, p: RobotParameters):
     return scale * v_x, scale * v_y
 
 
+@jitable
 def motor_current(voltage: float, wheel_rate: float, p: RobotParameters) -> float:
     """Armature current (V - k*w)/R, clipped to the driver's current limit (A)."""
     current = (voltage - p.motor_constant * wheel_rate) / p.motor_resistance
     return min(max(current, -p.motor_current_limit), p.motor_current_limit)
 
 
+@jitable
 def motor_currents(loop_state, state, p: RobotParameters, motor_enable=(1.0, 1.0)) -> tuple:
     """(i_R, i_L): motor_current at the loop's held voltages, zero for a switched-off motor."""
-    return tuple(
-        motor_current(loop_state[2 + i], state[8 + i], p) if motor_enable[i] else 0.0 for i in range(2)
-    )
+    i_R = motor_current(loop_state[2], state[8], p) if motor_enable[0] else 0.0
+    i_L = motor_current(loop_state[3], state[9], p) if motor_enable[1] else 0.0
+    return (i_R, i_L)
 
 
 NO_DISTURBANCE = (1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -353,6 +378,7 @@ H-bridge open: no current, no back-EMF braking, the speed loop's integral and vo
 wheel free-wheels on its bearings (a coasting run, studies/calibration.py)."""
 
 
+@jitable
 def contact_forces(state, p: RobotParameters, disturbance=NO_DISTURBANCE):
     """Tyre and shoe forces on the body at ``state`` (PlantState order), a lifted wheel's tyre force
     zero, plus a push on the body (``disturbance``, NO_DISTURBANCE's layout).
@@ -382,6 +408,7 @@ def contact_forces(state, p: RobotParameters, disturbance=NO_DISTURBANCE):
     return accelerations, (fx_R, kx_R), (fx_L, kx_L)
 
 
+@jitable
 def plant_derivatives(state, currents, p: RobotParameters, disturbance=NO_DISTURBANCE):
     """Time derivative of the continuous plant state.
 
@@ -419,6 +446,7 @@ def plant_derivatives(state, currents, p: RobotParameters, disturbance=NO_DISTUR
     return xdot, (a_t, a_n, omega_dot)
 
 
+@jitable
 def plant_substep(
     state, voltages, h: float, p: RobotParameters, disturbance=NO_DISTURBANCE, motor_enable=MOTORS_ON
 ):
@@ -436,43 +464,60 @@ def plant_substep(
     """
     x, y, phi, v_t, v_n, omega, th_R, th_L, w_R, w_L = state
     (a_t, a_n, omega_dot), (fx_R, kx_R), (fx_L, kx_L) = contact_forces(state, p, disturbance)
-    k, J, R_m, b = p.motor_constant, p.wheel_inertia, p.motor_resistance, p.bearing_drag
-    w_new = []
-    wheels = (
-        (w_R, fx_R, kx_R, voltages[0], p.radius_R, disturbance[2], disturbance[4], motor_enable[0]),
-        (w_L, fx_L, kx_L, voltages[1], p.radius_L, disturbance[3], disturbance[5], motor_enable[1]),
+    w_R_new = wheel_step(
+        w_R, fx_R, kx_R, voltages[0], p.radius_R, disturbance[2], disturbance[4], motor_enable[0], h, p
     )
-    for w, fx, kx, volts, r, held, torque, enabled in wheels:
-        current = (volts - k * w) / R_m
-        limited = abs(current) > p.motor_current_limit
-        current = min(max(current, -p.motor_current_limit), p.motor_current_limit)
-        if not enabled:  # open circuit: no current, no back-EMF damping
-            current, limited = 0.0, True
-        if held:
-            w_new.append(w * math.exp(-h / HOLD_TIME_CONSTANT))
-            continue
-        w_dot = (k * current - r * fx - b * w + torque) / J
-        damping = (r * r * max(kx, 0.0) + b + (0.0 if limited else k * k / R_m)) / J
-        gain = -math.expm1(-h * damping) / damping if damping * h > 1e-12 else h
-        w_new.append(w + gain * w_dot)
+    w_L_new = wheel_step(
+        w_L, fx_L, kx_L, voltages[1], p.radius_L, disturbance[3], disturbance[5], motor_enable[1], h, p
+    )
     v_t_new = v_t + h * (a_t + v_n * omega)
     v_n_new = v_n + h * (a_n - v_t * omega)
     omega_new = omega + h * omega_dot
     phi_mid = phi + 0.5 * h * omega_new
     c, s = math.cos(phi_mid), math.sin(phi_mid)
-    new_state = [
+    new_state = (
         x + h * (v_t_new * c - v_n_new * s),
         y + h * (v_t_new * s + v_n_new * c),
         phi + h * omega_new,
         v_t_new,
         v_n_new,
         omega_new,
-        th_R + h * w_new[0],
-        th_L + h * w_new[1],
-        w_new[0],
-        w_new[1],
-    ]
+        th_R + h * w_R_new,
+        th_L + h * w_L_new,
+        w_R_new,
+        w_L_new,
+    )
     return new_state, (a_t, a_n, omega_dot)
+
+
+@jitable
+def wheel_step(
+    w: float,
+    fx: float,
+    kx: float,
+    voltage: float,
+    r: float,
+    held: float,
+    torque: float,
+    enabled: float,
+    h: float,
+    p: RobotParameters,
+) -> float:
+    """One wheel's speed after plant_substep's exponential-Euler step: w (rad/s) under the tyre's force fx
+    and slip stiffness kx (contact_forces), the motor at ``voltage``, rolling radius r, ``held`` by a hand,
+    pushed by ``torque``, the motor ``enabled``."""
+    k, J, R_m, b = p.motor_constant, p.wheel_inertia, p.motor_resistance, p.bearing_drag
+    current = (voltage - k * w) / R_m
+    limited = abs(current) > p.motor_current_limit
+    current = min(max(current, -p.motor_current_limit), p.motor_current_limit)
+    if not enabled:  # open circuit: no current, no back-EMF damping
+        current, limited = 0.0, True
+    if held:
+        return w * math.exp(-h / HOLD_TIME_CONSTANT)
+    w_dot = (k * current - r * fx - b * w + torque) / J
+    damping = (r * r * max(kx, 0.0) + b + (0.0 if limited else k * k / R_m)) / J
+    gain = -math.expm1(-h * damping) / damping if damping * h > 1e-12 else h
+    return w + gain * w_dot
 
 
 def kinetic_energy(state, p: RobotParameters) -> float:
@@ -483,6 +528,7 @@ def kinetic_energy(state, p: RobotParameters) -> float:
     )
 
 
+@jitable
 def speed_loop_update(
     loop_state, wheel_speed_command, wheel_rates, p: RobotParameters, motor_enable=MOTORS_ON
 ):
@@ -495,22 +541,28 @@ def speed_loop_update(
         motor_enable: MOTORS_ON's layout; a switched-off wheel's integral and voltage are cleared.
 
     Returns:
-        the next loop state (list).
+        the next loop state (tuple).
     """
-    out = [0.0] * 4
+    integral_R, voltage_R = _pi_sample(loop_state[0], wheel_speed_command[0], wheel_rates[0], p)
+    integral_L, voltage_L = _pi_sample(loop_state[1], wheel_speed_command[1], wheel_rates[1], p)
+    if not motor_enable[0]:
+        integral_R = voltage_R = 0.0
+    if not motor_enable[1]:
+        integral_L = voltage_L = 0.0
+    return (integral_R, integral_L, voltage_R, voltage_L)
+
+
+@jitable
+def _pi_sample(integral: float, command: float, wheel_rate: float, p: RobotParameters):
+    """One wheel's (integral, voltage) of speed_loop_update."""
     limit = p.supply_voltage
-    for i in range(2):
-        error = wheel_speed_command[i] / p.wheel_radius - wheel_rates[i]
-        integral = loop_state[i] + error * p.speed_loop_period
-        voltage = p.speed_loop_kp * error + p.speed_loop_ki * integral
-        if abs(voltage) > limit:
-            integral = loop_state[i]  # freeze the integral while saturated
-            voltage = p.speed_loop_kp * error + p.speed_loop_ki * integral
-        out[i] = integral
-        out[2 + i] = min(max(voltage, -limit), limit)
-        if not motor_enable[i]:
-            out[i] = out[2 + i] = 0.0
-    return out
+    error = command / p.wheel_radius - wheel_rate
+    new_integral = integral + error * p.speed_loop_period
+    voltage = p.speed_loop_kp * error + p.speed_loop_ki * new_integral
+    if abs(voltage) > limit:
+        new_integral = integral  # freeze the integral while saturated
+        voltage = p.speed_loop_kp * error + p.speed_loop_ki * new_integral
+    return new_integral, min(max(voltage, -limit), limit)
 
 
 def substeps_per(period: float, time_step: float, name: str) -> int:
@@ -546,6 +598,37 @@ def plant_advance(
         voltages), lists.
     """
     per_loop = substeps_per(p.speed_loop_period, time_step, "speed_loop_period")
+    state, loop_state, acceleration = _plant_steps(
+        tuple([float(v) for v in state]),
+        tuple([float(v) for v in loop_state]),
+        tuple([float(v) for v in command]),
+        int(step_index),
+        int(num_steps),
+        per_loop,
+        float(time_step),
+        p.constants,
+        tuple([float(v) for v in disturbance]),
+        tuple([float(v) for v in motor_enable]),
+    )
+    return list(state), list(loop_state), list(acceleration)
+
+
+@compiled
+def _plant_steps(
+    state,
+    loop_state,
+    command,
+    step_index,
+    num_steps,
+    per_loop,
+    time_step,
+    constants,
+    disturbance,
+    motor_enable,
+):
+    """plant_advance's steps: tuples of floats in and out, the PI loop sampled every ``per_loop`` steps
+    (compiled with numba when available: systems/compiled.py)."""
+    p = PlantConstants(*constants)
     for i in range(num_steps):
         if (step_index + i) % per_loop == 0:
             loop_state = speed_loop_update(loop_state, command, (state[8], state[9]), p, motor_enable)
@@ -554,7 +637,7 @@ def plant_advance(
         )
     currents = motor_currents(loop_state, state, p, motor_enable)
     _, acceleration = plant_derivatives(state, currents, p, disturbance)
-    return list(state), list(loop_state), list(acceleration)
+    return state, loop_state, acceleration
 
 
 def tyre_slip(state, p: RobotParameters):

@@ -42,11 +42,13 @@ max_exclusion_time if only that test still fails (a persistent new level: the ya
 innovation gate judges a gyro bias step from there).
 """
 
+import collections
 import dataclasses as dc
 import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.compiled import compiled, jitable
 
 HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
 """Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
@@ -180,28 +182,65 @@ def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.nd
     return s
 
 
+HealthConstants = collections.namedtuple(
+    "HealthConstants",
+    "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
+    "stuck_speed_fraction gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
+    "accel_consistency_per_speed consistency_samples max_exclusion_time "
+    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed",
+)
+"""What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
+is the bound in force)."""
+_GEOMETRY_FIELDS = HealthConstants._fields[HealthConstants._fields.index("radius_R") :]
+
+
+def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
+    """The parameters and the geometry as one plain tuple in HealthConstants' order (bool, int or float;
+    accelerometer_position a pair of floats), as health_check takes them."""
+    values = []
+    for name in HealthConstants._fields:
+        value = getattr(g if name in _GEOMETRY_FIELDS else p, name)
+        if name == "accelerometer_position":
+            value = (float(value[0]), float(value[1]))
+        elif name == "enabled":
+            value = bool(value)
+        elif name in ("stuck_samples", "consistency_samples"):
+            value = int(value)
+        else:
+            value = float(value)
+        values.append(value)
+    return tuple(values)
+
+
 def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
-    """Check one sample (module docstring).
+    """Check one sample (module docstring): health_check with ``p`` and ``g``.
 
     Returns:
         (next state, accepted sample [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L], health codes (7)).
     """
-    s = np.array(state, float)
-    raw = [float(v) for v in raw]
+    return health_check(np.asarray(state, float), tuple([float(v) for v in raw]), health_constants(p, g))
+
+
+@compiled
+def health_check(state, raw: tuple, constants: tuple):
+    """health_step with the parameters and the geometry as health_constants' tuple and the sample as a
+    tuple of floats (compiled with numba when available: systems/compiled.py)."""
+    p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
+    s = state.copy()
     if not p.enabled:  # NaN/inf only: hold the last valid value
         codes = [0 if math.isfinite(v) else NONFINITE for v in raw]
-        out = list(raw)
+        out, ref = list(raw), s[_REF]
         for c in range(5):
             if codes[c]:
-                out[c] = s[_REF][c] if math.isfinite(s[_REF][c]) else 0.0
-            s[_REF.start + c] = out[c]
+                out[c] = ref[c] if math.isfinite(ref[c]) else 0.0
+            ref[c] = out[c]
         return s, out, codes
     ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
     codes = [0] * NUM_CHANNELS
 
     # Analog channels: non-finite, saturated, stuck, jump.
-    ranges = (p.accel_range,) * 4 + (p.gyro_range,)
-    steps = (p.accel_max_step,) * 4 + (p.gyro_max_step,)
+    ranges = (p.accel_range, p.accel_range, p.accel_range, p.accel_range, p.gyro_range)
+    steps = (p.accel_max_step, p.accel_max_step, p.accel_max_step, p.accel_max_step, p.gyro_max_step)
     max_excl = round(p.max_exclusion_time / g.T_N)
     for c in range(5):
         x = raw[c]
@@ -334,7 +373,10 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     px, py = g.accelerometer_position
     omega = raw[4] if gyro_ok else omega_o
     full_scale = p.saturation_fraction * p.gyro_range
-    w2 = pair_omega_squared(raw, (px, py)) if all(math.isfinite(raw[c]) for c in range(4)) else math.nan
+    pair_finite = (
+        math.isfinite(raw[0]) and math.isfinite(raw[1]) and math.isfinite(raw[2]) and math.isfinite(raw[3])
+    )
+    w2 = pair_omega_squared(raw, (px, py)) if pair_finite else math.nan
     if math.isfinite(w2):  # the pair's omega^2, averaged
         s[_W + 12] += (w2 - s[_W + 12]) / p.consistency_samples
     if codes[4] == SATURATED:
@@ -350,7 +392,7 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     average, deviation, level = s[_W : _W + 2], s[_W + 4 : _W + 8], s[_W + 8 : _W + 12]
     limit = p.accel_consistency + p.accel_consistency_per_speed * abs(v_o)
     a_kin = ((v_o - s[_W + 3]) / g.T_N, v_o * omega)
-    if all(codes[c] in (0, INCONSISTENT) for c in range(4)):
+    if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
             if not math.isfinite(level[c]):
@@ -362,7 +404,8 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
             if abs(average[axis]) < 0.5 * limit:  # each sensor's level while the pair agrees
                 for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
-            if abs(average[axis]) > limit and not any(hold[c] for c in pair_of):
+            held = hold[axis] != 0.0 or hold[axis + 2] != 0.0
+            if abs(average[axis]) > limit and not held:
                 # Blame the one that moved more from its level before the pair began to disagree plus
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
                 # one encoder count in T_N is 3.8 m/s^2 of Tinyphoon's d v_o/dt, and the wheels slip).
@@ -370,7 +413,7 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
                 bad = pair_of[0] if score[0] > score[1] else pair_of[1]
                 hold[bad] = 1.0
                 codes[bad] = INCONSISTENT
-            elif abs(average[axis]) < 0.5 * limit and any(hold[c] for c in pair_of):
+            elif abs(average[axis]) < 0.5 * limit and held:
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
@@ -395,6 +438,16 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
     return s, out, codes
 
 
+@jitable
+def _all_in(values, allowed) -> bool:
+    """Every one of ``values`` is one of ``allowed``."""
+    for value in values:
+        if value not in allowed:
+            return False
+    return True
+
+
+@jitable
 def pair_omega_squared(sample, position) -> float:
     """omega^2 from the accelerometer pair at +-(x, y) (S(3)'s rotational terms):
     a_t1 - a_t2 = -2 (omega_dot y + omega^2 x), a_n1 - a_n2 = 2 (omega_dot x - omega^2 y), so
@@ -477,6 +530,7 @@ class SensorHealthMonitor(LeafSystem):
         super().__init__()
         params.__post_init__()
         self._p, self._g = params, geometry
+        self._constants = health_constants(params, geometry)
         self._inputs = [
             self.DeclareVectorInputPort(name, size)
             for name, size in (("accelerometers", 4), ("gyro", 1), ("encoders", 2))
@@ -488,10 +542,9 @@ class SensorHealthMonitor(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
 
     def _calc(self, context, output):
-        raw = [v for port in self._inputs for v in port.Eval(context).tolist()]
-        state, out, codes = health_step(
-            context.get_discrete_state(self._state).get_value(), raw, self._p, self._g
-        )
+        raw = tuple([v for port in self._inputs for v in port.Eval(context).tolist()])
+        state = context.get_discrete_state(self._state).get_value()
+        state, out, codes = health_check(state, raw, self._constants)
         output.SetFromVector([*state.tolist(), *out, *codes, *health_flags(codes)])
 
     def _update(self, context, discrete_state):

@@ -1,0 +1,44 @@
+"""Optional numba compilation of the hot pure functions (``pip install -e '.[fast]'``; issue 20).
+
+The arithmetic stays readable Python: ``compiled(f)`` returns ``numba.njit(cache=True)(f)`` when numba
+imports and the environment variable ``SLIPNAV_NUMBA`` is not ``0``, else ``f`` itself; ``jitable(f)``
+returns ``f`` unchanged for Python callers and, with numba, lets compiled functions call it
+(``numba.extending.register_jitable``). Neither uses fastmath, so the compiled functions round as
+Python does (no reordering, no fused multiply-add): a run is the same with and without numba
+(tests/test_compiled.py). The compiled functions are cached on disk (numba's ``cache=True``, beside the
+source in ``__pycache__``), so a process pays numba's compile (some seconds) once per source change.
+
+``ENABLED`` tells whether the compiled versions are in use; ``pure(f)`` is the Python function behind
+``f`` (itself without numba), for tests that compare the two.
+"""
+
+import os
+
+ENABLED = False
+if os.environ.get("SLIPNAV_NUMBA", "1").strip() not in ("0", "false", "no", "off"):
+    try:
+        import numba
+        from numba.extending import register_jitable
+
+        ENABLED = True
+    except ImportError:  # the optional extra is not installed: pure Python
+        pass
+
+
+def compiled(function):
+    """``function`` compiled by numba (nopython, cached, no fastmath) when ENABLED, else itself."""
+    if not ENABLED:
+        return function
+    return numba.njit(cache=True)(function)
+
+
+def jitable(function):
+    """``function`` itself, callable from compiled functions when ENABLED."""
+    if not ENABLED:
+        return function
+    return register_jitable(function)
+
+
+def pure(function):
+    """The Python function behind a ``compiled`` one (the function itself when it is not compiled)."""
+    return getattr(function, "py_func", function)
