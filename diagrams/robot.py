@@ -62,6 +62,7 @@ def add_robot_with_sensors(
     sensors.set_name("Sensors")
     builder.Connect(plant.GetOutputPort("state"), sensors.GetInputPort("plant_state"))
     builder.Connect(plant.GetOutputPort("body_acceleration"), sensors.GetInputPort("body_acceleration"))
+    builder.Connect(plant.GetOutputPort("motor_currents"), sensors.GetInputPort("motor_currents"))
     if has_plant_events(faults):
         disturbance = builder.AddSystem(PlantDisturbance(faults, T_N))
         disturbance.set_name("Plant perturbations")

@@ -668,6 +668,7 @@ class DifferentialDrivePlant(LeafSystem):
         - wheel_angles
         - wheel_speeds
         - tyre_slip
+        - motor_currents
 
     - wheel_speed_command: commanded circumferential wheel speeds [v_R, v_L] (m/s).
     - disturbance: perturbations in NO_DISTURBANCE's layout (optional: unconnected, nothing acts).
@@ -678,6 +679,8 @@ class DifferentialDrivePlant(LeafSystem):
     - wheel_angles: [theta_R, theta_L] (rad), for the encoders.
     - wheel_speeds: circumferential speeds [r_R*w_R, r_L*w_L] with the true rolling radii (m/s).
     - tyre_slip: [kappa_R, kappa_L, alpha_R, alpha_L]: slip ratios and slip angles (rad).
+    - motor_currents: the true armature currents [i_R, i_L] (A) at ``state`` with the voltages held since
+      the last PI sample (motor_currents), for the drivers' current sense (systems/sensors.py).
 
     Two time models, as Drake's MultibodyPlant offers:
 
@@ -742,6 +745,12 @@ class DifferentialDrivePlant(LeafSystem):
         self._state_ticket = self.xc_ticket()
         self.DeclareVectorOutputPort("state", 10, self._calc_state, prerequisites_of_calc={self.xc_ticket()})
         self.DeclareVectorOutputPort(
+            "motor_currents",
+            2,
+            self._calc_currents,
+            prerequisites_of_calc={self.all_state_ticket(), self._enable_port.ticket()},
+        )
+        self.DeclareVectorOutputPort(
             "body_acceleration",
             3,
             self._calc_acceleration,
@@ -761,10 +770,12 @@ class DifferentialDrivePlant(LeafSystem):
         self._loop = self.DeclareDiscreteState(4)
         currents = (motor_current(0.0, x0[8], self._params), motor_current(0.0, x0[9], self._params))
         self._acc = self.DeclareDiscreteState(np.array(plant_derivatives(x0, currents, self._params)[1]))
+        self._currents_state = self.DeclareDiscreteState(np.array(currents))
         self.DeclarePeriodicDiscreteUpdateEvent(update_period, 0.0, self._update_discrete)
         self._state_ticket = self.xd_ticket()
         self.DeclareStateOutputPort("state", self._x)
         self.DeclareStateOutputPort("body_acceleration", self._acc)
+        self.DeclareStateOutputPort("motor_currents", self._currents_state)
 
     @property
     def params(self) -> RobotParameters:
@@ -812,6 +823,7 @@ class DifferentialDrivePlant(LeafSystem):
 
     def _update_discrete(self, context, discrete_state):
         step_index = round(context.get_time() / self._time_step)
+        enable = self._motor_enable(context)
         # Floats, not numpy scalars, into the pure functions (numpy scalar arithmetic is several times
         # slower); the update's buffer holds the block's own state at t_k.
         state, loop, acc = plant_advance(
@@ -823,11 +835,12 @@ class DifferentialDrivePlant(LeafSystem):
             self._time_step,
             self._params,
             self._disturbance(context),
-            self._motor_enable(context),
+            enable,
         )
         discrete_state.set_value(self._x, state)
         discrete_state.set_value(self._loop, loop)
         discrete_state.set_value(self._acc, acc)
+        discrete_state.set_value(self._currents_state, motor_currents(loop, state, self._params, enable))
 
     def _calc_state(self, context, output: BasicVector):
         output.SetFromVector(context.get_continuous_state_vector().CopyToVector())
@@ -836,6 +849,10 @@ class DifferentialDrivePlant(LeafSystem):
         x = context.get_continuous_state_vector().CopyToVector()
         _, acc = plant_derivatives(x, self._currents(context, x), self._params, self._disturbance(context))
         output.SetFromVector(acc)
+
+    def _calc_currents(self, context, output: BasicVector):
+        x = context.get_continuous_state_vector().CopyToVector()
+        output.SetFromVector(self._currents(context, x))
 
     def _calc_wheel_angles(self, context, output: BasicVector):
         output.SetFromVector(self._plant_state(context)[6:8])

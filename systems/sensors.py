@@ -14,6 +14,10 @@ Default figures (tinyphoon) from data sheets of parts of the paper's era:
   accelerometer's axes are turned by a misalignment angle about the vertical; both zero by default (a
   perfect sensor, as the data sheet's typical figure) and drawn from tolerances for a real robot
   (scenarios/tolerances.py).
+- Motor current (the drivers' current sense, not used by the paper's navigation; the perturbation monitor's
+  force balance, systems/perturbation_monitor.py): a shunt amplifier and a 10-bit ADC over twice the
+  driver's current limit (Tinyphoon +-3 A: 5.9 mA a count, Kurt3D +-24 A: 47 mA), with white noise of
+  about two counts rms from the PWM ripple (assumption) and a gain tolerance (current_scale_error).
 - "Commotion" (§IV-A): vibration of the accelerometer readings, a first-order Gauss-Markov process with a
   5 ms correlation time whose standard deviation grows with speed (assumption, 0.3 m/s^2 per m/s).
 """
@@ -33,6 +37,10 @@ NOISE_BLOCK = 1024
 NOISE_STREAM = 1
 """Second entropy word of the noise stream's seed ([seed, NOISE_STREAM, block]), apart from the initial
 biases' ``default_rng(seed)`` and the tolerances' draws."""
+CURRENT_NOISE_STREAM = 2
+"""The motor current sense's own stream ([seed, CURRENT_NOISE_STREAM, block]; CURRENT_NOISE_CHANNELS
+draws a sample), so that the other sensors' draws do not depend on it."""
+CURRENT_NOISE_CHANNELS = 2
 
 
 @dc.dataclass(frozen=True)
@@ -57,6 +65,9 @@ class SensorParameters:
         accel1_scale_error, accel2_scale_error: relative sensitivity error of each two-axis accelerometer.
         accel1_misalignment, accel2_misalignment: angle (rad, about the vertical, counter-clockwise) by
             which each accelerometer's (t, n) axes are turned against the body's.
+        current_resolution: one count of the motor drivers' current sense (A).
+        current_noise_std: its white noise per sample (A).
+        current_scale_error: relative gain error of both current senses.
     """
 
     accelerometer_position: tuple[float, float] = (0.02, 0.015)
@@ -76,17 +87,20 @@ class SensorParameters:
     accel2_scale_error: float = 0.0
     accel1_misalignment: float = 0.0
     accel2_misalignment: float = 0.0
+    current_resolution: float = 6.0 / 1024
+    current_noise_std: float = 0.012
+    current_scale_error: float = 0.0
 
     def __post_init__(self):
         nonneg = (
             "accel_noise_std accel_initial_bias_std accel_drift_density accel_vibration_per_speed "
-            "gyro_noise_std gyro_initial_bias_std gyro_drift_density"
+            "gyro_noise_std gyro_initial_bias_std gyro_drift_density current_noise_std"
         ).split()
         for name in nonneg:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
-        for name in ("accel_vibration_time_constant", "accel_range", "gyro_range"):
+        for name in ("accel_vibration_time_constant", "accel_range", "gyro_range", "current_resolution"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf)")
@@ -97,7 +111,7 @@ class SensorParameters:
                 f"encoder_counts_per_revolution={self.encoder_counts_per_revolution!r} is out of "
                 "range: allowed integers in [1, 10000000]"
             )
-        for name in ("gyro_scale_error", "accel1_scale_error", "accel2_scale_error"):
+        for name in ("gyro_scale_error", "accel1_scale_error", "accel2_scale_error", "current_scale_error"):
             value = getattr(self, name)
             if not (math.isfinite(value) and -1.0 < value < 1.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed (-1, 1) (a sensitivity > 0)")
@@ -117,7 +131,12 @@ class SensorParameters:
 def default_sensor_parameters(robot_name: str) -> SensorParameters:
     """Sensor set of each reference robot. Kurt3D: a 1024-line quadrature encoder per wheel (4096 counts)."""
     if robot_name == "kurt3d":
-        return SensorParameters(accelerometer_position=(0.1, 0.05), encoder_counts_per_revolution=4096)
+        return SensorParameters(
+            accelerometer_position=(0.1, 0.05),
+            encoder_counts_per_revolution=4096,
+            current_resolution=48.0 / 1024,
+            current_noise_std=0.094,
+        )
     return SensorParameters()
 
 
@@ -135,21 +154,22 @@ class SensorNoise:
     """The sensors' standard-normal draws of a run, a pure function of (seed, sample index).
 
     Row k (the draws the sensors' update at t_k reads) is row ``k % NOISE_BLOCK`` of block
-    ``k // NOISE_BLOCK``, drawn as ``numpy.random.default_rng([seed, NOISE_STREAM, block])
-    .standard_normal((NOISE_BLOCK, NOISE_CHANNELS))``: deterministic per seed, independent of the order
+    ``k // NOISE_BLOCK``, drawn as ``numpy.random.default_rng([seed, stream, block])
+    .standard_normal((NOISE_BLOCK, channels))`` (stream NOISE_STREAM, NOISE_CHANNELS channels; the
+    current sense's: current_noise): deterministic per seed, independent of the order
     in which rows are read, and drawn a block at a time (one block held), so that a run of any length
     needs no random number generator in the diagram and no state for it.
     """
 
-    def __init__(self, seed: int):
-        self.seed = int(seed)
+    def __init__(self, seed: int, stream: int = NOISE_STREAM, channels: int = NOISE_CHANNELS):
+        self.seed, self.stream, self.channels = int(seed), int(stream), int(channels)
         self._block, self._rows = None, None
 
     def rows(self, start: int, stop: int) -> np.ndarray:
         """Rows start ... stop-1 as a (stop - start, NOISE_CHANNELS) array."""
         first, last = start // NOISE_BLOCK, max(stop - 1, start) // NOISE_BLOCK
         blocks = [self._draw(b) for b in range(first, last + 1)]
-        table = np.concatenate(blocks) if blocks else np.empty((0, NOISE_CHANNELS))
+        table = np.concatenate(blocks) if blocks else np.empty((0, self.channels))
         offset = first * NOISE_BLOCK
         return table[start - offset : stop - offset].copy()
 
@@ -161,14 +181,30 @@ class SensorNoise:
         return self._rows[k - block * NOISE_BLOCK]
 
     def _draw(self, block: int) -> np.ndarray:
-        rng = np.random.default_rng([self.seed, NOISE_STREAM, block])
-        return rng.standard_normal((NOISE_BLOCK, NOISE_CHANNELS))
+        rng = np.random.default_rng([self.seed, self.stream, block])
+        return rng.standard_normal((NOISE_BLOCK, self.channels))
 
 
 def sensor_noise(seed: int, num_steps: int) -> np.ndarray:
     """The (num_steps, NOISE_CHANNELS) draws the sensors of a run with ``seed`` read at t_0 ...
     t_{num_steps-1} (SensorNoise; the plain loop's and the diagram's noise)."""
     return SensorNoise(seed).rows(0, num_steps)
+
+
+def current_noise(seed: int) -> SensorNoise:
+    """The motor current sense's draws of a run with ``seed`` (its own stream)."""
+    return SensorNoise(seed, CURRENT_NOISE_STREAM, CURRENT_NOISE_CHANNELS)
+
+
+def current_sense(currents, noise, params: SensorParameters) -> list:
+    """The drivers' current readings [i_R, i_L] (A): (1 + scale error) i plus white noise, rounded to
+    the ADC's counts; NaN where the true current is not known (no plant current connected)."""
+    q, gain, sigma = params.current_resolution, 1.0 + params.current_scale_error, params.current_noise_std
+    out = []
+    for i, n in zip(currents, noise, strict=True):
+        counts = (gain * i + sigma * n) / q
+        out.append(round(counts) * q if math.isfinite(counts) else math.nan)
+    return out
 
 
 def accelerometer_truth(body_acceleration, omega: float, position) -> list:
@@ -258,14 +294,19 @@ class ProprioceptiveSensors(LeafSystem):
         input_ports:
         - plant_state
         - body_acceleration
+        - motor_currents
         output_ports:
         - accelerometers
         - gyro
         - encoders
         - gyro_bias
+        - motor_currents
 
     - plant_state: true PlantState (10).
     - body_acceleration: true [a_t, a_n, omega_dot].
+    - motor_currents (input, optional): the plant's true armature currents [i_R, i_L] (A).
+    - motor_currents (output): the drivers' current readings [i_R, i_L] (A, current_sense; NaN while the
+      input is unconnected).
     - accelerometers: [a_t1, a_n1, a_t2, a_n2] (m/s^2).
     - gyro: [omega] (rad/s).
     - encoders: quantised wheel angles [theta_R, theta_L] (rad).
@@ -288,6 +329,7 @@ class ProprioceptiveSensors(LeafSystem):
         noise: the SensorNoise whose row k the update at t_k = k T_N reads (the noise is drawn from the
             seed, not by a Drake RandomSource, whose unrestricted update would copy the whole diagram
             state every sample); default SensorNoise(0).
+        current_noise_stream: the current sense's draws (current_noise); default current_noise(noise.seed).
     """
 
     def __init__(
@@ -297,16 +339,19 @@ class ProprioceptiveSensors(LeafSystem):
         bias0=None,
         initial_wheel_rates=(0.0, 0.0),
         noise: SensorNoise | None = None,
+        current_noise_stream: SensorNoise | None = None,
     ):
         super().__init__()
         self._params = params
         self._T_N = T_N
         self._noise = noise if noise is not None else SensorNoise(0)
+        self._current_noise = current_noise_stream or current_noise(self._noise.seed)
         internal0 = np.zeros(9)
         if bias0 is not None:
             internal0[0:5] = bias0
         self._plant_state_port = self.DeclareVectorInputPort("plant_state", 10)
         self._acceleration_port = self.DeclareVectorInputPort("body_acceleration", 3)
+        self._currents_port = self.DeclareVectorInputPort("motor_currents", 2)
         self._internal = self.DeclareDiscreteState(internal0)
         step = params.encoder_step
         theta_before = -np.asarray(initial_wheel_rates, float) * T_N
@@ -319,6 +364,8 @@ class ProprioceptiveSensors(LeafSystem):
         self.DeclareStateOutputPort("encoders", self._enc)
         self._gyro_bias = self.DeclareDiscreteState(internal0[4:5].copy())  # internal[4], as an output
         self.DeclareStateOutputPort("gyro_bias", self._gyro_bias)
+        self._currents = self.DeclareDiscreteState(np.full(2, np.nan))
+        self.DeclareStateOutputPort("motor_currents", self._currents)
 
     @property
     def params(self) -> SensorParameters:
@@ -343,3 +390,8 @@ class ProprioceptiveSensors(LeafSystem):
         discrete_state.set_value(self._gyro, gyro)
         discrete_state.set_value(self._enc, enc)
         discrete_state.set_value(self._gyro_bias, internal[4:5])
+        if self._currents_port.HasValue(context):
+            currents = self._currents_port.Eval(context).tolist()
+            discrete_state.set_value(
+                self._currents, current_sense(currents, self._current_noise.row(k), self._params)
+            )

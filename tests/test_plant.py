@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from pydrake.systems.analysis import Simulator
 from scipy.integrate import solve_ivp
 from slipnav.systems.mixing import (
     lateral_velocity_model,
@@ -21,6 +22,7 @@ from slipnav.systems.plant import (
     kinetic_energy,
     kurt3d,
     motor_current,
+    motor_currents,
     plant_advance,
     plant_derivatives,
     robot_parameters,
@@ -505,3 +507,25 @@ def test_motor_enable_all_on_is_bit_identical_to_the_unconnected_input():
 def test_motor_enable_table_is_checked(enable, phrase):
     with pytest.raises(ValueError, match=phrase):
         _coast(tinyphoon(), enable, duration=0.1)
+
+
+@pytest.mark.parametrize("time_step", [0.0, 0.0005])
+def test_motor_currents_output_is_the_armature_current_at_the_state(time_step):
+    """The motor_currents port (the drivers' current sense reads it) holds (V - k w) / R at the state
+    output, clipped at the driver's limit, with the PI loop's held voltages: a launch from rest sits at
+    the limit, and the output matches motor_currents(loop, state) of the plant's own state."""
+    p = tinyphoon()
+    plant = DifferentialDrivePlant(p, time_step=time_step, update_period=0.002)
+    simulator = Simulator(plant)
+    context = simulator.get_mutable_context()
+    plant.GetInputPort("wheel_speed_command").FixValue(context, [2.0, 1.0])
+    simulator.AdvanceTo(0.01)
+    currents = plant.GetOutputPort("motor_currents").Eval(context)
+    np.testing.assert_allclose(currents, [p.motor_current_limit] * 2)  # launching: current-limited
+    simulator.AdvanceTo(0.5)
+    x = plant.GetOutputPort("state").Eval(context)
+    loop = context.get_discrete_state(1 if time_step else 0).value()  # SpeedLoopState
+    np.testing.assert_allclose(
+        plant.GetOutputPort("motor_currents").Eval(context), motor_currents(loop, x, p), rtol=1e-12
+    )
+    assert 0.0 < plant.GetOutputPort("motor_currents").Eval(context)[1] < p.motor_current_limit

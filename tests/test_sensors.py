@@ -10,9 +10,12 @@ from slipnav.systems.plant import tinyphoon
 from slipnav.systems.sensors import (
     NOISE_BLOCK,
     NOISE_CHANNELS,
+    ProprioceptiveSensors,
     SensorNoise,
     SensorParameters,
     accelerometer_truth,
+    current_noise,
+    current_sense,
     initial_biases,
     sensor_noise,
     sensor_update,
@@ -99,6 +102,9 @@ def test_vibration_grows_with_speed_and_drift_is_a_random_walk():
         ("gyro_range", 0.0),
         ("encoder_counts_per_revolution", 0),
         ("accel_vibration_time_constant", float("inf")),
+        ("current_resolution", 0.0),
+        ("current_noise_std", -0.01),
+        ("current_scale_error", 1.0),
     ],
 )
 def test_sensor_parameter_validation(field, value):
@@ -132,3 +138,35 @@ def test_sensor_noise_is_a_function_of_seed_and_sample():
     assert abs(np.mean(whole)) < 0.01 and abs(np.std(whole) - 1.0) < 0.01  # 43 008 draws
     assert not np.array_equal(sensor_noise(6, 10), whole[:10])
     assert not np.array_equal(np.random.default_rng(5).standard_normal(10), whole[:10, 0])
+
+
+def test_current_sense_quantises_scales_and_reads_its_own_stream():
+    """The drivers' current sense: (1 + scale error) i + white noise, rounded to ADC counts; its draws
+    are the seed's current_noise stream, so the other sensors read the same noise with or without it;
+    an unconnected current input reads NaN."""
+    ideal = SensorParameters(current_noise_std=0.0, current_scale_error=0.02)
+    q = ideal.current_resolution
+    reading = current_sense([1.0, -0.3], [0.7, -2.0], ideal)
+    np.testing.assert_allclose(reading, [round(1.02 / q) * q, round(-0.306 / q) * q], rtol=0, atol=1e-15)
+    assert all(abs(r - 1.02 * i) <= 0.5 * q for r, i in zip(reading, [1.0, -0.3], strict=True))
+    noisy = SensorParameters()
+    draws = current_noise(3).row(0)
+    sigma = noisy.current_noise_std
+    expected = [round((i + sigma * n) / q) * q for i, n in zip([0.5, 0.2], draws, strict=True)]
+    assert current_sense([0.5, 0.2], draws, noisy) == expected
+    assert math.isnan(current_sense([math.nan, 0.1], [0.0, 0.0], noisy)[0])
+    assert not np.array_equal(current_noise(3).rows(0, 5), SensorNoise(3).rows(0, 5)[:, :2])
+
+    sensors = ProprioceptiveSensors(noisy, 0.002, noise=SensorNoise(3))
+    context = sensors.CreateDefaultContext()
+    context.SetTime(0.0)
+    sensors.GetInputPort("plant_state").FixValue(context, np.zeros(10))
+    sensors.GetInputPort("body_acceleration").FixValue(context, np.zeros(3))
+    unconnected = sensors.EvalUniquePeriodicDiscreteUpdate(context)
+    without = [unconnected.get_vector(i).CopyToVector() for i in range(unconnected.num_groups())]
+    assert np.isnan(without[-1]).all()
+    sensors.GetInputPort("motor_currents").FixValue(context, [0.5, 0.2])
+    update = sensors.EvalUniquePeriodicDiscreteUpdate(context)
+    np.testing.assert_array_equal(update.get_vector(update.num_groups() - 1).CopyToVector(), expected)
+    for i in range(update.num_groups() - 1):  # the other sensors' readings do not depend on it
+        np.testing.assert_array_equal(update.get_vector(i).CopyToVector(), without[i])
