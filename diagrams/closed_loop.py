@@ -240,7 +240,7 @@ def build_closed_loop_diagram(
     builder.Connect(
         ctrl.GetOutputPort("wheel_speed_command"), handles.plant.GetInputPort("wheel_speed_command")
     )
-    perturbation = add_perturbation_monitor(
+    monitor = add_perturbation_monitor(
         builder,
         perturbation_monitor or PerturbationParameters(),
         ctrl.GetOutputPort("wheel_speed_command"),
@@ -248,6 +248,7 @@ def build_closed_loop_diagram(
         nav,
         robot,
         rates.T_N,
+        handles.sensors.GetOutputPort("motor_currents"),
     )
 
     loggers = {}
@@ -255,7 +256,8 @@ def build_closed_loop_diagram(
         ports = robot_ports(handles)
         ports.update(nav_ports)
         ports["command"] = ctrl.GetOutputPort("wheel_speed_command")
-        ports["perturbation"] = perturbation
+        ports["perturbation"] = monitor.GetOutputPort("perturbation")
+        ports["force_residual"] = monitor.GetOutputPort("force_residual")
         names = CONTROL_OUTPUTS[1:] + (TRAJECTORY_OUTPUTS if control.mode == "trajectory" else ())
         ports.update({name: ctrl.GetOutputPort(name) for name in names})
         loggers = add_loggers(builder, ports, rates.T_N)

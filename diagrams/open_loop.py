@@ -83,6 +83,7 @@ def robot_ports(robot: RobotHandles) -> dict:
         "gyro": sensors.GetOutputPort("gyro"),
         "encoders": sensors.GetOutputPort("encoders"),
         "gyro_bias": robot.sensors.GetOutputPort("gyro_bias"),
+        "motor_currents": robot.sensors.GetOutputPort("motor_currents"),
     }
 
 
@@ -196,7 +197,7 @@ def build_open_loop_diagram(
     ports = robot_ports(handles)
     ports["command"] = feedforward.GetOutputPort("wheel_speed_command")
     if nav is not None:
-        ports["perturbation"] = add_perturbation_monitor(
+        monitor = add_perturbation_monitor(
             builder,
             perturbation_monitor or PerturbationParameters(),
             feedforward.GetOutputPort("wheel_speed_command"),
@@ -204,7 +205,10 @@ def build_open_loop_diagram(
             nav,
             robot,
             rates.T_N,
+            handles.sensors.GetOutputPort("motor_currents"),
         )
+        ports["perturbation"] = monitor.GetOutputPort("perturbation")
+        ports["force_residual"] = monitor.GetOutputPort("force_residual")
     ports["reference_pose"] = feedforward.GetOutputPort("reference_pose")
     ports.update(nav_ports)
     loggers = add_loggers(builder, ports, rates.T_N)

@@ -8,7 +8,7 @@
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [--calibrated] [ENGINE]
-    slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [ENGINE]
+    slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [--open-loop] [ENGINE]
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
@@ -148,6 +148,9 @@ def _parser() -> argparse.ArgumentParser:
     fau.add_argument("--seeds", type=int, default=1, help="number of seeds (default 1)")
     fau.add_argument(
         "--perturbations", action="store_true", help="also the plant perturbations (wheel lifted, held, ...)"
+    )
+    fau.add_argument(
+        "--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds (the same path)"
     )
     _engine_options(fau, "faults")
     rep = sub.add_parser("replay", help="run the navigation alone on a sensor log (CSV)")
@@ -322,7 +325,13 @@ def _command(args) -> int:
         from slipnav.studies.faults import faults
 
         _check_study(args)
-        faults(args.scenarios, args.seeds, perturbations=args.perturbations, **_engine(args))
+        faults(
+            args.scenarios,
+            args.seeds,
+            perturbations=args.perturbations,
+            open_loop=args.open_loop,
+            **_engine(args),
+        )
         return 0
     if args.command == "accuracy":
         from slipnav.studies.accuracy import accuracy

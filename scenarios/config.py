@@ -506,8 +506,10 @@ INFINITY_ALLOWED = {
     "navigation.mixing.tyre_peak_acceleration",
     "navigation.mixing.gyro_turn_rate",
     "navigation.gyro_bias.averaging_time",
+    "perturbation_monitor.force_threshold",
 }
-"""Float keys where .inf means something (no tyre curve; no gyro turn rule; a never-forgetting average)."""
+"""Float keys where .inf means something (no tyre curve; no gyro turn rule; a never-forgetting average;
+no force test)."""
 
 
 def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:

@@ -29,6 +29,7 @@ from slipnav.systems.path_follower import (
     saturate_wheel_speeds,
 )
 from slipnav.systems.perturbation_monitor import (
+    FORCE_CHANNELS,
     PERTURBATION_CHANNELS,
     PerturbationParameters,
     perturbation_initial_state,
@@ -38,6 +39,7 @@ from slipnav.systems.plant import (
     NO_DISTURBANCE,
     RobotParameters,
     motor_current,
+    motor_currents,
     plant_advance,
     plant_derivatives,
     substeps_per,
@@ -47,6 +49,8 @@ from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import (
     NOISE_CHANNELS,
     SensorParameters,
+    current_noise,
+    current_sense,
     default_sensor_parameters,
     initial_biases,
     sensor_noise,
@@ -62,6 +66,8 @@ PLAIN_LOOP_KEYS = (
     ).split()
     + [f"nav_{key}" for key in LOOP_KEYS]
     + [f"perturbation_{c}" for c in PERTURBATION_CHANNELS]
+    + [f"perturbation_{c}" for c in FORCE_CHANNELS]
+    + ["meas_current_R", "meas_current_L"]
 )
 """Columns of run_plain_loop's result, each the value at t_k (as a Drake logger at t_k records it)."""
 MIXED_ESTIMATE_COLUMNS = [
@@ -134,6 +140,7 @@ def run_plain_loop(
     step = sensor_params.encoder_step
     meas_acc, meas_gyro = bias0[0:4].copy(), float(bias0[4])
     meas_enc = np.floor(-np.array(w0) * T_N / step) * step
+    meas_current, current_draws = [math.nan, math.nan], current_noise(seed)
     nav = NavigationLoop(
         navigation,
         (p.radius_R, p.radius_L),
@@ -194,10 +201,12 @@ def run_plain_loop(
             progress,
             *nav_row,
             *monitor[-4:],
+            *monitor[-6:-4],
+            *meas_current,
         )
         mixed = [nav_row[i] for i in MIXED_ESTIMATE_COLUMNS]
         monitor = perturbation_step(
-            monitor, command, meas_enc, mixed, monitor_params, radii, p.track_width, T_N
+            monitor, command, meas_enc, mixed, monitor_params, radii, p.track_width, T_N, meas_current, p
         )
 
         if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K
@@ -230,12 +239,14 @@ def run_plain_loop(
         spent["control"] += t2 - t1
         internal, meas_acc, gyro, meas_enc = sensor_update(internal, x, acc, noise[k], sensor_params, T_N)
         meas_gyro = float(gyro[0])
+        meas_current = current_sense(currents, current_draws.row(k), sensor_params)
         t3 = clock()
         spent["sensors"] += t3 - t2
         disturbance = plant_disturbance(k * T_N, faults, T_N) if perturbed else NO_DISTURBANCE
         x, loop, acc = plant_advance(
             x, loop, command, k * plant_steps, plant_steps, plant_time_step, world, disturbance
         )
+        currents = motor_currents(loop, x, world)
         spent["plant"] += clock() - t3
     if timings is not None:
         timings.update(spent)

@@ -41,7 +41,7 @@ from slipnav.scenarios.trajectories import (
 )
 from slipnav.systems.checks import require_seed
 from slipnav.systems.faults import SENSOR_CHANNELS
-from slipnav.systems.perturbation_monitor import PERTURBATION_CHANNELS, perturbation_report
+from slipnav.systems.perturbation_monitor import FORCE_CHANNELS, PERTURBATION_CHANNELS, perturbation_report
 from slipnav.systems.plant import RobotParameters, tyre_slip
 from slipnav.systems.sensor_health import health_report
 
@@ -700,6 +700,13 @@ def collect_arrays(loggers, context, robot: RobotParameters, copy: bool = True) 
         flags = data("perturbation")
         for i, channel in enumerate(PERTURBATION_CHANNELS):
             a[f"perturbation_{channel}"] = flags[i]
+    if "force_residual" in logs:
+        forces = data("force_residual")
+        for i, channel in enumerate(FORCE_CHANNELS):
+            a[f"perturbation_{channel}"] = forces[i]
+    if "motor_currents" in logs:
+        currents = data("motor_currents")
+        a["meas_current_R"], a["meas_current_L"] = currents[0], currents[1]
     return a
 
 

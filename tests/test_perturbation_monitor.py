@@ -17,6 +17,7 @@ from slipnav.systems.perturbation_monitor import (
     perturbation_initial_state,
     perturbation_step,
 )
+from slipnav.systems.plant import NO_DISTURBANCE, motor_currents, plant_advance, tinyphoon
 
 T_N, R, B = 0.002, 0.015, 0.068
 P = PerturbationParameters()
@@ -137,3 +138,88 @@ def test_closed_loop_held_wheel_flagged_and_fault_free_run_clean():
     assert "wheel_R" in caught and caught["wheel_R"]["braked"] > 0
     assert 2.0 <= caught["wheel_R"]["first_s"] <= 2.1
     assert "wheel_L" not in caught
+
+
+def force_run(p, disturbance, seconds=0.6, command=(1.0, 1.0)):
+    """The discrete plant (plant_advance) at a constant command with ``disturbance`` held, read by the
+    monitor's force test exactly (true angles, currents and accelerations, no quantisation): the
+    per-side unexplained forces [e_R, e_L] of the last sample."""
+    p_steps = round(T_N / 0.0005)
+    x, loop = [0.0] * 10, [0.0] * 4
+    state = perturbation_initial_state()
+    params = PerturbationParameters(confirm_samples=100)
+    for k in range(round(seconds / T_N)):
+        x, loop, acc = plant_advance(x, loop, command, k * p_steps, p_steps, 0.0005, p, disturbance)
+        estimate = (x[3], x[4], x[5], acc[0], acc[1])
+        currents = motor_currents(loop, x, p)
+        state = perturbation_step(
+            state, command, x[6:8], estimate, params, (p.radius_R, p.radius_L), p.track_width, T_N,
+            currents, p,
+        )  # fmt: skip
+    return np.array(state[-6:-4]), x
+
+
+def test_force_balance_is_zero_for_the_nominal_robot_and_finds_a_hand_on_a_wheel_or_the_body():
+    """Module docstring, 4.: with the plant's own model as the belief, the motors explain every force
+    of a steady run (|e| < 0.01 m/s^2, shoe drag and bearing drag included); a torque tau on the right
+    wheel shows on its side alone as tau / (r m); a push F along the heading on both sides as F / (2 m)
+    (the plant's contact_forces and wheel equation, to 2 %)."""
+    p = tinyphoon()
+    clean, _ = force_run(p, NO_DISTURBANCE)
+    np.testing.assert_allclose(clean, 0.0, atol=0.01)
+    tau = 0.01
+    pushed, x = force_run(p, (1.0, 1.0, 0.0, 0.0, tau, 0.0, 0.0, 0.0))
+    assert x[3] > 0.8  # the speed loop still drives at about its command
+    np.testing.assert_allclose(
+        pushed, [tau / (p.radius_R * p.mass), 0.0], atol=0.02 * tau / (p.radius_R * p.mass)
+    )
+    force = -1.0
+    pushed, _ = force_run(p, (1.0, 1.0, 0.0, 0.0, 0.0, 0.0, force, 0.0))
+    np.testing.assert_allclose(pushed, [force / (2 * p.mass)] * 2, rtol=0.02)
+
+
+def test_force_test_classifies_sides_and_needs_currents():
+    """A right-wheel force along its motion is driven, against it braked; both sides alike is a push on
+    the body; NaN currents (a replayed log) or implausible ones (beyond 1.5 x the driver's limit) leave
+    every force flag off."""
+    p = tinyphoon()
+    params = PerturbationParameters(confirm_samples=1)
+
+    def flags(disturbance, command=(1.0, 1.0), read=None):
+        p_steps = round(T_N / 0.0005)
+        x, loop, state = [0.0] * 10, [0.0] * 4, perturbation_initial_state()
+        for k in range(300):
+            x, loop, acc = plant_advance(x, loop, command, k * p_steps, p_steps, 0.0005, p, disturbance)
+            currents = read if read is not None else motor_currents(loop, x, p)
+            state = perturbation_step(
+                state, command, x[6:8], (x[3], x[4], x[5], acc[0], acc[1]), params,
+                (p.radius_R, p.radius_L), p.track_width, T_N, currents, p,
+            )  # fmt: skip
+        return state[-4:]
+
+    assert flags((1.0, 1.0, 0.0, 0.0, 0.02, 0.0, 0.0, 0.0))[0:2] == [WHEEL_DRIVEN, 0]
+    assert flags((1.0, 1.0, 0.0, 0.0, -0.02, 0.0, 0.0, 0.0))[0:2] == [WHEEL_BRAKED, 0]
+    assert flags((1.0, 1.0, 0.0, 0.0, 0.0, 0.0, -2.0, 0.0)) == [0, 0, 0, 1]
+    assert flags((1.0, 1.0, 0.0, 0.0, 0.02, 0.0, 0.0, 0.0), read=(math.nan, math.nan)) == [0, 0, 0, 0]
+    assert flags(NO_DISTURBANCE, read=(1.6 * p.motor_current_limit, 0.0)) == [0, 0, 0, 0]
+    assert flags(NO_DISTURBANCE, read=(1.4 * p.motor_current_limit, 0.0))[0] == WHEEL_BRAKED  # held back?
+    assert flags(NO_DISTURBANCE) == [0, 0, 0, 0]
+
+
+def test_closed_loop_push_on_a_wheel_and_on_the_body_flagged_within_100_ms():
+    """Corner: the right wheel pushed with 0.6 x the motor's stall torque (the speed loop absorbs it: no
+    speed band is left) and the body pushed backwards at 5 m/s^2 x its mass, each from 2 s: the force
+    balance flags wheel_R driven, and body, within 0.1 s."""
+    scenario = load_scenario("corner")
+    robot = scenario.robot_parameters()
+    tau = 0.6 * robot.motor_constant * robot.motor_current_limit
+    wheel = run_scenario(scenario, seed=1, faults=[FaultEvent("wheel_pushed", "wheel_R", 2.0, 0.5, tau)])
+    caught = wheel.summary["perturbations"]
+    assert caught["wheel_R"]["driven"] > 0 and caught["wheel_R"]["braked"] == 0
+    assert 2.0 <= caught["wheel_R"]["first_s"] <= 2.1 and "wheel_L" not in caught
+    body = run_scenario(
+        scenario, seed=1, faults=[FaultEvent("body_push", "body_t", 2.0, 0.5, -5.0 * robot.mass)]
+    )
+    caught = body.summary["perturbations"]
+    assert 2.0 <= caught["body"]["first_s"] <= 2.1
+    assert "wheel_R" not in caught and "wheel_L" not in caught
