@@ -13,7 +13,8 @@ run reports
 Targets (issue 18): every fault detected within 0.1 s; no false flags; error ratio <= 3; bias within
 3 sigma. Last line: ``faults detected=<n>/<m> worst_error_ratio=<f>``. With ``--perturbations`` it also
 runs the plant perturbations (PERTURBATIONS) and prints their final errors against both baselines, the
-completion and the flags they caused (no detection target: they have no flag of their own).
+completion, the perturbation monitor's first flag after the onset and the flags they caused; the
+sensor-fault runs count the perturbation flags they raised (a sensor fault taken for a perturbation).
 """
 
 import math
@@ -136,6 +137,7 @@ def fault_figures(a: dict, event: FaultEvent, onset: float, clean_fused: float) 
         "detected": bool(math.isfinite(latency) and latency <= DETECTION_LIMIT + 1e-9),
         "flagged_samples": int(np.sum(codes > 0)),
         "other_flags": others,
+        "perturbation_samples": sum(int(np.sum(a[f"perturbation_{c}"] > 0)) for c in PERTURBATION_CHANNELS),
         "fused_error_m": fused,
         "odometry_error_m": final_position_error(a, "odo"),
         "gyrodometry_error_m": final_position_error(a, "gyro"),
@@ -147,7 +149,8 @@ def fault_figures(a: dict, event: FaultEvent, onset: float, clean_fused: float) 
 def run_fault(job: dict) -> dict:
     """One fault run; the job carries its onset and the fault-free run's error (fault_cases)."""
     event = FaultEvent(job["kind"], job["channel"], job["start"], job["duration"], job["value"])
-    a = run_scenario(load_scenario(job["scenario"]), seed=job["seed"], faults=[event]).arrays
+    scenario, open_loop = load_scenario(job["scenario"]), job.get("open_loop") or None
+    a = run_scenario(scenario, seed=job["seed"], faults=[event], open_loop=open_loop).arrays
     return fault_figures(a, event, job["onset_s"], job["clean_fused_error_m"])
 
 
@@ -186,7 +189,8 @@ def perturbation_cases(scenario, a: dict) -> list[dict]:
 def run_perturbation(job: dict) -> dict:
     """One perturbation run: the three estimates' final errors, completion and the flags it caused."""
     event = FaultEvent(job["kind"], job["channel"], job["start"], job["duration"], job["value"])
-    result = run_scenario(load_scenario(job["scenario"]), seed=job["seed"], faults=[event])
+    scenario = load_scenario(job["scenario"])
+    result = run_scenario(scenario, seed=job["seed"], faults=[event], open_loop=job.get("open_loop") or None)
     a = result.arrays
     flags = result.summary["sensor_health"]
     caught = result.summary["perturbations"]
@@ -212,14 +216,16 @@ def faults(
     stream=None,
     *,
     perturbations=False,
+    open_loop=False,
     workers=None,
     scheduler=None,
     out_dir=None,
     resume=False,
 ):
     """Run the benchmark (module docstring); with ``perturbations`` also the plant perturbations
-    (PERTURBATIONS; printed, not kept in faults.csv); print the tables and the last line; return the
-    sensor-fault rows."""
+    (PERTURBATIONS; printed, not kept in faults.csv); ``open_loop``: every run feeds the trajectory's
+    wheel speeds forward, so that a fault cannot change the path and the error ratio is the fault's
+    effect on the estimate alone; print the tables and the last line; return the sensor-fault rows."""
     stream = stream or sys.stdout
     rows, clean_rows, perturbed = [], [], []
     start = time.perf_counter()
@@ -228,12 +234,11 @@ def faults(
             scenario = load_scenario(name)
             jobs, plant_jobs = [], []
             for seed in range(seeds):
-                clean = run_scenario(scenario, seed=seed, faults=[]).arrays
+                clean = run_scenario(scenario, seed=seed, faults=[], open_loop=open_loop or None).arrays
                 clean_rows.append({"scenario": name, "seed": seed, **clean_figures(clean)})
-                jobs += [{"scenario": name, "seed": seed, **case} for case in fault_cases(clean)]
-                plant_jobs += [
-                    {"scenario": name, "seed": seed, **c} for c in perturbation_cases(scenario, clean)
-                ]
+                common = {"scenario": name, "seed": seed, **({"open_loop": True} if open_loop else {})}
+                jobs += [{**common, **case} for case in fault_cases(clean)]
+                plant_jobs += [{**common, **c} for c in perturbation_cases(scenario, clean)]
             rows += engine.map(run_fault, jobs, file, label=f"faults {name}")
             if perturbations:
                 perturbed += engine.map(run_perturbation, plant_jobs, None, label=f"perturbations {name}")
@@ -298,6 +303,12 @@ def print_report(rows: list, clean_rows: list, wall: float, stream) -> None:
         f"{len(rows)} fault runs and {len(clean_rows)} fault-free runs in {wall:.0f} s; false flags in the "
         f"fault-free runs: {false_flags}; worst gyro-bias error after recovery {worst_bias:.2f} sigma "
         "(goals: none, <= 3)",
+        file=stream,
+    )
+    taken = [f"{r['channel']} {r['kind']}" for r in rows if r.get("perturbation_samples", 0) > 0]
+    print(
+        f"sensor-fault runs with a perturbation flag: {len(taken)}"
+        + (f" ({', '.join(sorted(set(taken)))})" if taken else ""),
         file=stream,
     )
     print(f"faults detected={detected}/{len(rows)} worst_error_ratio={worst_ratio:.3f}", file=stream)
