@@ -52,6 +52,7 @@ from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.pose import pose_step
 from slipnav.systems.sensor_correction import SensorCalibration, corrected_accelerometers, corrected_gyro
 from slipnav.systems.sensor_health import (
+    SLIP_DETECTOR_CHANNELS,
     HealthGeometry,
     SensorHealthParameters,
     health_check,
@@ -204,7 +205,7 @@ class NavigationLoop:
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
-        excluded = fault_imu > 0.5 or fault_enc > 0.5
+        excluded = fault_enc > 0.5 or any(codes[c] for c in SLIP_DETECTOR_CHANNELS)
         det_next, total = slip_detector_step(
             self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
         )

@@ -490,12 +490,16 @@ HEALTH_STEP_LAYOUT = (
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
+SLIP_DETECTOR_CHANNELS = (0, 2, 5, 6)
+"""The channels S(11) reads: the tangential accelerometers and the encoders."""
+
+
 def health_flags(codes) -> list:
     """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder, any
-    channel is excluded (codes > 0)."""
+    channel S(11) reads (SLIP_DETECTOR_CHANNELS) is excluded (codes > 0)."""
     inertial = 1.0 if any(c > 0 for c in codes[0:5]) else 0.0
     encoder = 1.0 if any(c > 0 for c in codes[5:7]) else 0.0
-    return [inertial, encoder, max(inertial, encoder)]
+    return [inertial, encoder, 1.0 if any(codes[c] > 0 for c in SLIP_DETECTOR_CHANNELS) else 0.0]
 
 
 class SensorHealthMonitor(LeafSystem):
@@ -517,8 +521,9 @@ class SensorHealthMonitor(LeafSystem):
       the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
       k: HEALTH_CLASSES[k - 1]); inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
-      either (nor does S(11)'s sum). One vector, so that one Python call per sample computes them all;
-      the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+      a channel S(11) reads, a tangential accelerometer or an encoder (its sum leaves the sample out; a
+      gyro or lateral fault does not touch it). One vector, so that one Python call per sample computes
+      them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
 
