@@ -493,8 +493,8 @@ HEALTH_STEP_LAYOUT = (
 def health_flags(codes) -> list:
     """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder, any
     channel is excluded (codes > 0)."""
-    inertial = 1.0 if any(c > 0 for c in codes[0:5]) else 0.0
-    encoder = 1.0 if any(c > 0 for c in codes[5:7]) else 0.0
+    inertial = 1.0 if max(codes[0:5]) > 0 else 0.0
+    encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
     return [inertial, encoder, max(inertial, encoder)]
 
 
@@ -545,7 +545,9 @@ class SensorHealthMonitor(LeafSystem):
         raw = tuple([v for port in self._inputs for v in port.Eval(context).tolist()])
         state = context.get_discrete_state(self._state).get_value()
         state, out, codes = health_check(state, raw, self._constants)
-        output.SetFromVector([*state.tolist(), *out, *codes, *health_flags(codes)])
+        step = output.get_mutable_value()  # written in place: no list of the whole vector
+        step[0:STATE_SIZE] = state
+        step[STATE_SIZE:] = [*out, *codes, *health_flags(codes)]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])
