@@ -109,13 +109,12 @@ class Gyrodometry(LeafSystem):
 
     def _update(self, context, discrete_state):
         odo = self._odo.Eval(context).tolist()
-        state = [
-            *discrete_state.get_value(self._pose).tolist(),
-            *discrete_state.get_value(self._drift).tolist(),
-            *discrete_state.get_value(self._rate).tolist(),
-        ]
-        gyro = float(self._gyro.Eval(context)[0])
+        # The groups read and written in place (one call each).
+        pose = discrete_state.get_mutable_value(self._pose)
+        drift = discrete_state.get_mutable_value(self._drift)
+        rate = discrete_state.get_mutable_value(self._rate)
+        state = [*pose.tolist(), *drift.tolist(), *rate.tolist()]
+        gyro = self._gyro.Eval(context).tolist()[0]
         new = gyrodometry_step(state, odo[0], odo[1], gyro, self._p, self._T_N)
-        discrete_state.set_value(self._pose, new[0:3])
-        discrete_state.set_value(self._drift, new[3:4])
-        discrete_state.set_value(self._rate, new[4:5])
+        pose[:] = new[0:3]
+        drift[0], rate[0] = new[3], new[4]

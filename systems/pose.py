@@ -41,5 +41,5 @@ class PoseIntegrator(LeafSystem):
 
     def _update(self, context, discrete_state):
         v_t, v_n, omega = self._vel.Eval(context).tolist()
-        pose = discrete_state.get_value(self._pose).tolist()
-        discrete_state.set_value(self._pose, pose_step(pose, v_t, v_n, omega, self._T_N))
+        pose = discrete_state.get_mutable_value(self._pose)  # read and written in place: one call
+        pose[:] = pose_step(pose.tolist(), v_t, v_n, omega, self._T_N)

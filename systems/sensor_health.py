@@ -497,9 +497,10 @@ SLIP_DETECTOR_CHANNELS = (0, 2, 5, 6)
 def health_flags(codes) -> list:
     """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder, any
     channel S(11) reads (SLIP_DETECTOR_CHANNELS) is excluded (codes > 0)."""
-    inertial = 1.0 if any(c > 0 for c in codes[0:5]) else 0.0
-    encoder = 1.0 if any(c > 0 for c in codes[5:7]) else 0.0
-    return [inertial, encoder, 1.0 if any(codes[c] > 0 for c in SLIP_DETECTOR_CHANNELS) else 0.0]
+    inertial = 1.0 if max(codes[0:5]) > 0 else 0.0
+    encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
+    s11 = codes[0] > 0 or codes[2] > 0 or encoder > 0.0  # SLIP_DETECTOR_CHANNELS
+    return [inertial, encoder, 1.0 if s11 else 0.0]
 
 
 class SensorHealthMonitor(LeafSystem):
@@ -550,7 +551,9 @@ class SensorHealthMonitor(LeafSystem):
         raw = tuple([v for port in self._inputs for v in port.Eval(context).tolist()])
         state = context.get_discrete_state(self._state).get_value()
         state, out, codes = health_check(state, raw, self._constants)
-        output.SetFromVector([*state.tolist(), *out, *codes, *health_flags(codes)])
+        step = output.get_mutable_value()  # written in place: no list of the whole vector
+        step[0:STATE_SIZE] = state
+        step[STATE_SIZE:] = [*out, *codes, *health_flags(codes)]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

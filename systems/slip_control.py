@@ -130,8 +130,8 @@ class StepSizeController(LeafSystem):
     - C1: the navigation's tangential-slip mixing parameter; side_slip_angle: alpha_K of S(19).
     - step_size: delta_K (state); progress: Pi_K (state), the position on the pre-planned trajectory.
     - pace: the step size the interpolator expands the reference's speed by at t_K: the state delta_K-1
-      (``delayed_step_size``, default), or delta_K of S(22) computed at t_K from the inputs (direct
-      feedthrough; the state between control instants), as printed.
+      (``delayed_step_size``, default; then a state output port), or delta_K of S(22) computed at t_K
+      from the inputs (direct feedthrough; the state between control instants), as printed.
 
     Update at t_K = K T_C: delta_K from delta_K-1, C1 and alpha (S(22)) bounded by S(23) on K - Pi_K,
     then Pi_K+1 = Pi_K + delta_K (S(24)). ``enabled=False`` keeps delta = 1 (Pi_K = K): slip control off.
@@ -147,7 +147,10 @@ class StepSizeController(LeafSystem):
         self._progress = self.DeclareDiscreteState([0.0])
         self.DeclareStateOutputPort("step_size", self._delta)
         self.DeclareStateOutputPort("progress", self._progress)
-        self.DeclareVectorOutputPort("pace", 1, self._calc_pace)
+        if params.delayed_step_size:  # pace is the state delta_K-1: no Python call to read it
+            self.DeclareStateOutputPort("pace", self._delta)
+        else:
+            self.DeclareVectorOutputPort("pace", 1, self._calc_pace)
         self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
 
     def _control_instant(self, context) -> int | None:
@@ -168,8 +171,8 @@ class StepSizeController(LeafSystem):
             delta, self._c1.Eval(context)[0], self._alpha.Eval(context)[0], K - progress, self._p
         )
 
-    def _calc_pace(self, context, output):
-        K = None if self._p.delayed_step_size else self._control_instant(context)
+    def _calc_pace(self, context, output):  # delayed_step_size false: delta_K at t_K
+        K = self._control_instant(context)
         if K is None:
             output.SetFromVector(context.get_discrete_state(self._delta).get_value())
         else:

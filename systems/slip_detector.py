@@ -67,7 +67,9 @@ class TangentialSlipDetector(LeafSystem):
       the control instants t = K*T_C (sample k = K*n, n = T_C/T_N); the MixerC1 block samples this port
       there. Between control instants the port shows the running partial mean.
 
-    Update every T_N: accumulate; at control instants reset with ^O v_t,K as the new reference.
+    Update every T_N: accumulate; at control instants reset with ^O v_t,K as the new reference. The
+    update computes the sample's step itself, and delta_v only when read (at T_C): no Python call per
+    sample for an output.
 
     Args:
         T_N, T_C: periods (s); batch_length n = T_C/T_N.
@@ -84,31 +86,26 @@ class TangentialSlipDetector(LeafSystem):
         self._fault = self.DeclareVectorInputPort("sensor_fault", 1)
         self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, float(initial_speed)]))
         prereq = {self.xd_ticket(), self._odo.ticket(), self._acc.ticket(), self._fault.ticket()}
-        self._step = self.DeclareVectorOutputPort("step", 4, self._calc_step, prerequisites_of_calc=prereq)
-        self.DeclareVectorOutputPort(
-            "delta_v",
-            1,
-            lambda c, o: o.SetFromVector([self._step.Eval(c)[3] / self._n]),
-            prerequisites_of_calc=prereq,
-        )
+        # No per-sample output calc: the update accumulates itself, and delta_v is computed only when read
+        # (the MixerC1 samples it at the control instants).
+        self.DeclareVectorOutputPort("delta_v", 1, self._calc_delta_v, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
-    def _calc_step(self, context, output):
-        state, total = slip_detector_step(
-            context.get_discrete_state(self._state).get_value().tolist(),
-            float(self._odo.Eval(context)[0]),
-            self._acc.Eval(context).tolist(),
-            self._T_N,
-            self._running,
-            self._fault.Eval(context)[0] > 0.5,
+    def _step(self, context, state: list):
+        """(v_t of the odometry, slip_detector_step of ``state`` and the current inputs)."""
+        v_t = self._odo.Eval(context).tolist()[0]
+        fault = self._fault.Eval(context).tolist()[0] > 0.5
+        return v_t, slip_detector_step(
+            state, v_t, self._acc.Eval(context).tolist(), self._T_N, self._running, fault
         )
-        output.SetFromVector([*state, total])
+
+    def _calc_delta_v(self, context, output):
+        _, (_, total) = self._step(context, context.get_discrete_state(self._state).get_value().tolist())
+        output.SetFromVector([total / self._n])
 
     def _update(self, context, discrete_state):
-        step = self._step.Eval(context)
-        k = int(round(context.get_time() / self._T_N))
-        if k % self._n == 0:
-            _, state = slip_detector_batch_end(float(step[3]), float(self._odo.Eval(context)[0]), self._n)
-        else:
-            state = step[0:3]
-        discrete_state.set_value(self._state, state)
+        state = discrete_state.get_mutable_value(self._state)  # read and written in place
+        v_t, (new, total) = self._step(context, state.tolist())
+        if int(round(context.get_time() / self._T_N)) % self._n == 0:
+            _, new = slip_detector_batch_end(total, v_t, self._n)
+        state[:] = new

@@ -256,12 +256,13 @@ class YawRateCalibration(LeafSystem):
         )
 
     def _update(self, context, discrete_state):
-        fault = any(port.Eval(context)[0] > 0.5 for port in self._faults)
+        inertial, encoder = self._faults
+        fault = inertial.Eval(context).tolist()[0] > 0.5 or encoder.Eval(context).tolist()[0] > 0.5
         state = yaw_calibration_step(
             discrete_state.get_value(self._state),
-            float(self._gyro.Eval(context)[0]),
+            self._gyro.Eval(context).tolist()[0],
             self._odo.Eval(context).tolist(),
-            float(self._c1.Eval(context)[0]),
+            self._c1.Eval(context).tolist()[0],
             fault,
             self._b,
             self._p,
