@@ -32,6 +32,7 @@ from slipnav.systems.perturbation_monitor import (
     FORCE_CHANNELS,
     PERTURBATION_CHANNELS,
     PerturbationParameters,
+    force_model,
     perturbation_initial_state,
     perturbation_step,
 )
@@ -171,7 +172,7 @@ def run_plain_loop(
     perturbed, faulty = has_plant_events(faults), has_sensor_faults(faults)
     # PerturbationMonitor
     monitor_params = (perturbation_monitor or PerturbationParameters()).validate()
-    monitor, radii = perturbation_initial_state(), (p.radius_R, p.radius_L)
+    monitor, radii, force = perturbation_initial_state(), (p.radius_R, p.radius_L), force_model(p)
     held = previous = None
     for k in range(num_steps):
         t0 = clock()
@@ -206,7 +207,16 @@ def run_plain_loop(
         )
         mixed = [nav_row[i] for i in MIXED_ESTIMATE_COLUMNS]
         monitor = perturbation_step(
-            monitor, command, meas_enc, mixed, monitor_params, radii, p.track_width, T_N, meas_current, p
+            monitor,
+            command,
+            meas_enc,
+            mixed,
+            monitor_params,
+            radii,
+            p.track_width,
+            T_N,
+            meas_current,
+            force,
         )
 
         if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K

@@ -41,6 +41,7 @@ straight) leaves no trace in the encoders and the estimate; the force balance (4
 push along the heading. A sideways push the tyres hold stays invisible to proprioception.
 """
 
+import collections
 import dataclasses as dc
 import math
 
@@ -136,7 +137,21 @@ def perturbation_initial_state() -> list[float]:
     return state
 
 
-def unexplained_force(s, rates, currents, estimate, robot: RobotParameters, a: float, T_N: float):
+ForceModel = collections.namedtuple(
+    "ForceModel",
+    "radius_R radius_L track_width mass yaw_inertia wheel_inertia motor_constant motor_current_limit "
+    "bearing_drag shoe_offset shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load",
+)
+"""The believed robot's figures the force test reads, as plain floats (a RobotParameters' properties
+cost a call each, every sample)."""
+
+
+def force_model(robot: RobotParameters) -> ForceModel:
+    """The ForceModel of the believed robot."""
+    return ForceModel(*[float(getattr(robot, name)) for name in ForceModel._fields])
+
+
+def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float):
     """Update the force balance's filters in ``s`` (perturbation_step's state) and return each side's
     force the motors do not explain per unit mass [e_R, e_L] (m/s^2; module docstring, 4.), or None
     while a rate is missing.
@@ -192,7 +207,7 @@ def perturbation_step(
     track_width: float,
     T_N: float,
     currents=(math.nan, math.nan),
-    robot: RobotParameters | None = None,
+    robot: ForceModel | RobotParameters | None = None,
 ):
     """One T_N update (module docstring).
 
@@ -204,8 +219,8 @@ def perturbation_step(
         radii: the believed rolling radii (r_R, r_L) (m).
         currents: the drivers' current readings [i_R, i_L] (A); NaN or beyond PLAUSIBLE_CURRENT times
             the limit: no force test in this sample.
-        robot: the believed robot (its mass, inertias, motor constant, drags) for the force test; None:
-            no force test.
+        robot: the believed robot (its mass, inertias, motor constant, drags) for the force test, its
+            ForceModel (faster) or RobotParameters; None: no force test.
 
     Returns:
         the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
@@ -319,7 +334,7 @@ class PerturbationMonitor(LeafSystem):
         super().__init__()
         self._p = params.validate()
         self._radii, self._b, self._T_N = (float(radii[0]), float(radii[1])), float(track_width), T_N
-        self._robot = robot
+        self._robot = None if robot is None else force_model(robot)
         self._command = self.DeclareVectorInputPort("wheel_speed_command", 2)
         self._encoders = self.DeclareVectorInputPort("encoders", 2)
         self._estimate = self.DeclareVectorInputPort("mixed_estimate", 5)
