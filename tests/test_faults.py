@@ -9,7 +9,7 @@ import pytest
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.faults import fault_cases, fault_onset, perturbation_cases, print_report
+from slipnav.studies.faults import fault_cases, fault_onset, perturbation_cases, print_report, run_fault
 from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.plant import contact_forces, plant_derivatives, plant_substep, tinyphoon
 from slipnav.systems.sensor_health import (
@@ -404,3 +404,30 @@ def test_slip_detector_leaves_out_only_samples_of_the_channels_it_reads():
         assert s11 == sensor_fault, channel
         assert (inertial, encoder) == ((1.0, 0.0) if channel < 5 else (0.0, 1.0))
     assert health_flags([0] * 7) == [0.0, 0.0, 0.0]
+
+
+def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
+    """``slipnav faults --open-loop``: the trajectory's wheel speeds are fed forward, so a sensor fault
+    changes the estimate but not one sample of the true path; run_fault takes the job's open_loop."""
+    scenario = load_scenario("corner")
+    clean = run_scenario(scenario, seed=0, open_loop=True).arrays
+    event = FaultEvent("nan", "gyro", 2.2, 0.5)
+    faulty = run_scenario(scenario, seed=0, open_loop=True, faults=[event]).arrays
+    for key in ("true_x", "true_y", "true_phi"):
+        np.testing.assert_array_equal(faulty[key], clean[key])
+    assert not np.array_equal(faulty["est_phi"], clean["est_phi"])
+    job = {
+        "scenario": "corner",
+        "seed": 0,
+        "open_loop": True,
+        "channel": "gyro",
+        "kind": "nan",
+        "start": 2.2,
+        "duration": 0.5,
+        "value": 0.0,
+        "onset_s": 2.2,
+        "clean_fused_error_m": final_position_error(clean, "est"),
+    }
+    figures = run_fault(job)
+    assert figures["detected"] and figures["latency_s"] == 0.0
+    assert figures["fused_error_m"] == pytest.approx(final_position_error(faulty, "est"), rel=1e-12)
