@@ -229,6 +229,7 @@ def build_closed_loop_diagram(
         initial_pose,
         nominal_sensors,
         calibration,
+        handles.sensors.GetOutputPort("motor_currents"),
     )
     ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
     pose, speed = localisation_ports(builder, control.localisation, nav, handles.plant)

@@ -15,6 +15,7 @@ from slipnav.systems.gyrodometry import Gyrodometry
 from slipnav.systems.mixing import C2C3_STEP_LAYOUT, MIXER_LAYOUT, MixerC1, MixerC2C3, VelocityMixer
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters, health_geometry
 from slipnav.systems.odometry import ODOMETRY_STEP_LAYOUT, Odometry
+from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
@@ -53,6 +54,7 @@ def build_navigation_diagram(
     sensors: SensorParameters | None = None,
     no_load_speed: float | None = None,
     calibration: SensorCalibration | None = None,
+    robot: RobotParameters | None = None,
 ) -> Diagram:
     """The navigation algorithm as a Diagram.
 
@@ -61,6 +63,8 @@ def build_navigation_diagram(
     no-load speed (m/s) for the sensor checks (systems.navigation.health_geometry).
     ``calibration``: the model's SensorCalibration; unless it is the identity a SensorCorrection block
     removes it from the checked inertial samples before every block that reads them.
+    ``robot``: the nominal robot, whose mass, motors and drags give the sensor checks the force reference
+    of the tangential accelerometers from the optional ``motor_currents`` input (None: none).
 
     .. pydrake_system::
 
@@ -69,6 +73,7 @@ def build_navigation_diagram(
         - accelerometers
         - gyro
         - encoders
+        - motor_currents
         output_ports:
         - pose
         - mixed_estimate
@@ -96,8 +101,9 @@ def build_navigation_diagram(
         system.set_name(name)
         return b.AddSystem(system)
 
-    geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed)
+    geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed, robot)
     monitor = add(SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
+    b.ExportInput(monitor.GetInputPort("motor_currents"), "motor_currents")
     check = split_port(b, monitor.GetOutputPort("step"), HEALTH_STEP_LAYOUT, "Sensor checks' signals")
     odometry_block = add(Odometry(wheel_radius, track_width, T_N, initial.speed), "Odometry")
     odometry = split_port(b, odometry_block.GetOutputPort("step"), ODOMETRY_STEP_LAYOUT, "Odometry's signals")
@@ -265,10 +271,12 @@ def add_navigation(
     initial_pose=(0.0, 0.0, 0.0),
     nominal_sensors: SensorParameters | None = None,
     calibration: SensorCalibration | None = None,
+    currents_port=None,
 ):
-    """Add the navigation diagram fed by ``sensors`` (ProprioceptiveSensors or a SensorFaultInjector) to
-    ``builder``; ``robot``, ``nominal_sensors`` (default the robot's data sheet) and ``calibration`` (the
-    model's SensorCalibration, default none) are what it knows.
+    """Add the navigation diagram fed by ``sensors`` (ProprioceptiveSensors or a SensorFaultInjector) and
+    the motor drivers' ``currents_port`` (None: unconnected) to ``builder``; ``robot``,
+    ``nominal_sensors`` (default the robot's data sheet) and ``calibration`` (the model's
+    SensorCalibration, default none) are what it knows.
 
     Returns (navigation subsystem, its output ports keyed ``nav_<name>`` for logging).
     """
@@ -282,9 +290,12 @@ def add_navigation(
             nominal_sensors or default_sensor_parameters(robot.name),
             robot.no_load_speed,
             calibration,
+            robot,
         )
     )
     for name in ("accelerometers", "gyro", "encoders"):
         builder.Connect(sensors.GetOutputPort(name), nav.GetInputPort(name))
+    if currents_port is not None:
+        builder.Connect(currents_port, nav.GetInputPort("motor_currents"))
     ports = {f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"}
     return nav, ports

@@ -179,6 +179,7 @@ def build_open_loop_diagram(
             initial_pose,
             nominal_sensors,
             calibration,
+            handles.sensors.GetOutputPort("motor_currents"),
         )
     feedforward = builder.AddSystem(
         TrajectoryFeedforward(rates.T_C, wheel_speeds, reference_poses, start_time)

@@ -152,6 +152,7 @@ def run_plain_loop(
         nominal_sensors or default_sensor_parameters(p.name),
         p.no_load_speed,
         calibration,
+        p,
     )
     # Control (build_control_diagram).
     path, half = control.path, 0.5 * p.track_width
@@ -185,7 +186,7 @@ def run_plain_loop(
             held = apply_sensor_faults(k * T_N, raw, held, previous, faults, T_N, sensor_params.encoder_step)
             previous = raw
             meas_acc, meas_gyro, meas_enc = held[0:4], held[4], held[5:7]
-        nav_row = nav.step(meas_acc, meas_gyro, meas_enc)
+        nav_row = nav.step(meas_acc, meas_gyro, meas_enc, meas_current)
         t1 = clock()
         spent["navigation"] += t1 - t0
         s = follower[0]

@@ -49,15 +49,17 @@ from slipnav.systems.mixing import (
     wheels_at_rest,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
+from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import pose_step
 from slipnav.systems.sensor_correction import SensorCalibration, corrected_accelerometers, corrected_gyro
 from slipnav.systems.sensor_health import (
-    SLIP_DETECTOR_CHANNELS,
+    NO_CURRENTS,
     HealthGeometry,
     SensorHealthParameters,
     health_check,
     health_constants,
     health_initial_state,
+    slip_detector_blind,
 )
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
@@ -121,17 +123,32 @@ def health_geometry(
     T_N: float,
     sensors: SensorParameters | None = None,
     no_load_speed: float | None = None,
+    robot: RobotParameters | None = None,
 ) -> HealthGeometry:
     """What the sensor checks know: the nominal (or calibrated) geometry and the sensors' data sheet
     (default Tinyphoon's); the plausible wheel speed is the parameter's, else 1.5 x the nominal motors'
-    no-load speed."""
+    no-load speed; the nominal ``robot``'s mass, motors and drags for the force reference (None: none)."""
     r_R, r_L = wheel_radii(wheel_radius)
     sensors = sensors or SensorParameters()
     bound = params.health.max_wheel_speed
     if bound is None:
         bound = 1.5 * no_load_speed if no_load_speed else DEFAULT_WHEEL_SPEED_BOUND
+    force = {}
+    if robot is not None:
+        names = (
+            "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
+            "shoe_viscous_drag shoe_slip_speed shoe_normal_load"
+        ).split()
+        force = {name: float(getattr(robot, name)) for name in names}
     return HealthGeometry(
-        r_R, r_L, track_width, T_N, sensors.encoder_step, tuple(sensors.accelerometer_position), bound
+        r_R,
+        r_L,
+        track_width,
+        T_N,
+        sensors.encoder_step,
+        tuple(sensors.accelerometer_position),
+        bound,
+        **force,
     )
 
 
@@ -154,12 +171,13 @@ class NavigationLoop:
         sensors: SensorParameters | None = None,
         no_load_speed: float | None = None,
         calibration: SensorCalibration | None = None,
+        robot: RobotParameters | None = None,
     ):
         initial = initial or NavigationInitialState()
         r_R, r_L = wheel_radii(wheel_radius)
         identity = calibration is None or calibration.validate().is_identity()
         self.sensor_calibration = None if identity else calibration
-        self.geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed)
+        self.geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed, robot)
         self.health = health_initial_state(self.geometry, initial.speed)
         self.health_constants = health_constants(params.health, self.geometry)
         self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
@@ -183,12 +201,14 @@ class NavigationLoop:
         (studies/error_budget.py overrides this to feed oracle inputs)."""
         return mix(odo, inertial, self.c1, c2, c3, previous, self.params.mixing)
 
-    def step(self, accelerometers, gyro: float, encoders) -> tuple:
-        """Process sample k; returns the values the blocks output at t_k, in LOOP_KEYS order (the covariance
-        P_k-1 is ``self.P`` before the call)."""
+    def step(self, accelerometers, gyro: float, encoders, currents=NO_CURRENTS) -> tuple:
+        """Process sample k (``currents``: the motor drivers' readings, for the sensor checks); returns
+        the values the blocks output at t_k, in LOOP_KEYS order (the covariance P_k-1 is ``self.P``
+        before the call)."""
         mp, T_N = self.params.mixing, self.T_N
         raw = tuple([float(v) for v in (*accelerometers, gyro, *encoders)])
-        self.health, sample, codes = health_check(self.health, raw, self.health_constants)
+        amps = (float(currents[0]), float(currents[1]))
+        self.health, sample, codes = health_check(self.health, raw, amps, self.health_constants)
         acc, g = sample[0:4], sample[4]
         if self.sensor_calibration is not None:  # SensorCorrection
             cal = self.sensor_calibration
@@ -205,7 +225,7 @@ class NavigationLoop:
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
-        excluded = fault_enc > 0.5 or any(codes[c] for c in SLIP_DETECTOR_CHANNELS)
+        excluded = fault_enc > 0.5 or slip_detector_blind(codes)
         det_next, total = slip_detector_step(
             self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
         )

@@ -25,7 +25,10 @@ Checks (health codes, 0 = healthy):
    2 (-omega_dot y - omega^2 x, omega_dot x - omega^2 y), omega_dot from the gyro's difference); the one
    with the larger sum of its change since the pair began to disagree and its distance, in the same
    moving average, from the kinematic reference (d v_o/dt for t, v_o omega for n) is excluded until the
-   pair's average falls below half the threshold.
+   pair's average falls below half the threshold. With the motor drivers' current readings the t axes'
+   reference is the force balance instead, what the motors put on the ground over the nominal mass
+   (sum (k i - beta w - J w')/r plus the shoe drag, / m), which does not slip as d v_o/dt does, and
+   the distance from it alone decides (a hard braking moves the healthy sensor as much as a bias).
 6. ``recovering``: excluded, waiting to agree again with its redundant estimate.
 
 Replacements: an excluded gyro reads the odometric yaw rate (both encoders healthy), else its last value;
@@ -49,6 +52,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.compiled import compiled, jitable
+from slipnav.systems.plant import shoe_force
 
 HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
 """Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
@@ -144,6 +148,8 @@ class HealthGeometry:
         radius_R, radius_L: nominal (or calibrated) rolling radii (m). track_width: b (m).
         T_N: period (s). encoder_step: rad per count. accelerometer_position: (x, y) of accelerometer 1
         (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
+        mass ... shoe_normal_load: the nominal robot's figures (RobotParameters' names) for the force
+            reference of the tangential accelerometers (module docstring, 5.); mass 0: none.
     """
 
     radius_R: float
@@ -153,6 +159,16 @@ class HealthGeometry:
     encoder_step: float
     accelerometer_position: tuple
     max_wheel_speed: float
+    mass: float = 0.0
+    wheel_inertia: float = 0.0
+    motor_constant: float = 0.0
+    motor_current_limit: float = 0.0
+    bearing_drag: float = 0.0
+    shoe_offset: float = 0.0
+    shoe_friction: float = 0.0
+    shoe_viscous_drag: float = 0.0
+    shoe_slip_speed: float = 0.01
+    shoe_normal_load: float = 0.0
 
 
 # State layout (flat, for a Drake discrete state): per analog channel (5 each) the reference (last
@@ -187,7 +203,9 @@ HealthConstants = collections.namedtuple(
     "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
     "stuck_speed_fraction gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
     "accel_consistency_per_speed consistency_samples max_exclusion_time "
-    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed",
+    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed "
+    "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
+    "shoe_viscous_drag shoe_slip_speed shoe_normal_load",
 )
 """What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
 is the bound in force)."""
@@ -212,19 +230,30 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
     return tuple(values)
 
 
-def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry):
-    """Check one sample (module docstring): health_check with ``p`` and ``g``.
+NO_CURRENTS = (math.nan, math.nan)
+"""The motor current readings when none are read: the tangential accelerometers' reference is the
+odometry's."""
+
+
+def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry, currents=NO_CURRENTS):
+    """Check one sample (module docstring): health_check with ``p`` and ``g``; ``currents``: the motor
+    drivers' readings [i_R, i_L] (A) of the sample.
 
     Returns:
         (next state, accepted sample [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L], health codes (7)).
     """
-    return health_check(np.asarray(state, float), tuple([float(v) for v in raw]), health_constants(p, g))
+    return health_check(
+        np.asarray(state, float),
+        tuple([float(v) for v in raw]),
+        (float(currents[0]), float(currents[1])),
+        health_constants(p, g),
+    )
 
 
 @compiled
-def health_check(state, raw: tuple, constants: tuple):
-    """health_step with the parameters and the geometry as health_constants' tuple and the sample as a
-    tuple of floats (compiled with numba when available: systems/compiled.py)."""
+def health_check(state, raw: tuple, currents: tuple, constants: tuple):
+    """health_step with the parameters and the geometry as health_constants' tuple and the sample and
+    the currents as tuples of floats (compiled with numba when available: systems/compiled.py)."""
     p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
     s = state.copy()
     if not p.enabled:  # NaN/inf only: hold the last valid value
@@ -341,6 +370,7 @@ def health_check(state, raw: tuple, constants: tuple):
 
     # Encoder output: accepted increment, else the predicted one, else the last one.
     out = list(raw)
+    previous_inc = (e_inc[0], e_inc[1])
     used = [0.0, 0.0]
     for w in range(2):
         if first[w]:
@@ -365,6 +395,25 @@ def health_check(state, raw: tuple, constants: tuple):
     v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
     v_o, omega_o = 0.5 * (v_R + v_L), (v_R - v_L) / g.track_width
     enc_ok = codes[5] == 0 and codes[6] == 0
+
+    # The force reference of a_t: what the motors put on the ground (their currents less the wheels'
+    # bearing drag and inertia) and the nominal shoe drag, over the nominal mass; unlike d v_o/dt it does
+    # not slip. NaN without plausible currents (beyond 1.5 x the driver's limit, or none).
+    a_force = math.nan
+    plausible = 1.5 * g.motor_current_limit
+    if g.mass > 0.0 and enc_ok and not (first[0] or first[1]):
+        if abs(currents[0]) <= plausible and abs(currents[1]) <= plausible:  # False for NaN
+            force = 0.0
+            for w in range(2):
+                rate = used[w] / g.T_N
+                rate_dot = (used[w] - previous_inc[w]) / (g.T_N * g.T_N)
+                torque = g.motor_constant * currents[w] - g.bearing_drag * rate - g.wheel_inertia * rate_dot
+                force += torque / radii[w]
+            if g.shoe_friction > 0.0 or g.shoe_viscous_drag > 0.0:
+                spin = raw[4] if gyro_ok else omega_o
+                for x_shoe in (g.shoe_offset, -g.shoe_offset):
+                    force += shoe_force(v_o, spin * x_shoe, g.shoe_normal_load, g)[0]
+            a_force = force / g.mass
 
     # Accelerometer pair: disagreement beyond the rotational terms, a moving average over
     # consistency_samples (hysteresis: flagged above the limit, cleared below half of it); the one that
@@ -391,7 +440,7 @@ def health_check(state, raw: tuple, constants: tuple):
     rot_dot = (-2.0 * omega_dot * py, 2.0 * omega_dot * px)  # averaged only: noisy per sample
     average, deviation, level = s[_W : _W + 2], s[_W + 4 : _W + 8], s[_W + 8 : _W + 12]
     limit = p.accel_consistency + p.accel_consistency_per_speed * abs(v_o)
-    a_kin = ((v_o - s[_W + 3]) / g.T_N, v_o * omega)
+    a_kin = ((v_o - s[_W + 3]) / g.T_N if math.isnan(a_force) else a_force, v_o * omega)
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -409,7 +458,10 @@ def health_check(state, raw: tuple, constants: tuple):
                 # Blame the one that moved more from its level before the pair began to disagree plus
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
                 # one encoder count in T_N is 3.8 m/s^2 of Tinyphoon's d v_o/dt, and the wheels slip).
-                score = [abs(raw[c] - level[c]) + abs(deviation[c]) for c in pair_of]
+                # With the force reference (t, currents read) the distance alone: it does not slip,
+                # and the true signal's own change (a hard braking) would blame the healthy one.
+                force_ref = axis == 0 and not math.isnan(a_force)
+                score = [abs(deviation[c]) + (0.0 if force_ref else abs(raw[c] - level[c])) for c in pair_of]
                 bad = pair_of[0] if score[0] > score[1] else pair_of[1]
                 hold[bad] = 1.0
                 codes[bad] = INCONSISTENT
@@ -490,17 +542,20 @@ HEALTH_STEP_LAYOUT = (
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
-SLIP_DETECTOR_CHANNELS = (0, 2, 5, 6)
-"""The channels S(11) reads: the tangential accelerometers and the encoders."""
+def slip_detector_blind(codes) -> bool:
+    """S(11) cannot use the sample: an encoder or both tangential accelerometers excluded. One excluded
+    tangential axis reads its partner's plus the rotational terms (the replacement), which S(11) uses:
+    isolated by the force reference, it is the healthy sensor's reading; a gyro or lateral fault does not
+    touch S(11)."""
+    return codes[5] > 0 or codes[6] > 0 or (codes[0] > 0 and codes[2] > 0)
 
 
 def health_flags(codes) -> list:
-    """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder, any
-    channel S(11) reads (SLIP_DETECTOR_CHANNELS) is excluded (codes > 0)."""
+    """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder is
+    excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind)."""
     inertial = 1.0 if max(codes[0:5]) > 0 else 0.0
     encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
-    s11 = codes[0] > 0 or codes[2] > 0 or encoder > 0.0  # SLIP_DETECTOR_CHANNELS
-    return [inertial, encoder, 1.0 if s11 else 0.0]
+    return [inertial, encoder, 1.0 if slip_detector_blind(codes) else 0.0]
 
 
 class SensorHealthMonitor(LeafSystem):
@@ -513,17 +568,19 @@ class SensorHealthMonitor(LeafSystem):
         - accelerometers
         - gyro
         - encoders
+        - motor_currents
         output_ports:
         - step
 
-    - inputs: the samples as read.
+    - inputs: the samples as read; motor_currents (optional): the drivers' current readings [i_R, i_L]
+      (A), the t axes' force reference (unconnected: the odometry's).
     - step (direct feedthrough), in HEALTH_STEP_LAYOUT's order: the next state; the accepted or replaced
       samples accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]; health,
       the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
       k: HEALTH_CLASSES[k - 1]); inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
-      a channel S(11) reads, a tangential accelerometer or an encoder (its sum leaves the sample out; a
-      gyro or lateral fault does not touch it). One vector, so that one Python call per sample computes
+      S(11) cannot use the sample (slip_detector_blind: an encoder or both tangential accelerometers;
+      its sum leaves the sample out). One vector, so that one Python call per sample computes
       them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
@@ -541,8 +598,9 @@ class SensorHealthMonitor(LeafSystem):
             self.DeclareVectorInputPort(name, size)
             for name, size in (("accelerometers", 4), ("gyro", 1), ("encoders", 2))
         ]
+        self._currents = self.DeclareVectorInputPort("motor_currents", 2)
         self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
-        prereq = {self.xd_ticket()} | {port.ticket() for port in self._inputs}
+        prereq = {self.xd_ticket(), self._currents.ticket()} | {port.ticket() for port in self._inputs}
         size = sum(n for _, n in HEALTH_STEP_LAYOUT)
         self._step = self.DeclareVectorOutputPort("step", size, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
@@ -550,7 +608,9 @@ class SensorHealthMonitor(LeafSystem):
     def _calc(self, context, output):
         raw = tuple([v for port in self._inputs for v in port.Eval(context).tolist()])
         state = context.get_discrete_state(self._state).get_value()
-        state, out, codes = health_check(state, raw, self._constants)
+        port = self._currents
+        currents = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_CURRENTS
+        state, out, codes = health_check(state, raw, currents, self._constants)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
         step[STATE_SIZE:] = [*out, *codes, *health_flags(codes)]

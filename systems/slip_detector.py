@@ -61,8 +61,8 @@ class TangentialSlipDetector(LeafSystem):
 
     - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample.
     - accelerometers: checked [a_t1, a_n1, a_t2, a_n2] of the current sample.
-    - sensor_fault: 1 when a channel S(11) reads (a tangential accelerometer, an encoder) was excluded
-      from the current sample (its term is left out).
+    - sensor_fault: 1 when the current sample cannot be used (an encoder or both tangential
+      accelerometers excluded: sensor_health.slip_detector_blind; its term is left out).
     - delta_v: dv_K of the batch that ends with the current sample (direct feedthrough). Batches end at
       the control instants t = K*T_C (sample k = K*n, n = T_C/T_N); the MixerC1 block samples this port
       there. Between control instants the port shows the running partial mean.

@@ -88,8 +88,9 @@ def test_ekf_functions_compiled_equal_python():
 @pytest.mark.parametrize("enabled", [True, False])
 def test_sensor_checks_compiled_equal_python(enabled):
     """A run of samples with noise, a jump, a stuck encoder, NaN and inf, a saturated gyro, a disagreeing
-    accelerometer: every state, output and code equal."""
-    geometry = health_geometry(NavigationParameters(), 0.015, 0.068, T_N)
+    accelerometer, motor currents read (the force reference) and missing: every state, output and code
+    equal."""
+    geometry = health_geometry(NavigationParameters(), 0.015, 0.068, T_N, robot=tinyphoon())
     constants = health_constants(SensorHealthParameters(enabled=enabled), geometry)
     rng = np.random.default_rng(3)
     state_c = state_p = health_initial_state(geometry, 0.5)
@@ -106,9 +107,10 @@ def test_sensor_checks_compiled_equal_python(enabled):
         if 250 <= k < 300:
             raw[2] += 8.0  # accelerometer 2's t axis disagrees
         raw = tuple(float(v) for v in raw)
+        currents = (math.nan, math.nan) if k < 240 else (0.2 + 0.01 * rng.normal(), 0.2)
         (state_c, out_c, codes_c), (state_p, out_p, codes_p) = (
-            health_check(state_c, raw, constants),
-            compiled.pure(health_check)(state_p, raw, constants),
+            health_check(state_c, raw, currents, constants),
+            compiled.pure(health_check)(state_p, raw, currents, constants),
         )
         assert_same((state_c, out_c, codes_c), (state_p, out_p, codes_p))
         assert [type(c) for c in codes_c] == [int] * 7

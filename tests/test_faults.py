@@ -392,18 +392,37 @@ def test_perturbation_cases_scale_with_the_robot():
         FaultEvent(c["kind"], c["channel"], c["start"], c["duration"], c["value"])  # valid events
 
 
-def test_slip_detector_leaves_out_only_samples_of_the_channels_it_reads():
-    """S(11) reads the tangential accelerometers and the encoders: a sample with one of them excluded
-    adds nothing to its sum; a gyro or a lateral accelerometer excluded (replaced for the EKF) does not
-    touch it, so that C1 keeps seeing a slide while the gyro is out (open-loop square, seed 1: a 0.5 s
-    accel1_n outage cost 4.2 x the fault-free error when it did)."""
-    for channel, sensor_fault in ((0, 1.0), (1, 0.0), (2, 1.0), (3, 0.0), (4, 0.0), (5, 1.0), (6, 1.0)):
+def test_slip_detector_uses_a_replaced_tangential_axis_and_ignores_gyro_and_lateral_faults():
+    """S(11) reads the tangential accelerometers and the encoders: it leaves a sample out only when an
+    encoder or both tangential axes are excluded; one excluded t axis reads its partner's (plus the
+    rotational terms), a gyro or lateral fault does not touch it (open-loop square, seed 1: a 0.5 s
+    accel1_n outage cost 4.2 x the fault-free error while S(11) left such samples out, accel1_t 5.4 x)."""
+    for channel, blind in ((0, 0.0), (1, 0.0), (2, 0.0), (3, 0.0), (4, 0.0), (5, 1.0), (6, 1.0)):
         codes = [0] * 7
         codes[channel] = 1
         inertial, encoder, s11 = health_flags(codes)
-        assert s11 == sensor_fault, channel
+        assert s11 == blind, channel
         assert (inertial, encoder) == ((1.0, 0.0) if channel < 5 else (0.0, 1.0))
+    assert health_flags([1, 0, 1, 0, 0, 0, 0]) == [1.0, 0.0, 1.0]  # both t axes out
     assert health_flags([0] * 7) == [0.0, 0.0, 0.0]
+
+
+def test_the_force_reference_blames_the_biased_accelerometer_in_a_hard_braking():
+    """Open-loop square, seed 1: accel1_t biased by 5 m/s^2 from 3.608 s, while the square's speed bump
+    brakes the body by 4.8 m/s^2 within the pair's window and the wheels slip. The healthy accel2_t
+    "moved more" and the odometric reference slips: without the motor currents the healthy one was
+    excluded (the biased one fed the estimate, 9.9 x the fault-free error). The force balance of the
+    currents blames accel1_t, and the estimate stays within 1.1 x."""
+    scenario = load_scenario("square")
+    event = FaultEvent("bias", "accel1_t", 3.608, 0.5, 5.0)
+    clean = run_scenario(scenario, seed=1, open_loop=True).arrays
+    a = run_scenario(scenario, seed=1, open_loop=True, faults=[event]).arrays
+    t = a["t"]
+    during = (t >= 3.608) & (t < 4.108)
+    first = t[np.argmax((a["health_accel1_t"] > 0) & during)]
+    assert 3.608 < first <= 3.708 and np.any(a["health_accel1_t"][during] == INCONSISTENT)
+    assert not np.any(a["health_accel2_t"] > 0)
+    assert final_position_error(a, "est") <= 1.5 * final_position_error(clean, "est")
 
 
 def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
