@@ -223,3 +223,32 @@ def test_closed_loop_push_on_a_wheel_and_on_the_body_flagged_within_100_ms():
     caught = body.summary["perturbations"]
     assert 2.0 <= caught["body"]["first_s"] <= 2.1
     assert "wheel_R" not in caught and "wheel_L" not in caught
+
+
+def test_an_excluded_encoder_is_its_own_fault_unless_the_motor_fights_a_hold():
+    """perturbation_step's encoder_codes: a wheel whose encoder the sensor checks exclude, while its
+    motor draws a normal current, is a sensor fault (no wheel flag; the tests restart from zero); at the
+    current limit the speed loop fights a hand, and the braked flag stands. On the closed-loop corner a
+    stuck right encoder for 0.5 s raised 301 samples of wheel_R flags before; now none."""
+    p = tinyphoon()
+    params = PerturbationParameters(confirm_samples=1, force_threshold=math.inf)  # the speed band alone
+
+    def last_flags(current, codes):
+        _, state, theta = drive(300, (1.0, 1.0), (1.0, 1.0))  # the reference has reached the command
+        for _ in range(60):  # then the right encoder stands still under the 1 m/s command
+            state = perturbation_step(
+                state, (1.0, 1.0), theta, (1.0, 0.0, 0.0, 0.0, 0.0), params, (R, R), B, T_N,
+                (current, 0.3), p, codes,
+            )  # fmt: skip
+            theta = [theta[0], theta[1] + 1.0 * T_N / R]
+        return state[-4:]
+
+    assert last_flags(0.3, (0, 0))[0] == WHEEL_BRAKED  # no sensor flag: a perturbation
+    assert last_flags(0.3, (3, 0))[0] == 0  # the encoder is stuck, the motor runs normally
+    assert last_flags(p.motor_current_limit, (3, 0))[0] == WHEEL_BRAKED  # a hold: the loop fights it
+    assert last_flags(math.nan, (3, 0))[0] == WHEEL_BRAKED  # no current read: as before
+
+    scenario = load_scenario("corner")
+    stuck = run_scenario(scenario, seed=0, faults=[FaultEvent("stuck", "encoder_R", 2.11, 0.5)])
+    assert stuck.summary["sensor_health"]["encoder_R"]["first_s"] <= 2.21
+    assert stuck.summary["perturbations"] == {}
