@@ -207,26 +207,32 @@ class SensorReplay(LeafSystem):
         - accelerometers
         - gyro
         - encoders
+        - motor_currents
 
     A row k of a run artifact is what the navigation blocks read at t_k, so replaying the ``meas_*`` keys
     through build_navigation_diagram reproduces the run's navigation exactly.
 
     Args:
-        T_N: period of the rows (s). accelerometers (N, 4), gyro (N,), encoders (N, 2).
+        T_N: period of the rows (s). accelerometers (N, 4), gyro (N,), encoders (N, 2); currents (N, 2)
+        the motor drivers' readings (A; None: NaN, no force reference).
     """
 
-    def __init__(self, T_N: float, accelerometers, gyro, encoders):
+    def __init__(self, T_N: float, accelerometers, gyro, encoders, currents=None):
         super().__init__()
         self._T_N = T_N
-        self._rows = np.column_stack(
-            [
-                np.asarray(accelerometers, float),
-                np.asarray(gyro, float).reshape(-1, 1),
-                np.asarray(encoders, float),
-            ]
-        )
+        gyro = np.asarray(gyro, float).reshape(-1, 1)
+        if currents is None:
+            currents = np.full((len(gyro), 2), np.nan)
+        columns = [np.asarray(accelerometers, float), gyro, np.asarray(encoders, float)]
+        self._rows = np.column_stack([*columns, np.asarray(currents, float)])
         time_only = {self.time_ticket()}
-        for name, cols in (("accelerometers", slice(0, 4)), ("gyro", slice(4, 5)), ("encoders", slice(5, 7))):
+        ports = (
+            ("accelerometers", slice(0, 4)),
+            ("gyro", slice(4, 5)),
+            ("encoders", slice(5, 7)),
+            ("motor_currents", slice(7, 9)),
+        )
+        for name, cols in ports:
             self.DeclareVectorOutputPort(
                 name,
                 cols.stop - cols.start,

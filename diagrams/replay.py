@@ -23,6 +23,8 @@ def build_log_replay_diagram(
     sensors: SensorParameters | None = None,
     no_load_speed: float | None = None,
     calibration: SensorCalibration | None = None,
+    currents=None,
+    robot=None,
 ):
     """SensorReplay (the log's rows, row k at t_k = k T_N) -> navigation diagram, every navigation output
     but the covariance logged every T_N through diagrams.open_loop.add_loggers, keyed ``nav_<output>``
@@ -31,20 +33,22 @@ def build_log_replay_diagram(
     Args:
         params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration: as
             build_navigation_diagram (the model).
-        accelerometers: (N, 4) a_t1, a_n1, a_t2, a_n2; gyro: (N,); encoders: (N, 2) wheel angles (rad).
+        accelerometers: (N, 4) a_t1, a_n1, a_t2, a_n2; gyro: (N,); encoders: (N, 2) wheel angles (rad);
+        currents: (N, 2) the motor drivers' readings (A) or None; robot: the nominal RobotParameters, for
+        the sensor checks' force reference (build_navigation_diagram).
 
     Returns:
         (diagram, loggers keyed ``nav_<output>``).
     """
     b = DiagramBuilder()
-    source = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders))
+    source = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders, currents))
     source.set_name("Sensor log")
     nav = b.AddSystem(
         build_navigation_diagram(
-            params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration
+            params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration, robot
         )
     )
-    for name in ("accelerometers", "gyro", "encoders"):
+    for name in ("accelerometers", "gyro", "encoders", "motor_currents"):
         b.Connect(source.GetOutputPort(name), nav.GetInputPort(name))
     ports = {f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"}
     loggers = add_loggers(b, ports, rates.T_N)

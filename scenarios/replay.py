@@ -3,9 +3,10 @@
 The log's rows (scenarios/sensor_log.py) drive the navigation diagram through a log source in place of
 the plant and its sensors (diagrams/replay.py); the model (scenarios/model.py) is what the navigation
 believes. The result is a run artifact with the same keys (docs/artifacts.md: Replay): the navigation
-keys from the diagram, ``meas_*`` from the log, ``cmd_*`` and ``true_*`` where the log has those columns
-(NaN otherwise), and a summary that compares with the truth only where the log has it. Replaying the
-sensor log of a ``slipnav run`` with the model it wrote reproduces the run's estimates bit for bit.
+keys from the diagram, ``meas_*`` (``meas_current_*`` from ``cur_*``) from the log, ``cmd_*`` and
+``true_*`` where the log has those columns (NaN otherwise), and a summary that compares with the truth
+only where the log has it. Replaying the sensor log of a ``slipnav run`` with the model it wrote
+reproduces the run's estimates bit for bit.
 """
 
 from __future__ import annotations
@@ -115,6 +116,8 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         model.sensor_parameters(),
         robot.no_load_speed,
         model.calibration,
+        log.currents,
+        robot,
     )
     simulator = Simulator(diagram)
     simulator.Initialize()
@@ -143,6 +146,8 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         a[key] = acc[:, i].copy()
     a["meas_gyro"] = gyro.copy()
     a["meas_enc_R"], a["meas_enc_L"] = enc[:, 0].copy(), enc[:, 1].copy()
+    if log.currents is not None:
+        a["meas_current_R"], a["meas_current_L"] = log.currents[:, 0].copy(), log.currents[:, 1].copy()
     for key in ("cmd_R", "cmd_L", "true_x", "true_y", "true_phi", "true_v_t", "true_v_n", "true_omega"):
         if key in log.columns:
             a[key] = log.columns[key].copy()

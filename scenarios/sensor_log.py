@@ -9,8 +9,9 @@ Format (README.md "Sensor log", docs/artifacts.md):
 - one row per sample, comma separated, SI units, radians. Required columns (REQUIRED_COLUMNS): ``t`` (s),
   ``gyro`` (rad/s), ``acc1_t acc1_n acc2_t acc2_n`` (m/s^2, tangential and lateral of accelerometer 1
   and 2), ``enc_R enc_L`` (cumulative encoder counts, integers). Optional: ``cmd_R cmd_L`` (commanded
-  circumferential wheel speeds, m/s, both or neither), ground truth ``true_x true_y true_phi`` (m, m,
-  rad; all three or none) and ``true_v_t true_v_n true_omega`` (m/s, m/s, rad/s).
+  circumferential wheel speeds, m/s, both or neither), ``cur_R cur_L`` (the motor drivers' current
+  readings, A, both or neither: the sensor checks' force reference), ground truth ``true_x true_y
+  true_phi`` (m, m, rad; all three or none) and ``true_v_t true_v_n true_omega`` (m/s, m/s, rad/s).
 
 Row k holds what the navigation reads at t_k = t_0 + k T_N. Floats are written with ``repr`` (the
 shortest string that reads back to the same double), so a log written and read again is bit-identical.
@@ -36,9 +37,10 @@ import numpy as np
 FORMAT_VERSION = 1
 REQUIRED_COLUMNS = ("t", "gyro", "acc1_t", "acc1_n", "acc2_t", "acc2_n", "enc_R", "enc_L")
 COMMAND_COLUMNS = ("cmd_R", "cmd_L")
+CURRENT_COLUMNS = ("cur_R", "cur_L")
 TRUTH_POSE_COLUMNS = ("true_x", "true_y", "true_phi")
 TRUTH_VELOCITY_COLUMNS = ("true_v_t", "true_v_n", "true_omega")
-OPTIONAL_COLUMNS = COMMAND_COLUMNS + TRUTH_POSE_COLUMNS + TRUTH_VELOCITY_COLUMNS
+OPTIONAL_COLUMNS = COMMAND_COLUMNS + CURRENT_COLUMNS + TRUTH_POSE_COLUMNS + TRUTH_VELOCITY_COLUMNS
 ALL_COLUMNS = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
 ENCODER_COLUMNS = ("enc_R", "enc_L")
 ACCELEROMETER_COLUMNS = ("acc1_t", "acc1_n", "acc2_t", "acc2_n")
@@ -54,6 +56,8 @@ UNITS = {
     "enc_L": "counts",
     "cmd_R": "m/s",
     "cmd_L": "m/s",
+    "cur_R": "A",
+    "cur_L": "A",
     "true_x": "m",
     "true_y": "m",
     "true_phi": "rad",
@@ -132,6 +136,13 @@ class SensorLog:
     def has_commands(self) -> bool:
         return all(c in self.columns for c in COMMAND_COLUMNS)
 
+    @property
+    def currents(self) -> np.ndarray | None:
+        """(N, 2) motor current readings cur_R, cur_L (A), or None when the log has none."""
+        if not all(c in self.columns for c in CURRENT_COLUMNS):
+            return None
+        return np.column_stack([self.columns[c] for c in CURRENT_COLUMNS])
+
 
 def _where(path, column: str | None, row: int | None, line: int | None) -> str:
     parts = [f"sensor log {str(path)!r}"]
@@ -191,7 +202,7 @@ def _check_header(header: list[str], path, line: int) -> None:
                 f"{_where(path, name, None, None)} is missing (header, line {line}): the required columns "
                 f"are {', '.join(REQUIRED_COLUMNS)}"
             )
-    for group in (COMMAND_COLUMNS, TRUTH_POSE_COLUMNS):
+    for group in (COMMAND_COLUMNS, CURRENT_COLUMNS, TRUTH_POSE_COLUMNS):
         present = [c for c in group if c in seen]
         if present and len(present) != len(group):
             missing = [c for c in group if c not in seen][0]
@@ -399,6 +410,9 @@ def sensor_log_from_arrays(
         angle = np.asarray(arrays[key], float)
         with np.errstate(invalid="ignore"):
             columns[column] = np.where(np.isfinite(angle), np.round(angle / step), np.nan)
+    for column, key in zip(CURRENT_COLUMNS, ("meas_current_R", "meas_current_L"), strict=True):
+        if key in arrays and np.any(np.isfinite(arrays[key])):
+            columns[column] = np.asarray(arrays[key], float)
     for column in OPTIONAL_COLUMNS:
         if column in arrays and np.any(np.isfinite(arrays[column])):
             columns[column] = np.asarray(arrays[column], float)

@@ -20,6 +20,7 @@ from slipnav.scenarios.sensor_log import (
     write_sensor_log,
 )
 from slipnav.systems.faults import FaultEvent
+from slipnav.systems.sensor_health import INCONSISTENT
 
 COMPARED = [
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed",
@@ -169,8 +170,9 @@ def test_replaying_a_runs_log_reproduces_its_navigation_bit_for_bit(corner_run, 
 
     assert set(SERIES_KEYS) | set(SCALAR_KEYS) <= set(replay.files)  # the same artifact keys
     assert np.isnan(replay["ref_x"]).all() and np.isnan(replay["true_slip_R"]).all()  # no plant, no reference
-    for key in COMPARED + ["t", "meas_gyro", "meas_enc_L", "true_x", "cmd_R"]:
-        np.testing.assert_array_equal(replay[key], run[key], err_msg=key)
+    keys = ["t", "meas_gyro", "meas_enc_L", "true_x", "cmd_R", "meas_current_R", "meas_current_L"]
+    for key in COMPARED + keys:
+        np.testing.assert_array_equal(replay[key], run[key], err_msg=key)  # currents: the log's cur_R/L
     assert np.isfinite(run["est_x"]).all() and np.ptp(run["est_x"]) > 0.5
     summary = json.loads((corner_run / "corner-seed0-tolerances-replay.summary.json").read_text())
     ran = json.loads((corner_run / "corner-seed0-tolerances.summary.json").read_text())
@@ -230,13 +232,15 @@ def test_a_runs_injected_faults_are_in_its_log_and_replay_the_same(tmp_path):
         FaultEvent("dropout", "gyro", 1.5, 0.1),
         FaultEvent("spike", "encoder_R", 1.6, 0.5, 1000.0),
         FaultEvent("nan", "accel2_t", 1.7, 0.02),
+        FaultEvent("bias", "accel1_t", 1.8, 0.1, 5.0),  # the pair's check, with the currents' reference
     ]
     result = run_scenario(dc.replace(load_scenario("corner"), faults=faults), duration=2.0)
     from slipnav.scenarios.runner import write_artifacts
 
     write_artifacts(result, tmp_path, figures=False)
     replayed = replay_file(tmp_path / "corner-seed0.sensors.csv")
-    for key in COMPARED + ["health_gyro", "health_encoder_R", "health_accel2_t"]:
+    for key in COMPARED + ["health_gyro", "health_encoder_R", "health_accel2_t", "health_accel1_t"]:
         np.testing.assert_array_equal(replayed.arrays[key], result.arrays[key], err_msg=key)
     assert result.arrays["health_gyro"].any() and result.arrays["health_encoder_R"].any()
+    assert (result.arrays["health_accel1_t"] == INCONSISTENT).any()
     assert replayed.summary["sensor_faults"] == result.summary["sensor_faults"] > 0
