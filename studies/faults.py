@@ -120,6 +120,17 @@ def fault_onset(clean: dict, event: FaultEvent) -> float:
     return math.nan
 
 
+def perturbation_samples(a: dict) -> int:
+    """Samples of run ``a`` with a perturbation flag, summed over the monitor's channels."""
+    return sum(int(np.sum(a[f"perturbation_{c}"] > 0)) for c in PERTURBATION_CHANNELS)
+
+
+def run_job(job: dict, event: FaultEvent):
+    """The job's scenario and seed with ``event``, open loop when the job says so (--open-loop)."""
+    scenario = load_scenario(job["scenario"])
+    return run_scenario(scenario, seed=job["seed"], faults=[event], open_loop=job.get("open_loop") or None)
+
+
 def fault_figures(a: dict, event: FaultEvent, onset: float, clean_fused: float) -> dict:
     """Latency, flags, error ratio and bias check of the faulty run ``a`` (``onset``: fault_onset;
     ``clean_fused``: the fault-free run's fused final error, m)."""
@@ -137,7 +148,7 @@ def fault_figures(a: dict, event: FaultEvent, onset: float, clean_fused: float) 
         "detected": bool(math.isfinite(latency) and latency <= DETECTION_LIMIT + 1e-9),
         "flagged_samples": int(np.sum(codes > 0)),
         "other_flags": others,
-        "perturbation_samples": sum(int(np.sum(a[f"perturbation_{c}"] > 0)) for c in PERTURBATION_CHANNELS),
+        "perturbation_samples": perturbation_samples(a),
         "fused_error_m": fused,
         "odometry_error_m": final_position_error(a, "odo"),
         "gyrodometry_error_m": final_position_error(a, "gyro"),
@@ -149,8 +160,7 @@ def fault_figures(a: dict, event: FaultEvent, onset: float, clean_fused: float) 
 def run_fault(job: dict) -> dict:
     """One fault run; the job carries its onset and the fault-free run's error (fault_cases)."""
     event = FaultEvent(job["kind"], job["channel"], job["start"], job["duration"], job["value"])
-    scenario, open_loop = load_scenario(job["scenario"]), job.get("open_loop") or None
-    a = run_scenario(scenario, seed=job["seed"], faults=[event], open_loop=open_loop).arrays
+    a = run_job(job, event).arrays
     return fault_figures(a, event, job["onset_s"], job["clean_fused_error_m"])
 
 
@@ -189,8 +199,7 @@ def perturbation_cases(scenario, a: dict) -> list[dict]:
 def run_perturbation(job: dict) -> dict:
     """One perturbation run: the three estimates' final errors, completion and the flags it caused."""
     event = FaultEvent(job["kind"], job["channel"], job["start"], job["duration"], job["value"])
-    scenario = load_scenario(job["scenario"])
-    result = run_scenario(scenario, seed=job["seed"], faults=[event], open_loop=job.get("open_loop") or None)
+    result = run_job(job, event)
     a = result.arrays
     flags = result.summary["sensor_health"]
     caught = result.summary["perturbations"]
@@ -276,7 +285,7 @@ def clean_figures(a: dict) -> dict:
     """A fault-free run's flags (all false) and fused final error."""
     return {
         "false_flags": sum(int(np.sum(a[f"health_{c}"] > 0)) for c in SENSOR_CHANNELS)
-        + sum(int(np.sum(a[f"perturbation_{c}"] > 0)) for c in PERTURBATION_CHANNELS),
+        + perturbation_samples(a),
         "fused_error_m": final_position_error(a, "est"),
     }
 

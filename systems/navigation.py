@@ -53,6 +53,7 @@ from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import pose_step
 from slipnav.systems.sensor_correction import SensorCalibration, corrected_accelerometers, corrected_gyro
 from slipnav.systems.sensor_health import (
+    FORCE_REFERENCE_FIELDS,
     NO_CURRENTS,
     HealthGeometry,
     SensorHealthParameters,
@@ -135,11 +136,7 @@ def health_geometry(
         bound = 1.5 * no_load_speed if no_load_speed else DEFAULT_WHEEL_SPEED_BOUND
     force = {}
     if robot is not None:
-        names = (
-            "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
-            "shoe_viscous_drag shoe_slip_speed shoe_normal_load"
-        ).split()
-        force = {name: float(getattr(robot, name)) for name in names}
+        force = {name: float(getattr(robot, name)) for name in FORCE_REFERENCE_FIELDS}
     return HealthGeometry(
         r_R,
         r_L,

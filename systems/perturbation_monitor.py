@@ -48,7 +48,8 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.plant import RobotParameters, shoe_force
+from slipnav.systems.plant import RobotParameters, shoe_drag
+from slipnav.systems.sensor_health import NO_CURRENTS, PLAUSIBLE_CURRENT
 
 PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
 """Output layout: [wheel_R, wheel_L, yaw, body]; a wheel's code is 1 braked, 2 driven; yaw, body 0/1."""
@@ -128,8 +129,6 @@ _REF, _RES, _YAW, _LAT, _CNT, _ENC, _STAGE1, _STAGE2, _FORCE, _FLAGS = 0, 2, 4, 
 HELD_CURRENT = 0.9
 """A motor drawing at least this share of its limit fights a hold: its wheel's flags stand even while
 the sensor checks exclude its encoder (a stuck-looking count)."""
-PLAUSIBLE_CURRENT = 1.5
-"""A current reading beyond this many times the driver's limit is implausible: no force test on it."""
 FORCE_CHANNELS = ("force_R", "force_L")
 """The force_residual output: each side's force the motors do not explain, per unit mass (m/s^2)."""
 
@@ -172,12 +171,7 @@ def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float)
     )  # fmt: skip
     drive = [(k * currents[w] - beta * rates[w]) / r[w] for w in range(2)]
     v_t, v_n, omega, a_t = float(estimate[0]), float(estimate[1]), float(estimate[2]), float(estimate[3])
-    shoe_t = shoe_moment = 0.0
-    if robot.shoe_friction > 0.0 or robot.shoe_viscous_drag > 0.0:
-        for x_shoe in (robot.shoe_offset, -robot.shoe_offset):
-            sx, sy = shoe_force(v_t, v_n + omega * x_shoe, robot.shoe_normal_load, robot)
-            shoe_t += sx
-            shoe_moment += x_shoe * sy
+    shoe_t, shoe_moment = shoe_drag(v_t, v_n, omega, robot, 0.0, 0.0)
     x = (
         rates[0],
         rates[1],
@@ -210,7 +204,7 @@ def perturbation_step(
     radii,
     track_width: float,
     T_N: float,
-    currents=(math.nan, math.nan),
+    currents=NO_CURRENTS,
     robot: ForceModel | RobotParameters | None = None,
     encoder_codes=(0, 0),
 ):
@@ -245,14 +239,12 @@ def perturbation_step(
         held = HELD_CURRENT * robot.motor_current_limit
         sensor_fault = [encoder_codes[w] > 0 and abs(currents[w]) < held for w in range(2)]  # NaN: False
     for w in range(2):
+        cmd = float(command[w])
+        s[_REF + w] = min(max(cmd, s[_REF + w] - step), s[_REF + w] + step)
         if sensor_fault[w]:  # the encoder's own fault: the wheel taken as commanded, its tests restart
-            cmd = float(command[w])
-            s[_REF + w] = min(max(cmd, s[_REF + w] - step), s[_REF + w] + step)
             s[_RES + w], s[_ENC + w], s[_STAGE1] = 0.0, math.nan, math.nan
             expected[w] = cmd
             continue
-        cmd = float(command[w])
-        s[_REF + w] = min(max(cmd, s[_REF + w] - step), s[_REF + w] + step)
         low, high = min(cmd, s[_REF + w]), max(cmd, s[_REF + w])
         theta, last = float(encoders[w]), s[_ENC + w]
         if math.isfinite(theta) and math.isfinite(last):
@@ -372,7 +364,7 @@ class PerturbationMonitor(LeafSystem):
         self.DeclareStateOutputPort("force_residual", self._forces)
 
     def _update(self, context, discrete_state):
-        currents = self._currents.Eval(context).tolist() if self._currents.HasValue(context) else _NO_CURRENT
+        currents = self._currents.Eval(context).tolist() if self._currents.HasValue(context) else NO_CURRENTS
         codes = self._health.Eval(context)[5:7].tolist() if self._health.HasValue(context) else (0, 0)
         state = perturbation_step(
             discrete_state.get_value(self._state).tolist(),
@@ -390,9 +382,6 @@ class PerturbationMonitor(LeafSystem):
         discrete_state.set_value(self._state, state)
         discrete_state.set_value(self._flags, state[_FLAGS:])
         discrete_state.set_value(self._forces, state[_FORCE:_FLAGS])
-
-
-_NO_CURRENT = (math.nan, math.nan)
 
 
 def add_perturbation_monitor(

@@ -352,6 +352,19 @@ def shoe_force(v_x: float, v_y: float, normal_load: float, p: RobotParameters):
 
 
 @jitable
+def shoe_drag(v_t: float, v_n: float, omega: float, p, force: float, moment: float):
+    """The felt shoes' force along the heading and their yaw moment at body velocities (v_t, v_n, omega),
+    added to ``force`` and ``moment`` (shoe_force at +-shoe_offset on the body axis; unchanged without
+    shoes). ``p``: anything with RobotParameters' shoe fields (the estimators pass their nominal model)."""
+    if p.shoe_friction > 0.0 or p.shoe_viscous_drag > 0.0:
+        for x_shoe in (p.shoe_offset, -p.shoe_offset):
+            sx, sy = shoe_force(v_t, v_n + omega * x_shoe, p.shoe_normal_load, p)
+            force += sx
+            moment += x_shoe * sy
+    return force, moment
+
+
+@jitable
 def motor_current(voltage: float, wheel_rate: float, p: RobotParameters) -> float:
     """Armature current (V - k*w)/R, clipped to the driver's current limit (A)."""
     current = (voltage - p.motor_constant * wheel_rate) / p.motor_resistance

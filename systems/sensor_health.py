@@ -52,8 +52,14 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.compiled import compiled, jitable
-from slipnav.systems.plant import shoe_force
+from slipnav.systems.plant import shoe_drag
 
+NO_CURRENTS = (math.nan, math.nan)
+"""The motor current readings when none are read: the tangential accelerometers' reference is the
+odometry's, and the perturbation monitor has no force test."""
+PLAUSIBLE_CURRENT = 1.5
+"""A current reading beyond this many times the driver's limit is implausible: no force reference or
+force test from it."""
 HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
 """Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
 NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
@@ -210,6 +216,8 @@ HealthConstants = collections.namedtuple(
 """What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
 is the bound in force)."""
 _GEOMETRY_FIELDS = HealthConstants._fields[HealthConstants._fields.index("radius_R") :]
+FORCE_REFERENCE_FIELDS = HealthConstants._fields[HealthConstants._fields.index("mass") :]
+"""HealthGeometry's figures of the nominal robot for the force reference (RobotParameters' names)."""
 
 
 def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
@@ -228,11 +236,6 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
             value = float(value)
         values.append(value)
     return tuple(values)
-
-
-NO_CURRENTS = (math.nan, math.nan)
-"""The motor current readings when none are read: the tangential accelerometers' reference is the
-odometry's."""
 
 
 def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry, currents=NO_CURRENTS):
@@ -400,7 +403,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
     # bearing drag and inertia) and the nominal shoe drag, over the nominal mass; unlike d v_o/dt it does
     # not slip. NaN without plausible currents (beyond 1.5 x the driver's limit, or none).
     a_force = math.nan
-    plausible = 1.5 * g.motor_current_limit
+    plausible = PLAUSIBLE_CURRENT * g.motor_current_limit
     if g.mass > 0.0 and enc_ok and not (first[0] or first[1]):
         if abs(currents[0]) <= plausible and abs(currents[1]) <= plausible:  # False for NaN
             force = 0.0
@@ -409,10 +412,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
                 rate_dot = (used[w] - previous_inc[w]) / (g.T_N * g.T_N)
                 torque = g.motor_constant * currents[w] - g.bearing_drag * rate - g.wheel_inertia * rate_dot
                 force += torque / radii[w]
-            if g.shoe_friction > 0.0 or g.shoe_viscous_drag > 0.0:
-                spin = raw[4] if gyro_ok else omega_o
-                for x_shoe in (g.shoe_offset, -g.shoe_offset):
-                    force += shoe_force(v_o, spin * x_shoe, g.shoe_normal_load, g)[0]
+            force, _ = shoe_drag(v_o, 0.0, raw[4] if gyro_ok else omega_o, g, force, 0.0)
             a_force = force / g.mass
 
     # Accelerometer pair: disagreement beyond the rotational terms, a moving average over
