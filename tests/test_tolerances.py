@@ -18,7 +18,8 @@ def corner_with(extra: str):
 
 def test_navigation_and_control_read_the_nominal_robot():
     """A plant whose radii, track, mass and friction all differ: the diagram's plant carries the true values,
-    the odometry, calibration, path follower and saturator the nominal ones."""
+    the odometry, calibration, sensor checks, perturbation monitor, path follower and saturator the
+    nominal ones."""
     scenario = corner_with(
         "plant: {robot_overrides: {tyre_friction: 0.5},"
         " deviations: {wheel_radius_R: 0.01, wheel_radius_L: -0.01, track_width: 0.03, mass: 0.25}}"
@@ -46,6 +47,11 @@ def test_navigation_and_control_read_the_nominal_robot():
     odometry = nav.GetSubsystemByName("Odometry")
     assert (odometry._r, odometry._b) == (nominal.wheel_radius, nominal.track_width)
     assert nav.GetSubsystemByName("Gyro and odometry calibration")._b == nominal.track_width
+    # the force balances (sensor checks, perturbation monitor) weigh the nominal robot, not the heavier plant
+    assert plant.mass == pytest.approx(1.25 * nominal.mass)
+    assert nav.GetSubsystemByName("Sensor checks")._g.mass == nominal.mass
+    monitor = built.diagram.GetSubsystemByName("Perturbation monitor")
+    assert (monitor._robot.mass, monitor._robot.yaw_inertia) == (nominal.mass, nominal.yaw_inertia)
     control_diagram = built.diagram.GetSubsystemByName("control")
     saturator = control_diagram.GetSubsystemByName("Wheel-speed saturator")
     follower = control_diagram.GetSubsystemByName("Lyapunov path follower")
