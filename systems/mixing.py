@@ -183,6 +183,21 @@ def accumulate_delta_v(accumulated: float, delta_v: float, p: MixingParameters) 
     return accumulated, max(abs(delta_v), abs(accumulated))
 
 
+def mixer_c1_step(c1_prev: float, accumulated: float, delta_v: float, p: MixingParameters):
+    """One T_C update of the C1 mixer: (C1_K, A_K) from S(11)'s dv_K (accumulate_delta_v, mixing_c1).
+    A NaN dv_K (every sample of the batch failed a sensor check, slip_detector_delta_v) is no evidence:
+    C1 and A hold. Reading it as dv = 0 would hand v_t back to the odometry whenever S(11) is blind (an
+    encoder excluded in a braking slide: open square, 4.5 x the fault-free error).
+
+    Returns:
+        (C1_K, A_K)
+    """
+    if math.isnan(delta_v):
+        return c1_prev, accumulated
+    accumulated, evidence = accumulate_delta_v(accumulated, delta_v, p)
+    return mixing_c1(c1_prev, evidence, p), accumulated
+
+
 def mixing_c2(inertial_a_n: float, p: MixingParameters) -> float:
     """S(13): C2 = logsig(a2 (|^I a_n| - b2))."""
     return logsig(p.a2, abs(inertial_a_n), p.b2)
@@ -387,7 +402,8 @@ class MixerC1(LeafSystem):
         - delta_v_held
         - delta_v_accumulated
 
-    - delta_v: dv_K from the TangentialSlipDetector, sampled at t = K*T_C.
+    - delta_v: dv_K from the TangentialSlipDetector, sampled at t = K*T_C; NaN (a batch with no usable
+      sample) holds C1 and A_K (mixer_c1_step).
     - C1: C1_K (state); computed at t_K and used by the velocity mixer from the next sample on.
     - delta_v_held: dv_K as sampled (state), for logging.
     - delta_v_accumulated: A_K = dv_memory A_K-1 + dv_K (state).
@@ -412,8 +428,8 @@ class MixerC1(LeafSystem):
         dv = self._dv.Eval(context)[0]
         c1 = context.get_discrete_state(self._c1).get_value()[0]
         dv_sum = context.get_discrete_state(self._dv_sum).get_value()[0]
-        dv_sum, evidence = accumulate_delta_v(dv_sum, dv, self._p)
-        discrete_state.set_value(self._c1, [mixing_c1(c1, evidence, self._p)])
+        c1, dv_sum = mixer_c1_step(c1, dv_sum, dv, self._p)
+        discrete_state.set_value(self._c1, [c1])
         discrete_state.set_value(self._dv_held, [dv])
         discrete_state.set_value(self._dv_sum, [dv_sum])
 

@@ -38,11 +38,10 @@ from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
     MixingParameters,
-    accumulate_delta_v,
     c3_residual,
     c3_turn_rate,
     mix,
-    mixing_c1,
+    mixer_c1_step,
     mixing_c2,
     mixing_c3,
     mixing_gain,
@@ -61,6 +60,7 @@ from slipnav.systems.sensor_health import (
     health_constants,
     health_initial_state,
     slip_detector_blind,
+    travel_restored,
 )
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
@@ -184,7 +184,7 @@ class NavigationLoop:
         self.x = initial.ekf_state()
         self.L = ekf_gain(ekf_prior_covariance(self.P, self.x, self.Q, T_N), self.R)
         self.odo_state = initial.odometry_state()
-        self.det_state = [0.0, 0.0, initial.speed]
+        self.det_state = [0.0, 0.0, initial.speed, 0.0]
         self.c1, self.dv_held, self.dv_sum, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0, 0.0
         self.pose = list(initial.pose)
         self.odo_pose = list(initial.pose)
@@ -211,10 +211,10 @@ class NavigationLoop:
             cal = self.sensor_calibration
             acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)
         fault_imu = 1.0 if any(codes[0:5]) else 0.0
-        odo_next, odo_raw, fault_enc = odometry_step(
+        odo_next, odo_raw, odometry_held = odometry_step(
             self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
         )
-        fault_enc = max(fault_enc, 1.0 if any(codes[5:7]) else 0.0)
+        fault_enc = max(odometry_held, 1.0 if any(codes[5:7]) else 0.0)
         cal, theta = self.params.yaw_calibration, self.calibration[0:2]
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         bias = theta[0]
@@ -222,8 +222,8 @@ class NavigationLoop:
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
-        excluded = fault_enc > 0.5 or slip_detector_blind(codes)
-        det_next, total = slip_detector_step(
+        excluded = odometry_held > 0.5 or slip_detector_blind(codes, travel_restored(self.health))
+        det_next, _ = slip_detector_step(
             self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
         )
         c2 = mixing_c2(inertial[4], mp)
@@ -264,9 +264,8 @@ class NavigationLoop:
         self.odo_state = odo_next
         self.det_state = det_next
         if self.k % self.n == 0:
-            dv, self.det_state = slip_detector_batch_end(total, odo[0], self.n)
-            self.dv_sum, evidence = accumulate_delta_v(self.dv_sum, dv, mp)
-            self.c1 = mixing_c1(self.c1, evidence, mp)
+            dv, self.det_state = slip_detector_batch_end(self.det_state, odo[0], self.n)
+            self.c1, self.dv_sum = mixer_c1_step(self.c1, self.dv_sum, dv, mp)
             self.dv_held = dv
             self.L = ekf_gain(P_prior, self.R)
             self.v_track, self.alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], self.params.sideslip)

@@ -35,9 +35,13 @@ Replacements: an excluded gyro reads the odometric yaw rate (both encoders healt
 a saturated one the accelerometer pair's yaw rate (pair_omega_squared, averaged over
 consistency_samples), at least its full scale, with the gyro's sign, unless the odometry and the pair
 both say below the full scale (the gyro reads beyond the robot: the odometry's); an accelerometer axis
-reads the other accelerometer's plus the rotational difference; an encoder advances by v_pred T_N / r
-(the other wheel and the gyro), else by its last increment. A stuck encoder's travel missed before the
-detection is added then; the first increment after an exclusion (it spans the gap) is never used.
+reads the other accelerometer's plus the rotational difference, omega' from the gyro's difference (noisy
+per sample, but what the EKF integrates is exact; without it the pair's mean is omega' x off, v_n x omega
+at the end of a turn), plus the pair's offset learned while both agreed (pair_offset_time_constant: the
+two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise shift the mean by half); an
+encoder advances by v_pred T_N / r (the other wheel and the gyro), else by its last increment. A stuck
+encoder's travel missed before the detection is added then; the first increment after an exclusion (it
+spans the gap) is never used.
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement, an encoder when
 its increment agrees with v_pred (with no prediction, with its previous increment); either after
@@ -94,6 +98,10 @@ class SensorHealthParameters:
             path at 4 m/s; Tinyphoon's at 0.39).
         consistency_samples: samples of that average, in [2, 50].
         max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s).
+        pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
+            the rotational terms (their bias and misalignment difference), learned while both are healthy
+            and agree within a quarter of the consistency bound; an excluded axis's replacement carries
+            it, so the pair's mean, which the EKF integrates, keeps its level.
     """
 
     enabled: bool = True
@@ -112,11 +120,12 @@ class SensorHealthParameters:
     accel_consistency_per_speed: float = 1.0
     consistency_samples: int = 15
     max_exclusion_time: float = 1.0
+    pair_offset_time_constant: float = 1.0
 
     def __post_init__(self):
         for name in (
             "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
-            "max_exclusion_time stuck_min_speed"
+            "max_exclusion_time stuck_min_speed pair_offset_time_constant"
         ).split():
             _positive(name, getattr(self, name))
         if self.max_wheel_speed is not None:
@@ -187,11 +196,15 @@ _E = 25  # encoder slots; _E_OUT holds the output angle less the last finite raw
 _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E_EXCL = (
     slice(_E + 2 * i, _E + 2 * i + 2) for i in range(10)
 )
-# Accelerometer pair: averages of the disagreement (t, n), a spare slot, the previous odometric v,
+# Accelerometer pair: averages of the disagreement (t, n); 1 when this sample's encoder output restored a
+# stuck encoder's missed travel (_RESTORED); the previous odometric v,
 # each sensor's averaged deviation from the kinematic reference (t1, n1, t2, n2), each sensor's level
-# before the pair became suspect (t1, n1, t2, n2), the pair's averaged omega^2.
+# before the pair became suspect (t1, n1, t2, n2), the pair's averaged omega^2, the pair's learned offset
+# a_1 - a_2 beyond the rotational terms (t, n).
 _W = _E + 20
-STATE_SIZE = _W + 13
+_RESTORED = _W + 2
+_OFFSET = _W + 13
+STATE_SIZE = _W + 15
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -208,7 +221,7 @@ HealthConstants = collections.namedtuple(
     "HealthConstants",
     "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
     "stuck_speed_fraction gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
-    "accel_consistency_per_speed consistency_samples max_exclusion_time "
+    "accel_consistency_per_speed consistency_samples max_exclusion_time pair_offset_time_constant "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed "
     "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
     "shoe_viscous_drag shoe_slip_speed shoe_normal_load",
@@ -395,6 +408,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
         e_code[w] = codes[5 + w]
         e_inc[w] = e_inc[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         e_excl[w] = e_excl[w] + 1.0 if codes[5 + w] else 0.0
+    s[_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
     v_o, omega_o = 0.5 * (v_R + v_L), (v_R - v_L) / g.track_width
     enc_ok = codes[5] == 0 and codes[6] == 0
@@ -437,7 +451,8 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             omega = math.copysign(max(full_scale, this_sample), raw[4])
     omega_dot = (omega - ref[4]) / g.T_N if math.isfinite(ref[4]) else 0.0
     rot = (-2.0 * omega * omega * px, -2.0 * omega * omega * py)  # a_1 - a_2 without omega_dot
-    rot_dot = (-2.0 * omega_dot * py, 2.0 * omega_dot * px)  # averaged only: noisy per sample
+    # Noisy per sample, but its integral is x omega (exact): the replacements carry it.
+    rot_dot = (-2.0 * omega_dot * py, 2.0 * omega_dot * px)
     average, deviation, level = s[_W : _W + 2], s[_W + 4 : _W + 8], s[_W + 8 : _W + 12]
     limit = p.accel_consistency + p.accel_consistency_per_speed * abs(v_o)
     a_kin = ((v_o - s[_W + 3]) / g.T_N if math.isnan(a_force) else a_force, v_o * omega)
@@ -450,6 +465,9 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             pair_of = (axis, axis + 2)  # sensor 1's and sensor 2's channel of this axis
             disagreement = raw[axis] - raw[axis + 2] - rot[axis] - rot_dot[axis]
             average[axis] += (disagreement - average[axis]) / p.consistency_samples
+            known = math.isfinite(ref[4])  # omega' needs the previous yaw rate
+            if known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
+                s[_OFFSET + axis] += (disagreement - s[_OFFSET + axis]) * g.T_N / p.pair_offset_time_constant
             if abs(average[axis]) < 0.5 * limit:  # each sensor's level while the pair agrees
                 for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
@@ -483,7 +501,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
         elif c == 4:
             value = omega_o if enc_ok else ref[4]
         elif codes[c ^ 2] == 0:
-            value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * rot[c % 2]
+            value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * (rot[c % 2] + rot_dot[c % 2] + s[_OFFSET + c % 2])
         else:
             value = ref[c]
         out[c] = ref[c] = value if math.isfinite(value) else 0.0
@@ -542,20 +560,36 @@ HEALTH_STEP_LAYOUT = (
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
-def slip_detector_blind(codes) -> bool:
-    """S(11) cannot use the sample: an encoder or both tangential accelerometers excluded. One excluded
-    tangential axis reads its partner's plus the rotational terms (the replacement), which S(11) uses:
-    isolated by the force reference, it is the healthy sensor's reading; a gyro or lateral fault does not
-    touch S(11)."""
-    return codes[5] > 0 or codes[6] > 0 or (codes[0] > 0 and codes[2] > 0)
+def slip_detector_blind(codes, restored: bool = False) -> bool:
+    """S(11) cannot use the sample: both encoders excluded, one encoder excluded while the gyro is (its
+    replacement is then its last increment, not the other wheel's and the gyro's), a stuck encoder's
+    missed travel restored in this sample (``restored``, travel_restored: one sample's lump), or both
+    tangential accelerometers excluded.
+
+    An encoder excluded otherwise advances by the other wheel's increment and the gyro's yaw rate (v_R -
+    v_L = b omega): the odometric v_t is then the healthy wheel's, and its slip is what S(11) is there to
+    see (a braking slide during an encoder outage: open square, C1 would otherwise return to the
+    odometry; a stuck encoder: C1 recovers from the slip the still counts feigned before the detection).
+    One excluded tangential axis reads its partner's plus the rotational terms (the replacement), which
+    S(11) uses: isolated by the force reference, it is the healthy sensor's reading; a gyro or lateral
+    fault alone does not touch S(11)."""
+    right, left = codes[5] > 0, codes[6] > 0
+    if restored or (right and left) or ((right or left) and codes[4] > 0):
+        return True
+    return codes[0] > 0 and codes[2] > 0
 
 
-def health_flags(codes) -> list:
+def travel_restored(state) -> bool:
+    """This sample's encoder output restored a stuck encoder's missed travel (health_check's state)."""
+    return state[_RESTORED] > 0.0
+
+
+def health_flags(codes, restored: bool = False) -> list:
     """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder is
     excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind)."""
     inertial = 1.0 if max(codes[0:5]) > 0 else 0.0
     encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
-    return [inertial, encoder, 1.0 if slip_detector_blind(codes) else 0.0]
+    return [inertial, encoder, 1.0 if slip_detector_blind(codes, restored) else 0.0]
 
 
 class SensorHealthMonitor(LeafSystem):
@@ -579,9 +613,10 @@ class SensorHealthMonitor(LeafSystem):
       the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
       k: HEALTH_CLASSES[k - 1]); inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
-      S(11) cannot use the sample (slip_detector_blind: an encoder or both tangential accelerometers;
-      its sum leaves the sample out). One vector, so that one Python call per sample computes
-      them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+      S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
+      stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
+      One vector, so that one Python call per sample computes them all; the navigation diagram slices
+      it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
 
@@ -613,7 +648,7 @@ class SensorHealthMonitor(LeafSystem):
         state, out, codes = health_check(state, raw, currents, self._constants)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
-        step[STATE_SIZE:] = [*out, *codes, *health_flags(codes)]
+        step[STATE_SIZE:] = [*out, *codes, *health_flags(codes, travel_restored(state))]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

@@ -14,6 +14,11 @@ printed, with the single sample's term (a_t1,k + a_t2,k) T_N/2:
     dv_K = (T_N/T_C) sum_{k in batch} (^O v_t,k - ^O v_t,K-1 - (a_t1,k + a_t2,k) T_N/2).
 
 A trend of wheel speed against body speed is detected, not a stationary slip (§IV-C).
+
+Samples that S(11) cannot use (sensor_health.slip_detector_blind) are left out:
+dv_K is the sum over the samples the batch could use divided by their number (T_N/T_C of the sum when
+all could), and NaN when none could. NaN is "no evidence": the C1 mixer holds C1 rather than read a
+blind batch as "no slip" (MixerC1, mixing.mixer_c1_step).
 """
 
 import numpy as np
@@ -28,22 +33,33 @@ def slip_detector_step(
     running_integral: bool = True,
     excluded: bool = False,
 ):
-    """Accumulate one sample. state = [sum, integrated speed change, ^O v_t,K-1]; returns (state', sum).
+    """Accumulate one sample. state = [sum, integrated speed change, ^O v_t,K-1, samples excluded];
+    returns (state', sum).
 
     ``running_integral``: the inertial speed change integrated since the batch start (default); False:
     only this sample's (a_t1,k + a_t2,k) T_N/2, S(11) as printed. ``excluded``: a sensor channel of this
-    sample failed its check (systems/sensor_health.py): the sample adds nothing to the sum, so C1 S(12)
-    learns nothing from it (its replaced acceleration still enters the integral)."""
-    total, integral, v_ref = state
+    sample failed its check (systems/sensor_health.py): the sample adds nothing to the sum and is counted
+    as excluded, so C1 S(12) learns nothing from it (its replaced acceleration still enters the
+    integral)."""
+    total, integral, v_ref, left_out = state
     integral = (integral if running_integral else 0.0) + 0.5 * (accelerometers[0] + accelerometers[2]) * T_N
-    if not excluded:
+    if excluded:
+        left_out = left_out + 1.0
+    else:
         total = total + (odometric_v_t - v_ref - integral)
-    return [total, integral, v_ref], total
+    return [total, integral, v_ref, left_out], total
 
 
-def slip_detector_batch_end(total: float, odometric_v_t: float, batch_length: int):
-    """(dv_K = sum / batch_length, reset state [0, 0, ^O v_t,K])."""
-    return total / batch_length, [0.0, 0.0, odometric_v_t]
+def slip_detector_delta_v(total: float, left_out: float, batch_length: int) -> float:
+    """dv_K: the batch's sum divided by the number of samples it used, batch_length - left_out
+    (batch_length when none was excluded: S(11)); NaN when every sample was excluded (no evidence)."""
+    used = batch_length - left_out
+    return total / used if used > 0.0 else float("nan")
+
+
+def slip_detector_batch_end(state, odometric_v_t: float, batch_length: int):
+    """(dv_K of the batch in ``state`` (slip_detector_delta_v), reset state [0, 0, ^O v_t,K, 0])."""
+    return slip_detector_delta_v(state[0], state[3], batch_length), [0.0, 0.0, odometric_v_t, 0.0]
 
 
 class TangentialSlipDetector(LeafSystem):
@@ -61,11 +77,12 @@ class TangentialSlipDetector(LeafSystem):
 
     - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample.
     - accelerometers: checked [a_t1, a_n1, a_t2, a_n2] of the current sample.
-    - sensor_fault: 1 when the current sample cannot be used (an encoder or both tangential
-      accelerometers excluded: sensor_health.slip_detector_blind; its term is left out).
+    - sensor_fault: 1 when the current sample cannot be used (sensor_health.slip_detector_blind: both
+      encoders, or both tangential accelerometers excluded, ...; its term is left out).
     - delta_v: dv_K of the batch that ends with the current sample (direct feedthrough). Batches end at
       the control instants t = K*T_C (sample k = K*n, n = T_C/T_N); the MixerC1 block samples this port
-      there. Between control instants the port shows the running partial mean.
+      there. Between control instants the port shows the running partial mean. NaN when every sample of
+      the batch was excluded (slip_detector_delta_v).
 
     Update every T_N: accumulate; at control instants reset with ^O v_t,K as the new reference. The
     update computes the sample's step itself, and delta_v only when read (at T_C): no Python call per
@@ -84,7 +101,7 @@ class TangentialSlipDetector(LeafSystem):
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._acc = self.DeclareVectorInputPort("accelerometers", 4)
         self._fault = self.DeclareVectorInputPort("sensor_fault", 1)
-        self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, float(initial_speed)]))
+        self._state = self.DeclareDiscreteState(np.array([0.0, 0.0, float(initial_speed), 0.0]))
         prereq = {self.xd_ticket(), self._odo.ticket(), self._acc.ticket(), self._fault.ticket()}
         # No per-sample output calc: the update accumulates itself, and delta_v is computed only when read
         # (the MixerC1 samples it at the control instants).
@@ -100,12 +117,12 @@ class TangentialSlipDetector(LeafSystem):
         )
 
     def _calc_delta_v(self, context, output):
-        _, (_, total) = self._step(context, context.get_discrete_state(self._state).get_value().tolist())
-        output.SetFromVector([total / self._n])
+        _, (new, _) = self._step(context, context.get_discrete_state(self._state).get_value().tolist())
+        output.SetFromVector([slip_detector_delta_v(new[0], new[3], self._n)])
 
     def _update(self, context, discrete_state):
         state = discrete_state.get_mutable_value(self._state)  # read and written in place
-        v_t, (new, total) = self._step(context, state.tolist())
+        v_t, (new, _) = self._step(context, state.tolist())
         if int(round(context.get_time() / self._T_N)) % self._n == 0:
-            _, new = slip_detector_batch_end(total, v_t, self._n)
+            _, new = slip_detector_batch_end(new, v_t, self._n)
         state[:] = new

@@ -25,6 +25,7 @@ from slipnav.systems.sensor_health import (
     health_initial_state,
     health_step,
     pair_omega_squared,
+    travel_restored,
 )
 from slipnav.systems.sensors import accelerometer_truth
 
@@ -174,10 +175,53 @@ def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     assert 100 + 6 <= flagged[0] <= 100 + 10 and codes[flagged[0], 2] == INCONSISTENT
     assert not codes[:, 0].any()  # accel 1 is never blamed
     assert np.all(codes[flagged[0] : 300, 2] == INCONSISTENT)
-    # Replaced by accel 1 less the rotational difference a_t1 - a_t2 = -2 omega^2 x (gyro's omega).
+    # Replaced by accel 1 less the rotational difference a_t1 - a_t2 = -2 (omega^2 x + omega' y) (the
+    # gyro's omega and its difference) and the pair's learned offset (zero here, but for the noise).
     k = slice(flagged[0], 300)
-    np.testing.assert_allclose(out[k, 2], rows[k, 0] + 2 * rows[k, 4] ** 2 * 0.02, rtol=0, atol=1e-12)
+    omega_dot = np.diff(rows[:, 4], prepend=np.nan) / T_N
+    expected = rows[k, 0] + 2 * rows[k, 4] ** 2 * 0.02 + 2 * omega_dot[k] * 0.015
+    np.testing.assert_allclose(out[k, 2], expected, rtol=0, atol=0.03)
+    np.testing.assert_allclose(np.diff(out[k, 2] - expected), 0.0, atol=1e-12)  # one offset throughout
     assert not codes[330:, 2].any()  # cleared once the average is below half the threshold
+
+
+def test_a_replaced_accelerometer_axis_keeps_the_pairs_yaw_acceleration_term():
+    """A turn-in at omega' = 10 rad/s^2 (v = 1 m/s, noise-free): a_n1 - a_n2 = 2 (omega' x - omega^2 y)
+    (systems/sensors.accelerometer_truth). accel1_n reads NaN for 50 samples and is replaced by a_n2
+    plus both rotational terms, omega' from the gyro's difference; the replacement is the true reading.
+    Without the omega' term it was 2 omega' x = 0.4 m/s^2 off, and the pair's mean (the body's a_n that
+    the EKF integrates) omega' x: v_n off by x omega at the end of the turn (open corner: 2 x 2.6 mm of
+    final error)."""
+    n, v, omega_dot, position = 200, 1.0, 10.0, (0.02, 0.015)
+    omega = omega_dot * T_N * np.arange(n)
+    heading_rate_R = np.cumsum((v + 0.5 * B * omega) / R * T_N)
+    heading_rate_L = np.cumsum((v - 0.5 * B * omega) / R * T_N)
+    truth = np.array([accelerometer_truth((0.0, v * w, omega_dot), w, position) for w in omega])
+    rows = np.column_stack([truth, omega, heading_rate_R, heading_rate_L])
+    rows[100:150, 1] = np.nan
+    out, codes = check(rows, v0=v)
+    assert np.all(codes[100:150, 1] == NONFINITE) and not codes[:, [0, 2, 3, 4, 5, 6]].any()
+    np.testing.assert_allclose(out[100:150, 1], truth[100:150, 1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(0.5 * (out[:, 1] + out[:, 3]), v * omega, rtol=0, atol=1e-9)
+
+
+def test_a_replaced_accelerometer_axis_carries_the_pairs_learned_offset():
+    """The two accelerometers' lateral axes differ by 0.1 m/s^2 (a bias difference) in a steady turn:
+    while both agree the checks learn the offset in a PT1 of pair_offset_time_constant (1 s), and when
+    accel1_n is lost after 5 s its replacement is a_n2 plus the rotational terms plus that offset, so the
+    pair's mean keeps its level (without the offset it would move by 0.05 m/s^2, half the difference)."""
+    n, v, omega, position = 3000, 1.0, 2.0, (0.02, 0.015)
+    truth = np.array(accelerometer_truth((0.0, v * omega, 0.0), omega, position))
+    rows = stream(n, v, omega)
+    dither = 1e-6 * (-1.0) ** np.arange(n)  # a reading that never repeats (not stuck)
+    rows[:, 0:4] = truth + np.array([0.0, 0.1, 0.0, 0.0]) + dither[:, None]
+    rows[:, 4] = omega + dither
+    rows[2500:2600, 1] = np.nan
+    out, codes = check(rows, v0=v)
+    assert np.all(codes[2500:2600, 1] == NONFINITE) and not codes[:, [0, 2, 3, 4, 5, 6]].any()
+    learned = 0.1 * (1.0 - math.exp(-2500 * T_N / 1.0))
+    np.testing.assert_allclose(out[2500:2600, 1], truth[3] + 2 * (-(omega**2) * 0.015) + learned, atol=1e-3)
+    np.testing.assert_allclose(0.5 * (out[2500:2600, 1] + out[2500:2600, 3]), v * omega + 0.05, atol=1e-3)
 
 
 def test_encoder_spike_is_excluded_and_the_angle_stays_continuous():
@@ -212,6 +256,13 @@ def test_slowly_stuck_encoder_is_stuck():
     out, codes = check(rows, v0=0.2)
     assert not codes[:104, 5].any() and np.all(codes[104:250, 5] == STUCK)
     assert abs(out[249, 5] - stream(400, 0.2, 0.0)[249, 5]) < 150 * 3 * B * 0.014 * T_N / R
+    # The missed travel comes in the detection's sample: S(11) leaves that one sample out.
+    state, restored = health_initial_state(GEOMETRY, 0.2), []
+    for row in rows:
+        state, _, code = health_step(state, row, SensorHealthParameters(), GEOMETRY)
+        restored.append(travel_restored(state))
+        assert health_flags(code, restored[-1])[2] == (1.0 if restored[-1] else 0.0)
+    assert np.flatnonzero(restored).tolist() == [104]
 
 
 def test_a_wheel_held_by_hand_is_not_an_encoder_fault():
@@ -393,18 +444,48 @@ def test_perturbation_cases_scale_with_the_robot():
 
 
 def test_slip_detector_uses_a_replaced_tangential_axis_and_ignores_gyro_and_lateral_faults():
-    """S(11) reads the tangential accelerometers and the encoders: it leaves a sample out only when an
-    encoder or both tangential axes are excluded; one excluded t axis reads its partner's (plus the
-    rotational terms), a gyro or lateral fault does not touch it (open-loop square, seed 1: a 0.5 s
-    accel1_n outage cost 4.2 x the fault-free error while S(11) left such samples out, accel1_t 5.4 x)."""
-    for channel, blind in ((0, 0.0), (1, 0.0), (2, 0.0), (3, 0.0), (4, 0.0), (5, 1.0), (6, 1.0)):
+    """S(11) reads the tangential accelerometers and the encoders: it leaves a sample out only when both
+    encoders, one while the gyro is excluded, or both tangential axes are excluded, and in the sample
+    that restores a stuck encoder's missed travel. One
+    excluded t axis reads its partner's (plus the rotational terms), an encoder excluded otherwise the
+    other wheel's plus the gyro's yaw rate; a gyro or lateral fault does not touch it (open-loop square,
+    seed 1: a 0.5 s accel1_n outage cost 4.2 x the fault-free error while S(11) left such samples out,
+    accel1_t 5.4 x)."""
+    for channel in range(7):
         codes = [0] * 7
-        codes[channel] = 1
+        codes[channel] = NONFINITE
         inertial, encoder, s11 = health_flags(codes)
-        assert s11 == blind, channel
+        assert s11 == 0.0, channel
         assert (inertial, encoder) == ((1.0, 0.0) if channel < 5 else (0.0, 1.0))
     assert health_flags([1, 0, 1, 0, 0, 0, 0]) == [1.0, 0.0, 1.0]  # both t axes out
+    assert health_flags([0, 0, 0, 0, 0, JUMP, NONFINITE])[2] == 1.0  # both encoders out
+    assert health_flags([0, 0, 0, 0, STUCK, 0, JUMP])[2] == 1.0  # an encoder without the gyro
+    assert health_flags([0, 0, 0, 0, 0, STUCK, 0])[2] == 0.0  # the other wheel's and the gyro's
+    assert health_flags([0, 0, 0, 0, 0, STUCK, 0], restored=True)[2] == 1.0  # the missed travel
+    assert health_flags([0, 0, 0, 0, 0, 0, RECOVERING])[2] == 0.0
     assert health_flags([0] * 7) == [0.0, 0.0, 0.0]
+
+
+def test_an_encoder_outage_in_a_braking_slide_keeps_the_slip_detector_on_the_other_wheel():
+    """Open-loop square, seed 0: encoder_L reads NaN for 0.5 s from 5.26 s, while the wheels spin up and
+    then lock in the speed bump's braking (true slip -0.2 m/s at 5.6 s). With S(11) blind for an excluded
+    encoder, C1 returned to the odometry within 0.1 s and the estimate ran 0.13 m/s slow in the braking
+    slide (4.5 x the fault-free final error). The replaced encoder (the right wheel's increment and the
+    gyro's yaw rate) carries the right wheel's slip, so S(11) sees the lock and C1 stays low with the
+    fault-free run's; the final error stays within 1.5 x."""
+    scenario = load_scenario("square")
+    event = FaultEvent("nan", "encoder_L", 5.26, 0.5)
+    clean = run_scenario(scenario, seed=0, open_loop=True).arrays
+    a = run_scenario(scenario, seed=0, open_loop=True, faults=[event]).arrays
+    t = a["t"]
+    during = (t >= 5.26) & (t < 5.76)
+    assert np.all(a["health_encoder_L"][during] > 0)
+    assert np.all(np.isfinite(a["delta_v"]))
+    slide = (t >= 5.55) & (t < 5.7)
+    assert np.min(a["true_wheel_L"][slide] - a["true_v_t"][slide]) < -0.15  # the wheels lock
+    assert np.max(a["C1"][slide]) < 0.05 and np.max(clean["C1"][slide]) < 0.05
+    assert np.max(np.abs(a["est_v_t"] - a["true_v_t"])[slide]) < 0.05
+    assert final_position_error(a, "est") <= 1.5 * final_position_error(clean, "est")
 
 
 def test_the_force_reference_blames_the_biased_accelerometer_in_a_hard_braking():

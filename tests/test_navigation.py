@@ -35,6 +35,7 @@ from slipnav.systems.mixing import (
     logsig,
     longitudinal_slip_speed,
     mix,
+    mixer_c1_step,
     mixing_c1,
     mixing_c2,
     mixing_c3,
@@ -124,23 +125,23 @@ def test_odometry_S10_and_encoder_gaps():
 def test_slip_detector_S11_by_hand():
     n = 10
     # Odometry and accelerometers agree (constant 3 m/s^2): no trend, dv = 0.
-    state = [0.0, 0.0, 1.0]
+    state = [0.0, 0.0, 1.0, 0.0]
     for k in range(1, n + 1):
         state, total = slip_detector_step(state, 1.0 + 3.0 * k * T_N, [3.0, 0.0, 3.0, 0.0], T_N)
-    dv, reset = slip_detector_batch_end(total, 1.0 + 3.0 * n * T_N, n)
+    dv, reset = slip_detector_batch_end(state, 1.0 + 3.0 * n * T_N, n)
     assert dv == pytest.approx(0.0, abs=1e-12)
-    assert reset == [0.0, 0.0, pytest.approx(1.0 + 3.0 * n * T_N)]
+    assert reset == [0.0, 0.0, pytest.approx(1.0 + 3.0 * n * T_N), 0.0]
     # Wheels accelerate at 3 m/s^2 while the body does not (spinning): dv = mean of 3 k T_N = 3 T_N (n+1)/2.
-    state = [0.0, 0.0, 1.0]
+    state = [0.0, 0.0, 1.0, 0.0]
     for k in range(1, n + 1):
         state, total = slip_detector_step(state, 1.0 + 3.0 * k * T_N, [0.0, 0.0, 0.0, 0.0], T_N)
-    dv, _ = slip_detector_batch_end(total, 0.0, n)
+    dv, _ = slip_detector_batch_end(state, 0.0, n)
     assert dv == pytest.approx(3.0 * T_N * (n + 1) / 2)
     # A stationary slip (odometry 0.5 m/s above, no trend) is not detected (§IV-C).
-    state = [0.0, 0.0, 1.5]
+    state = [0.0, 0.0, 1.5, 0.0]
     for _ in range(n):
         state, total = slip_detector_step(state, 1.5, [0.0, 0.0, 0.0, 0.0], T_N)
-    assert slip_detector_batch_end(total, 1.5, n)[0] == 0.0
+    assert slip_detector_batch_end(state, 1.5, n)[0] == 0.0
 
 
 # --- mixing S(12)-S(17) ---------------------------------------------------------------------------------
@@ -852,12 +853,35 @@ def test_velocity_cross_covariance_is_scaled_to_the_variance_limit():
 
 def test_slip_detector_leaves_out_excluded_samples():
     """S(11) over a batch of n = 10 at 1 m/s with a_t = 3 m/s^2 on the accelerometers and a constant
-    odometric speed: each sample adds -(k + 1) 3 T_N; with samples 4..9 excluded only k = 0..3 add,
-    dv = -3 T_N (1 + 2 + 3 + 4) / 10 (the integral still runs through the excluded ones)."""
+    odometric speed: each sample adds -(k + 1) 3 T_N; with samples 4..9 excluded only k = 0..3 add, and
+    dv is their mean, -3 T_N (1 + 2 + 3 + 4) / 4 (the integral still runs through the excluded ones). A
+    batch with every sample excluded has no dv (NaN), and the C1 mixer holds C1 and A through it."""
     n = 10
-    state = [0.0, 0.0, 1.0]
+    state = [0.0, 0.0, 1.0, 0.0]
     for k in range(n):
         state, total = slip_detector_step(state, 1.0, [3.0, 0.0, 3.0, 0.0], T_N, excluded=k >= 4)
-    dv, _ = slip_detector_batch_end(total, 1.0, n)
-    assert dv == pytest.approx(-3.0 * T_N * 10 / n, rel=1e-12)
+    assert state[3] == 6.0
+    dv, reset = slip_detector_batch_end(state, 1.0, n)
+    assert dv == pytest.approx(-3.0 * T_N * 10 / 4, rel=1e-12)
     assert state[1] == pytest.approx(3.0 * n * T_N, rel=1e-12)
+    assert reset == [0.0, 0.0, 1.0, 0.0]
+    for _ in range(n):
+        reset, _ = slip_detector_step(reset, 2.0, [0.0, 0.0, 0.0, 0.0], T_N, excluded=True)
+    assert math.isnan(slip_detector_batch_end(reset, 2.0, n)[0])
+    p = MixingParameters()
+    assert mixer_c1_step(0.3, 0.05, math.nan, p) == (0.3, 0.05)
+    # A usable batch: S(12) on max(|dv|, |A|) with A = dv_memory A + dv.
+    c1, accumulated = mixer_c1_step(0.3, 0.05, 0.01, p)
+    assert accumulated == pytest.approx(0.7 * 0.05 + 0.01, rel=1e-12)
+    assert c1 == pytest.approx(0.5 * 0.3 + 0.5 * logsig(p.a1, 0.045, p.b1), rel=1e-12)
+    # The MixerC1 block under FixValue: a NaN batch leaves its state as it was.
+    mixer = MixerC1(p, 0.02, c1_initial=0.3)
+    context = mixer.CreateDefaultContext()
+    mixer.GetInputPort("delta_v").FixValue(context, [math.nan])
+    simulator = Simulator(mixer, context)
+    simulator.AdvanceTo(0.1)
+    assert mixer.GetOutputPort("C1").Eval(context)[0] == 0.3
+    assert mixer.GetOutputPort("delta_v_accumulated").Eval(context)[0] == 0.0
+    mixer.GetInputPort("delta_v").FixValue(context, [0.2])
+    simulator.AdvanceTo(0.1 + 0.02)
+    assert mixer.GetOutputPort("C1").Eval(context)[0] < 0.2

@@ -86,10 +86,10 @@ def test_s11_as_printed():
     dv = 0."""
 
     def batch(running):
-        state = [0.0, 0.0, 1.0]
+        state = [0.0, 0.0, 1.0, 0.0]
         for v in (1.01, 1.02, 1.03):
             state, total = slip_detector_step(state, v, [5.0, 0.0, 5.0, 0.0], T_N, running)
-        return slip_detector_batch_end(total, 1.03, 3)[0]
+        return slip_detector_batch_end(state, 1.03, 3)[0]
 
     assert batch(PAPER.navigation.mixing.delta_v_running_integral) == pytest.approx(0.01, abs=1e-15)
     assert batch(True) == pytest.approx(0.0, abs=1e-15)

@@ -104,7 +104,7 @@ def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes):
             key: set(np.unique(a[key])) for key in ("health_gyro", "health_encoder_L", "health_accel2_n")
         }
         assert flagged == {
-            "health_gyro": {0, 2, 3},
+            "health_gyro": {0, 2, 3, 6},
             "health_encoder_L": {0, 4, 6},
             "health_accel2_n": {0, 5},
         }
