@@ -488,6 +488,22 @@ def test_an_encoder_outage_in_a_braking_slide_keeps_the_slip_detector_on_the_oth
     assert final_position_error(a, "est") <= 1.5 * final_position_error(clean, "est")
 
 
+def test_a_batch_without_a_usable_sample_holds_c1_in_the_diagram():
+    """Open-loop corner, both encoders NaN for 0.1 s from 2.0 s: the batches that lie wholly inside the
+    outage (ending at 2.04 ... 2.10 s) have no sample S(11) can use: their dv is NaN (logged as such from
+    the sample after each control instant, until 2.12 s) and C1 holds its value through them; the batches
+    around them, partly usable, keep a finite dv, and C1 moves again."""
+    events = [FaultEvent("nan", "encoder_R", 2.0, 0.1), FaultEvent("nan", "encoder_L", 2.0, 0.1)]
+    a = run_scenario(load_scenario("corner"), seed=0, duration=2.3, open_loop=True, faults=events).arrays
+    t = a["t"]
+    blind = np.isnan(a["delta_v"])
+    assert blind[(t > 2.021) & (t < 2.121)].all()
+    assert not blind[(t < 2.021) | (t > 2.123)].any()
+    held = a["C1"][(t > 2.021) & (t < 2.121)]
+    assert np.all(held == held[0]) and held[0] > 0.9
+    assert a["C1"][np.searchsorted(t, 2.125)] != held[0]  # and moves again with the next usable batch
+
+
 def test_the_force_reference_blames_the_biased_accelerometer_in_a_hard_braking():
     """Open-loop square, seed 1: accel1_t biased by 5 m/s^2 from 3.608 s, while the square's speed bump
     brakes the body by 4.8 m/s^2 within the pair's window and the wheels slip. The healthy accel2_t
