@@ -59,8 +59,8 @@ from slipnav.systems.sensor_health import (
     health_check,
     health_constants,
     health_initial_state,
+    odometry_unusable,
     slip_detector_blind,
-    travel_restored,
 )
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
@@ -222,7 +222,7 @@ class NavigationLoop:
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
-        excluded = odometry_held > 0.5 or slip_detector_blind(codes, travel_restored(self.health))
+        excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
         det_next, _ = slip_detector_step(
             self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
         )
@@ -264,7 +264,9 @@ class NavigationLoop:
         self.odo_state = odo_next
         self.det_state = det_next
         if self.k % self.n == 0:
-            dv, self.det_state = slip_detector_batch_end(self.det_state, odo[0], self.n)
+            dv, self.det_state = slip_detector_batch_end(
+                self.det_state, odo[0], self.n, excluded, mp.delta_v_running_integral
+            )
             self.c1, self.dv_sum = mixer_c1_step(self.c1, self.dv_sum, dv, mp)
             self.dv_held = dv
             self.L = ekf_gain(P_prior, self.R)

@@ -99,9 +99,9 @@ class SensorHealthParameters:
         consistency_samples: samples of that average, in [2, 50].
         max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s).
         pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
-            the rotational terms (their bias and misalignment difference), learned while both are healthy
-            and agree within a quarter of the consistency bound; an excluded axis's replacement carries
-            it, so the pair's mean, which the EKF integrates, keeps its level.
+            the rotational terms (their bias and misalignment difference), learned while both and the gyro
+            are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
+            replacement carries it, so the pair's mean, which the EKF integrates, keeps its level.
     """
 
     enabled: bool = True
@@ -465,7 +465,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             pair_of = (axis, axis + 2)  # sensor 1's and sensor 2's channel of this axis
             disagreement = raw[axis] - raw[axis + 2] - rot[axis] - rot_dot[axis]
             average[axis] += (disagreement - average[axis]) / p.consistency_samples
-            known = math.isfinite(ref[4])  # omega' needs the previous yaw rate
+            known = gyro_ok and math.isfinite(ref[4])  # the gyro's omega' (the odometry's is coarse)
             if known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
                 s[_OFFSET + axis] += (disagreement - s[_OFFSET + axis]) * g.T_N / p.pair_offset_time_constant
             if abs(average[axis]) < 0.5 * limit:  # each sensor's level while the pair agrees
@@ -560,11 +560,12 @@ HEALTH_STEP_LAYOUT = (
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
-def slip_detector_blind(codes, restored: bool = False) -> bool:
+def slip_detector_blind(codes, unusable: bool = False) -> bool:
     """S(11) cannot use the sample: both encoders excluded, one encoder excluded while the gyro is (its
-    replacement is then its last increment, not the other wheel's and the gyro's), a stuck encoder's
-    missed travel restored in this sample (``restored``, travel_restored: one sample's lump), or both
-    tangential accelerometers excluded.
+    replacement is then its last increment, not the other wheel's and the gyro's), an encoder output that
+    cannot serve (``unusable``, odometry_unusable: a stuck encoder's missed travel restored in this one
+    sample, or a non-finite angle that the odometry holds over), or both tangential accelerometers
+    excluded.
 
     An encoder excluded otherwise advances by the other wheel's increment and the gyro's yaw rate (v_R -
     v_L = b omega): the odometric v_t is then the healthy wheel's, and its slip is what S(11) is there to
@@ -574,7 +575,7 @@ def slip_detector_blind(codes, restored: bool = False) -> bool:
     S(11) uses: isolated by the force reference, it is the healthy sensor's reading; a gyro or lateral
     fault alone does not touch S(11)."""
     right, left = codes[5] > 0, codes[6] > 0
-    if restored or (right and left) or ((right or left) and codes[4] > 0):
+    if unusable or (right and left) or ((right or left) and codes[4] > 0):
         return True
     return codes[0] > 0 and codes[2] > 0
 
@@ -584,12 +585,19 @@ def travel_restored(state) -> bool:
     return state[_RESTORED] > 0.0
 
 
-def health_flags(codes, restored: bool = False) -> list:
+def odometry_unusable(state, sample) -> bool:
+    """This sample's encoder output cannot serve S(11) (slip_detector_blind): it restores a stuck
+    encoder's missed travel (travel_restored), or an angle is not finite (the checks off, or no reading
+    yet), so that the odometry holds its last speed over it."""
+    return travel_restored(state) or not (math.isfinite(sample[5]) and math.isfinite(sample[6]))
+
+
+def health_flags(codes, unusable: bool = False) -> list:
     """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder is
     excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind)."""
     inertial = 1.0 if max(codes[0:5]) > 0 else 0.0
     encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
-    return [inertial, encoder, 1.0 if slip_detector_blind(codes, restored) else 0.0]
+    return [inertial, encoder, 1.0 if slip_detector_blind(codes, unusable) else 0.0]
 
 
 class SensorHealthMonitor(LeafSystem):
@@ -648,7 +656,7 @@ class SensorHealthMonitor(LeafSystem):
         state, out, codes = health_check(state, raw, currents, self._constants)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
-        step[STATE_SIZE:] = [*out, *codes, *health_flags(codes, travel_restored(state))]
+        step[STATE_SIZE:] = [*out, *codes, *health_flags(codes, odometry_unusable(state, out))]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

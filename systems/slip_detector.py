@@ -57,9 +57,19 @@ def slip_detector_delta_v(total: float, left_out: float, batch_length: int) -> f
     return total / used if used > 0.0 else float("nan")
 
 
-def slip_detector_batch_end(state, odometric_v_t: float, batch_length: int):
-    """(dv_K of the batch in ``state`` (slip_detector_delta_v), reset state [0, 0, ^O v_t,K, 0])."""
-    return slip_detector_delta_v(state[0], state[3], batch_length), [0.0, 0.0, odometric_v_t, 0.0]
+def slip_detector_batch_end(
+    state, odometric_v_t: float, batch_length: int, excluded: bool = False, running_integral: bool = True
+):
+    """(dv_K of the batch in ``state`` (slip_detector_delta_v), reset state [0, 0, v_ref, 0]).
+
+    The next batch's reference v_ref is ^O v_t,K, the batch's last sample; when that sample was
+    ``excluded`` (a stuck encoder's restored travel, a held odometry) the last reference carried by the
+    inertial speed change over the batch instead (v_ref + integral; the reference as it was with S(11) as
+    printed, whose integral is one sample's)."""
+    reference = odometric_v_t
+    if excluded:
+        reference = state[2] + state[1] if running_integral else state[2]
+    return slip_detector_delta_v(state[0], state[3], batch_length), [0.0, 0.0, reference, 0.0]
 
 
 class TangentialSlipDetector(LeafSystem):
@@ -109,20 +119,23 @@ class TangentialSlipDetector(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _step(self, context, state: list):
-        """(v_t of the odometry, slip_detector_step of ``state`` and the current inputs)."""
+        """(v_t of the odometry, whether the sample is excluded, slip_detector_step of ``state`` and the
+        current inputs)."""
         v_t = self._odo.Eval(context).tolist()[0]
         fault = self._fault.Eval(context).tolist()[0] > 0.5
-        return v_t, slip_detector_step(
-            state, v_t, self._acc.Eval(context).tolist(), self._T_N, self._running, fault
+        return (
+            v_t,
+            fault,
+            slip_detector_step(state, v_t, self._acc.Eval(context).tolist(), self._T_N, self._running, fault),
         )
 
     def _calc_delta_v(self, context, output):
-        _, (new, _) = self._step(context, context.get_discrete_state(self._state).get_value().tolist())
+        _, _, (new, _) = self._step(context, context.get_discrete_state(self._state).get_value().tolist())
         output.SetFromVector([slip_detector_delta_v(new[0], new[3], self._n)])
 
     def _update(self, context, discrete_state):
         state = discrete_state.get_mutable_value(self._state)  # read and written in place
-        v_t, (new, _) = self._step(context, state.tolist())
+        v_t, excluded, (new, _) = self._step(context, state.tolist())
         if int(round(context.get_time() / self._T_N)) % self._n == 0:
-            _, new = slip_detector_batch_end(new, v_t, self._n)
+            _, new = slip_detector_batch_end(new, v_t, self._n, excluded, self._running)
         state[:] = new

@@ -265,6 +265,32 @@ def test_slowly_stuck_encoder_is_stuck():
     assert np.flatnonzero(restored).tolist() == [104]
 
 
+def test_a_stuck_encoders_restored_travel_never_becomes_s11s_reference():
+    """The navigation at 0.2 m/s, encoder_L frozen from sample 305: it is found stuck at sample 310, a
+    control instant, and its missed travel comes back in that one sample. S(11) leaves the sample out, and
+    the next batch's reference is the last one carried by the inertial speed change, not that sample's
+    speed (which gave dv = 0.40 m/s and C1 0.02, a slip that never was). dv stays within the noise of
+    the other detections (0.044 m/s) and C1 above 0.6."""
+    from slipnav.systems.navigation import (
+        NavigationInitialState,
+        NavigationLoop,
+        NavigationParameters,
+        run_navigation_loop,
+    )
+
+    n, v = 600, 0.2
+    rng = np.random.default_rng(0)
+    k = np.arange(1, n + 1)
+    angles = np.round(np.column_stack([v / R * T_N * k] * 2) / STEP) * STEP
+    angles[305:, 1] = angles[305, 1]
+    loop = NavigationLoop(NavigationParameters(), R, B, T_N, 0.02, NavigationInitialState(speed=v))
+    out = run_navigation_loop(loop, rng.normal(0, 0.02, (n, 4)), rng.normal(0, 0.005, n), angles)
+    detected = int(np.flatnonzero(out["health_encoder_L"] == STUCK)[0])
+    assert detected == 310
+    assert np.max(np.abs(out["delta_v"][detected : detected + 40])) < 0.05
+    assert np.min(out["C1"][detected : detected + 60]) > 0.6
+
+
 def test_a_wheel_held_by_hand_is_not_an_encoder_fault():
     """The robot pivots about the held right wheel: v_R = 0, v_L = -b omega (gyro agrees)."""
     v = 0.1
@@ -461,7 +487,7 @@ def test_slip_detector_uses_a_replaced_tangential_axis_and_ignores_gyro_and_late
     assert health_flags([0, 0, 0, 0, 0, JUMP, NONFINITE])[2] == 1.0  # both encoders out
     assert health_flags([0, 0, 0, 0, STUCK, 0, JUMP])[2] == 1.0  # an encoder without the gyro
     assert health_flags([0, 0, 0, 0, 0, STUCK, 0])[2] == 0.0  # the other wheel's and the gyro's
-    assert health_flags([0, 0, 0, 0, 0, STUCK, 0], restored=True)[2] == 1.0  # the missed travel
+    assert health_flags([0, 0, 0, 0, 0, STUCK, 0], unusable=True)[2] == 1.0  # the missed travel
     assert health_flags([0, 0, 0, 0, 0, 0, RECOVERING])[2] == 0.0
     assert health_flags([0] * 7) == [0.0, 0.0, 0.0]
 
@@ -490,7 +516,7 @@ def test_an_encoder_outage_in_a_braking_slide_keeps_the_slip_detector_on_the_oth
 
 def test_a_batch_without_a_usable_sample_holds_c1_in_the_diagram():
     """Open-loop corner, both encoders NaN for 0.1 s from 2.0 s: the batches that lie wholly inside the
-    outage (ending at 2.04 ... 2.10 s) have no sample S(11) can use: their dv is NaN (logged as such from
+    outage (ending at 2.02 ... 2.10 s) have no sample S(11) can use: their dv is NaN (logged as such from
     the sample after each control instant, until 2.12 s) and C1 holds its value through them; the batches
     around them, partly usable, keep a finite dv, and C1 moves again."""
     events = [FaultEvent("nan", "encoder_R", 2.0, 0.1), FaultEvent("nan", "encoder_L", 2.0, 0.1)]
