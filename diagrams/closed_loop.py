@@ -245,7 +245,7 @@ def build_closed_loop_diagram(
         builder,
         perturbation_monitor or PerturbationParameters(),
         ctrl.GetOutputPort("wheel_speed_command"),
-        handles.readings.GetOutputPort("encoders"),
+        nav.GetOutputPort("checked_encoders"),
         nav,
         robot,
         rates.T_N,

@@ -91,6 +91,7 @@ def build_navigation_diagram(
         - gyro_bias
         - yaw_calibration
         - health
+        - checked_encoders
     """
     params.validate()
     initial = initial or NavigationInitialState()
@@ -192,6 +193,7 @@ def build_navigation_diagram(
     b.ExportOutput(yaw_calibration.GetOutputPort("bias"), "gyro_bias")
     b.ExportOutput(yaw_calibration.GetOutputPort("parameters"), "yaw_calibration")
     b.ExportOutput(check["health"], "health")
+    b.ExportOutput(check["encoders"], "checked_encoders")
     diagram = b.Build()
     diagram.set_name("navigation")
     return diagram

@@ -202,7 +202,7 @@ def build_open_loop_diagram(
             builder,
             perturbation_monitor or PerturbationParameters(),
             feedforward.GetOutputPort("wheel_speed_command"),
-            handles.readings.GetOutputPort("encoders"),
+            nav.GetOutputPort("checked_encoders"),
             nav,
             robot,
             rates.T_N,

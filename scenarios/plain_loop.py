@@ -211,7 +211,7 @@ def run_plain_loop(
         monitor = perturbation_step(
             monitor,
             command,
-            meas_enc,
+            nav.checked_encoders,
             mixed,
             monitor_params,
             radii,

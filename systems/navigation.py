@@ -187,6 +187,7 @@ class NavigationLoop:
         self.det_state = [0.0, 0.0, initial.speed, 0.0]
         self.c1, self.dv_held, self.dv_sum, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0, 0.0
         self.pose = list(initial.pose)
+        self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
         self.odo_pose = list(initial.pose)
         self.gyro_state = [*initial.pose, 0.0, 0.0]
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
@@ -207,6 +208,7 @@ class NavigationLoop:
         amps = (float(currents[0]), float(currents[1]))
         self.health, sample, codes = health_check(self.health, raw, amps, self.health_constants)
         acc, g = sample[0:4], sample[4]
+        self.checked_encoders = (sample[5], sample[6])  # what the perturbation monitor reads
         if self.sensor_calibration is not None:  # SensorCorrection
             cal = self.sensor_calibration
             acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)

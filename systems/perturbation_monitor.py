@@ -213,7 +213,9 @@ def perturbation_step(
     Args:
         state: perturbation_initial_state() layout.
         command: the wheel speed commands [v_R, v_L] (m/s) in force.
-        encoders: the wheel angles [theta_R, theta_L] (rad) as read.
+        encoders: the wheel angles [theta_R, theta_L] (rad) as the sensor checks pass them: an excluded
+            encoder's replacement (the other wheel and the gyro), so that a count that is stuck, jumps
+            or spans an exclusion is not read as a wheel held or pushed.
         estimate: the navigation's mixed estimate [v_t, v_n, omega, a_t, a_n].
         radii: the believed rolling radii (r_R, r_L) (m).
         currents: the drivers' current readings [i_R, i_L] (A); NaN or beyond PLAUSIBLE_CURRENT times
@@ -318,7 +320,8 @@ class PerturbationMonitor(LeafSystem):
         - force_residual
 
     - wheel_speed_command: the commands [v_R, v_L] (m/s) the motors get.
-    - encoders: the wheel angles [theta_R, theta_L] (rad) the navigation reads.
+    - encoders: the wheel angles [theta_R, theta_L] (rad) the sensor checks pass on (the navigation
+      subsystem's ``checked_encoders``: an excluded encoder's replacement).
     - mixed_estimate: the navigation's [v_t, v_n, omega, a_t, a_n].
     - motor_currents (optional): the drivers' current readings [i_R, i_L] (A); unconnected (a replayed
       log without currents) or NaN: no force test.
