@@ -252,3 +252,23 @@ def test_an_excluded_encoder_is_its_own_fault_unless_the_motor_fights_a_hold():
     stuck = run_scenario(scenario, seed=0, faults=[FaultEvent("stuck", "encoder_R", 2.11, 0.5)])
     assert stuck.summary["sensor_health"]["encoder_R"]["first_s"] <= 2.21
     assert stuck.summary["perturbations"] == {}
+
+
+def test_a_stuck_encoder_at_the_current_limit_is_not_a_held_wheel():
+    """Kurt3D's circle, encoder_R stuck for 0.5 s from 2.446 s (0.1 s before its largest reading, as
+    slipnav faults injects it): the motors run at their current limit in that turn, so the current
+    cannot tell the speed loop from a hand (HELD_CURRENT). The monitor reads the sensor checks' angles,
+    the replaced one for the excluded encoder, and flags no wheel (reading the raw counts it flagged
+    wheel_R braked for 270 ms)."""
+    from slipnav.systems.faults import FaultEvent
+
+    scenario = load_scenario("circle")
+    a = run_scenario(
+        scenario, seed=0, duration=3.2, faults=[FaultEvent("stuck", "encoder_R", 2.446, 0.5)]
+    ).arrays
+    t = a["t"]
+    during = (t >= 2.446) & (t < 2.946)
+    assert np.any(a["health_encoder_R"][during] > 0)
+    limit = scenario.robot_parameters().motor_current_limit
+    assert np.max(np.abs(a["meas_current_R"][during])) > 0.9 * limit
+    assert not np.any(a["perturbation_wheel_R"]) and not np.any(a["perturbation_wheel_L"])
