@@ -1,6 +1,7 @@
 """Perturbations of the robot's motion: a wheel held, pushed or lifted, the body pushed (Indiveri et al.
 Fig. 5, "the robot was perturbed by hand"), flagged from what the robot itself knows: its own wheel
-commands, its encoders and the navigation's estimate.
+commands, its encoders (as the sensor checks pass them: an excluded one's replacement) and the
+navigation's estimate.
 
 The sensor checks (systems/sensor_health.py) judge each sensor against the others; they cannot tell a
 wheel stopped by a hand from a robot that was commanded to stop. The commands can: every T_N,

@@ -456,6 +456,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
     average, deviation, level = s[_W : _W + 2], s[_W + 4 : _W + 8], s[_W + 8 : _W + 12]
     limit = p.accel_consistency + p.accel_consistency_per_speed * abs(v_o)
     a_kin = ((v_o - s[_W + 3]) / g.T_N if math.isnan(a_force) else a_force, v_o * omega)
+    known = gyro_ok and math.isfinite(ref[4])  # the gyro's omega' (the odometry's is coarse)
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -465,7 +466,6 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             pair_of = (axis, axis + 2)  # sensor 1's and sensor 2's channel of this axis
             disagreement = raw[axis] - raw[axis + 2] - rot[axis] - rot_dot[axis]
             average[axis] += (disagreement - average[axis]) / p.consistency_samples
-            known = gyro_ok and math.isfinite(ref[4])  # the gyro's omega' (the odometry's is coarse)
             if known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
                 s[_OFFSET + axis] += (disagreement - s[_OFFSET + axis]) * g.T_N / p.pair_offset_time_constant
             if abs(average[axis]) < 0.5 * limit:  # each sensor's level while the pair agrees

@@ -88,7 +88,8 @@ class TangentialSlipDetector(LeafSystem):
     - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample.
     - accelerometers: checked [a_t1, a_n1, a_t2, a_n2] of the current sample.
     - sensor_fault: 1 when the current sample cannot be used (sensor_health.slip_detector_blind: both
-      encoders, or both tangential accelerometers excluded, ...; its term is left out).
+      encoders excluded, one with the gyro, an encoder output the odometry cannot use, or both
+      tangential accelerometers; its term is left out).
     - delta_v: dv_K of the batch that ends with the current sample (direct feedthrough). Batches end at
       the control instants t = K*T_C (sample k = K*n, n = T_C/T_N); the MixerC1 block samples this port
       there. Between control instants the port shows the running partial mean. NaN when every sample of
