@@ -32,6 +32,7 @@ NAVIGATION_OUTPUTS = (
     "track_speed",
     "C1",
     "C2_C3",
+    "tyre_model_check",
     "delta_v",
     "odometry",
     "odometry_pose",
@@ -81,6 +82,7 @@ def build_navigation_diagram(
         - track_speed
         - C1
         - C2_C3
+        - tyre_model_check
         - delta_v
         - odometry
         - odometry_pose
@@ -123,7 +125,7 @@ def build_navigation_diagram(
     yaw_calibration = add(
         YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
     )
-    mixer_block = add(VelocityMixer(params.mixing), "Velocity mixer")
+    mixer_block = add(VelocityMixer(params.mixing, T_N, initial.ekf_state()[1]), "Velocity mixer")
     mixer = split_port(b, mixer_block.GetOutputPort("mixing"), MIXER_LAYOUT, "Velocity mixer's signals")
     sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
     pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
@@ -183,6 +185,7 @@ def build_navigation_diagram(
     b.ExportOutput(sideslip.GetOutputPort("track_speed"), "track_speed")
     b.ExportOutput(c1.GetOutputPort("C1"), "C1")
     b.ExportOutput(c23["C2_C3"], "C2_C3")
+    b.ExportOutput(mixer["tyre_model_check"], "tyre_model_check")
     b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")
     b.ExportOutput(raw_odo, "odometry")
     b.ExportOutput(odo_pose.GetOutputPort("pose"), "odometry_pose")

@@ -505,11 +505,12 @@ MIN_CONTROL_PERIODS = 5
 INFINITY_ALLOWED = {
     "navigation.mixing.tyre_peak_acceleration",
     "navigation.mixing.gyro_turn_rate",
+    "navigation.mixing.tyre_model_gate_deg",
     "navigation.gyro_bias.averaging_time",
     "perturbation_monitor.force_threshold",
 }
-"""Float keys where .inf means something (no tyre curve; no gyro turn rule; a never-forgetting average;
-no force test)."""
+"""Float keys where .inf means something (no tyre curve; no gyro turn rule; no tyre-model check; a
+never-forgetting average; no force test)."""
 
 
 def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:

@@ -109,6 +109,14 @@ DEVIATIONS = (
         ),
     ),
     Deviation(
+        "tyre_model_check",
+        "S(17): the free integral of the lateral kinematics outweighs the tyre curve where they part by "
+        "more than 2.5 deg (a floor with less grip)",
+        "S(17): no tyre curve to check",
+        "navigation.mixing.tyre_model_gate_deg: .inf",
+        lambda s: _nav(s, "mixing", tyre_model_gate_deg=math.inf),
+    ),
+    Deviation(
         "rest_hold",
         "wheels at rest hold the body sideways: S(17)'s v_n scaled by 1 - C1",
         "S(17) at rest as while rolling",

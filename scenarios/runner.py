@@ -724,6 +724,8 @@ def collect_navigation(a: dict, data) -> None:
     a["C1"] = data("nav_C1")[0]
     c23 = data("nav_C2_C3")
     a["C2"], a["C3"] = c23[0], c23[1]
+    check = data("nav_tyre_model_check")
+    a["tyre_model_weight"], a["free_v_n"] = check[0], check[1]
     a["delta_v"] = data("nav_delta_v")[0]
     odo = data("nav_odometry")
     a["odo_v_t"], a["odo_omega"] = odo[0], odo[1]

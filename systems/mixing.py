@@ -10,6 +10,11 @@ paper's S(17).
 Likewise the tyres creep ahead of the body whenever they push (traction, the drag of the felt shoes, a
 sliding turn): S(15) takes the same tyre curve's longitudinal slip off the odometric v_t
 (longitudinal_slip_speed; odometry_slip_compensation = False restores the paper's S(15)).
+The tyre curve is the nominal robot's; a floor with less grip lets the body slide past where that curve
+says. A free integral of the EKF's lateral kinematics (anchored to the estimate while the tyres carry
+little force, where the curve is right whatever the floor) weighs the two: where it departs from the
+curve's side slip by more than tyre_model_gate_deg, S(17)'s inertial branch is pulled towards the free
+integral instead (tyre_model_check, free_side_slip_step).
 """
 
 import dataclasses as dc
@@ -89,6 +94,22 @@ class MixingParameters:
             0.4 kg = 0.25; 0 without shoes.
         tyre_reference_speed: the slip ratio's reference speed floor (m/s): below it the slip speed is
             kappa times this speed (a regularised slip, as the tyre curve was identified). Default 0.3.
+        tyre_model_gate_deg: disagreement (deg of side slip) between the free integral of the lateral
+            kinematics (free_side_slip_step) and the tyre curve's side slip at which S(17)'s inertial
+            branch trusts the integral instead of the curve (tyre_model_check; weight 1/2 there). The
+            nominal curve does not know the floor: at friction 0.5 the corner's body slides to 7 deg where
+            the curve says 2.7, and the integral, anchored before the slide, departs from the curve by 4-5
+            deg; on the matched robot it stays within 1.5 deg (its drift). 2.5: between the two (corner,
+            10 seeds: side slip RMS at friction 0.5 2.8 -> 2.0 deg, matched unchanged at 0.33 deg).
+            inf: the curve alone.
+        tyre_model_gate_steepness: steepness of that weight's logsig (1/deg): 3 gives 10 %-90 % over
+            1.5 deg.
+        free_side_slip_time_constant: the free integral relaxes towards the estimate with this time
+            constant (s) while it is not anchored, which bounds its drift (the accelerometers' bias
+            integrated; Kurt3D's turns last seconds): 0.25, slow against a slide's build-up (60-100 ms).
+        free_side_slip_anchor: lateral tyre utilisation |^I a_n| / a_peak below which the free integral
+            is the estimate itself (anchored): 0.2 (Tinyphoon 1.1 m/s^2), where the side slip is below
+            1 deg whatever the friction, and above a braking lock's lateral commotion (0.25 m/s^2).
         hold_at_rest: while neither wheel turned (wheels_at_rest), S(17)'s v_n is scaled by 1 - C1: tyres
             that hold the body by static friction hold it sideways too, and the inertial branch does not
             integrate the a_n bias at a standstill (mix). False: S(17) as while rolling.
@@ -115,6 +136,10 @@ class MixingParameters:
     drag_acceleration: float = 0.49
     drag_per_speed: float = 0.25
     tyre_reference_speed: float = 0.3
+    tyre_model_gate_deg: float = 2.5
+    tyre_model_gate_steepness: float = 3.0
+    free_side_slip_time_constant: float = 0.25
+    free_side_slip_anchor: float = 0.2
     hold_at_rest: bool = True
 
     def __post_init__(self):
@@ -152,6 +177,17 @@ class MixingParameters:
                 raise ValueError(
                     f"mixing.{name}={getattr(self, name)!r} is out of range: allowed true, false"
                 )
+        gate = self.tyre_model_gate_deg
+        if not gate > 0.0:  # also rejects NaN; inf: the tyre curve alone
+            raise ValueError(f"mixing.tyre_model_gate_deg={gate!r} is out of range: allowed (0, inf] deg")
+        for name in ("tyre_model_gate_steepness", "free_side_slip_time_constant"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
+        if not (math.isfinite(self.free_side_slip_anchor) and 0.0 < self.free_side_slip_anchor < 1.0):
+            raise ValueError(
+                f"mixing.free_side_slip_anchor={self.free_side_slip_anchor!r} is out of range: allowed (0, 1)"
+            )
         for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
@@ -330,26 +366,119 @@ def wheels_at_rest(odo) -> bool:
     return odo[0] == 0.0 and odo[1] == 0.0
 
 
-def mixing_gain(mixed, c1: float, c2: float, p: MixingParameters, at_rest: bool = False) -> np.ndarray:
+def mixing_gain(
+    mixed, c1: float, c2: float, p: MixingParameters, at_rest: bool = False, check: float = 0.0
+) -> np.ndarray:
     """[w_t, w_n]: how much the mixed estimate ``mixed`` (mix's output) took from outside the EKF.
 
     S(15): w_t = C1, the weight of odometry in v_t. S(17): v_n = C2 q2 v_n,k-1 + (1 - C2) q_I ^I v_n +
     (the tyre model's terms); with v_n,k-1 = ^I v_n to first order in T_N, w_n = 1 - C2 q2 - (1 - C2) q_I
     is the weight of the tyre model (the paper's S(17): w_n = C2 (1 - q2), relaxation towards zero).
+    ``check``, the weight w of the free integral in the inertial branch (tyre_model_check), takes its
+    share from the tyre model: the branch's outside weight is (1 - q_I)(1 - w) (the free integral is the
+    EKF's own kinematics, no measurement).
     With the wheels at rest (wheels_at_rest) and hold_at_rest mix scales that v_n by 1 - C1 (the wheels'
     v_n = 0 weighs C1): w_n = 1 - (1 - C1)(1 - w_n).
     The EKF's covariance takes the mixing as updates with these gains (ekf.ekf_mixing_covariance).
     """
     utilisation = mixing_utilisation(mixed[0], mixed[2], mixed[3], mixed[4], p)
     q_inertial = inertial_relaxation(utilisation, p)
+    if check > 0.0:
+        q_inertial = 1.0 - (1.0 - q_inertial) * (1.0 - check)
     w_n = 1.0 - c2 * p.q2 - (1.0 - c2) * q_inertial
     if at_rest and p.hold_at_rest:
         w_n = 1.0 - (1.0 - c1) * (1.0 - w_n)
     return np.array([c1, w_n])
 
 
+def tyre_model_check(free_v_n: float, curve_v_n: float, reference_speed: float, p: MixingParameters) -> float:
+    """The weight w of the free integral of the lateral kinematics in S(17)'s inertial branch, from their
+    disagreement d = |free_v_n - curve_v_n| / v_ref in deg (curve_v_n: the tyre curve's own side slip,
+    v_ref the slip's reference speed): l(d) = logsig(-steepness, d, tyre_model_gate_deg), rescaled to
+    vanish below GATE_DEAD_ZONE deg under the gate, (l(d) - l_0) / (1 - l_0) >= 0, so that a robot whose
+    floor matches the curve runs exactly as without the check. 0 for tyre_model_gate_deg = inf."""
+    if math.isinf(p.tyre_model_gate_deg):
+        return 0.0
+    disagreement = math.degrees(abs(free_v_n - curve_v_n) / reference_speed)
+    floor = p.tyre_model_gate_deg - GATE_DEAD_ZONE
+    if not disagreement > floor:
+        return 0.0
+    l0 = logsig(-p.tyre_model_gate_steepness, floor, p.tyre_model_gate_deg)
+    return (logsig(-p.tyre_model_gate_steepness, disagreement, p.tyre_model_gate_deg) - l0) / (1.0 - l0)
+
+
+GATE_DEAD_ZONE = 1.0
+"""deg below tyre_model_gate_deg where tyre_model_check's weight is exactly 0 (logsig there: 5 %)."""
+
+
+def free_side_slip_step(
+    predicted: float, v_n: float, utilisation: float, p: MixingParameters, T_N: float
+) -> float:
+    """The free integral of the lateral kinematics after sample k: ``predicted`` (the previous one plus
+    the EKF's v_n increment ^I v_n - v_n,k-1, i.e. the integral of a_n - omega v_t) anchored to the
+    mixed ``v_n`` while the tyres' lateral ``utilisation`` |a_n| / a_peak is below free_side_slip_anchor,
+    else relaxed towards it with free_side_slip_time_constant (which bounds the integral's drift)."""
+    if utilisation < p.free_side_slip_anchor:
+        return v_n
+    return predicted + (T_N / p.free_side_slip_time_constant) * (v_n - predicted)
+
+
+def mix_checked(
+    odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters, check_state, T_N
+):
+    """mix with the tyre-model check: (mixed estimate, w, check state after this sample).
+
+    ``check_state``: (F, S) after sample k-1 (None: no check, w = 0, as mix): F the free integral of
+    the lateral kinematics (free_side_slip_step), S the side slip the tyre curve alone would give (S(17)
+    as in mix, run on its own). Both are carried to this sample by the EKF's increment ^I v_n - v_n,k-1;
+    w = tyre_model_check(F, S, v_ref), and S(17)'s inertial branch relaxes towards (1 - w) f + w F
+    instead of the curve's f. While the tyres' lateral utilisation |^I a_n| / a_peak is below
+    free_side_slip_anchor both restart from the mixed v_n (a braking lock uses the tyres to the full,
+    but not sideways)."""
+    # Wheels that did not turn this sample do not creep: their tyres hold the force (at a standstill
+    # only the accelerometers' bias) by static friction.
+    at_rest = wheels_at_rest(odo)
+    rolling = 0.0 if at_rest else odo[0] - longitudinal_slip_speed(odo[0], inertial[3], inertial[4], p)
+    v_t = c1 * rolling + (1.0 - c1) * inertial[0]
+    omega = c3 * odo[1] + (1.0 - c3) * inertial[2]
+    model = lateral_velocity_model(v_t, omega, p)
+    model_prev = lateral_velocity_model(previous[0], previous[2], p)
+    if p.side_slip_from_accelerations:
+        target, utilisation = side_slip_from_accelerations(v_t, odo[0], inertial[3], inertial[4], p)
+    else:
+        target, utilisation = model, tyre_utilisation(v_t, omega, p)
+    q_inertial = inertial_relaxation(utilisation, p)
+    hold = 1.0 - c1 if at_rest and p.hold_at_rest else 1.0
+
+    def side_slip(carried, relaxed_from, towards):
+        return hold * (
+            c2 * (model + p.q2 * (relaxed_from - model_prev))
+            + (1.0 - c2) * (towards + q_inertial * (carried - towards))
+        )
+
+    check = 0.0
+    if check_state is not None:
+        increment = inertial[1] - previous[1]
+        free, curve = (
+            check_state[0] + increment,
+            side_slip(check_state[1] + increment, check_state[1], target),
+        )
+        check = tyre_model_check(free, curve, max(abs(v_t), p.tyre_reference_speed), p)
+        if check > 0.0:
+            target = target + check * (free - target)
+    v_n = side_slip(inertial[1], previous[1], target)
+    next_state = None
+    if check_state is not None:
+        lateral = abs(inertial[4]) / p.tyre_peak_acceleration
+        next_state = (free_side_slip_step(free, v_n, lateral, p, T_N), curve)
+        if lateral < p.free_side_slip_anchor:
+            next_state = (v_n, v_n)
+    return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
+
+
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
-    """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n].
+    """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n] (without the tyre-model check:
+    mix_checked).
 
     v_t = C1 (^O v_t - s) + (1 - C1) ^I v_t, s = longitudinal_slip_speed(^O v_t, ^I a_t, ^I a_n) (0 in the
     paper's S(15), and while neither wheel turned this sample: a tyre at rest creeps not, whatever the
@@ -367,25 +496,7 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
     """
-    # Wheels that did not turn this sample do not creep: their tyres hold the force (at a standstill
-    # only the accelerometers' bias) by static friction.
-    at_rest = wheels_at_rest(odo)
-    rolling = 0.0 if at_rest else odo[0] - longitudinal_slip_speed(odo[0], inertial[3], inertial[4], p)
-    v_t = c1 * rolling + (1.0 - c1) * inertial[0]
-    omega = c3 * odo[1] + (1.0 - c3) * inertial[2]
-    model = lateral_velocity_model(v_t, omega, p)
-    model_prev = lateral_velocity_model(previous[0], previous[2], p)
-    if p.side_slip_from_accelerations:
-        target, utilisation = side_slip_from_accelerations(v_t, odo[0], inertial[3], inertial[4], p)
-    else:
-        target, utilisation = model, tyre_utilisation(v_t, omega, p)
-    q_inertial = inertial_relaxation(utilisation, p)
-    v_n = c2 * (model + p.q2 * (previous[1] - model_prev)) + (1.0 - c2) * (
-        target + q_inertial * (inertial[1] - target)
-    )
-    if at_rest and p.hold_at_rest:
-        v_n *= 1.0 - c1
-    return np.array([v_t, v_n, omega, inertial[3], inertial[4]])
+    return mix_checked(odo, inertial, c1, c2, c3, previous, p, None, 0.0)[0]
 
 
 class MixerC1(LeafSystem):
@@ -436,7 +547,7 @@ class MixerC1(LeafSystem):
 
 C2C3_STEP_LAYOUT = (("C2_C3", 2), ("C3_filters", 2))
 """MixerC2C3's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
-MIXER_LAYOUT = (("mixed_estimate", 5), ("body_velocity", 3), ("mixing_gain", 2))
+MIXER_LAYOUT = (("mixed_estimate", 5), ("body_velocity", 3), ("mixing_gain", 2), ("tyre_model_check", 3))
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
@@ -487,7 +598,8 @@ class MixerC2C3(LeafSystem):
 
 
 class VelocityMixer(LeafSystem):
-    """Velocity mixer S(15)-(17); its output is the navigation estimate and the EKF's next state.
+    """Velocity mixer S(15)-(17) with the tyre-model check (mix_checked); its output is the navigation
+    estimate and the EKF's next state.
 
     .. pydrake_system::
 
@@ -505,26 +617,35 @@ class VelocityMixer(LeafSystem):
       model's previous value in S(17).
     - mixing (direct feedthrough), in MIXER_LAYOUT's order: mixed_estimate [v_t, v_n, omega, ^I a_t,
       ^I a_n]; body_velocity [v_t, v_n, omega] for pose integration and the side-slip angle; mixing_gain
-      [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P. One vector,
-      one Python call per sample; the navigation diagram slices it with a Demultiplexer
-      (diagrams/split.py).
+      [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P;
+      tyre_model_check [w, F_k, S_k], the free integral's weight (tyre_model_check), the free integral
+      and the tyre curve's own side slip after this sample (mix_checked). One vector, one Python call
+      per sample; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+
+    Update every T_N: F and S (state).
+
+    Args:
+        params: MixingParameters. T_N: navigation period (s). initial_v_n: F_-1 = S_-1, the initial
+            estimate's v_n (m/s).
     """
 
-    def __init__(self, params: MixingParameters):
+    def __init__(self, params: MixingParameters, T_N: float, initial_v_n: float = 0.0):
         super().__init__()
-        self._p = params
+        self._p, self._T_N = params, T_N
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._c23 = self.DeclareVectorInputPort("C2_C3", 2)
         self._prev = self.DeclareVectorInputPort("previous_estimate", 5)
-        self.DeclareVectorOutputPort("mixing", 10, self._calc)
+        self._check = self.DeclareDiscreteState([initial_v_n, initial_v_n])
+        self._mixing = self.DeclareVectorOutputPort("mixing", 13, self._calc)
+        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc(self, context, output):
         c2, c3 = self._c23.Eval(context).tolist()
         c1 = float(self._c1.Eval(context)[0])
         odo = self._odo.Eval(context).tolist()
-        mixed = mix(
+        mixed, check, state = mix_checked(
             odo,
             self._inertial.Eval(context).tolist(),
             c1,
@@ -532,6 +653,11 @@ class VelocityMixer(LeafSystem):
             c3,
             self._prev.Eval(context).tolist(),
             self._p,
+            context.get_discrete_state(self._check).get_value().tolist(),
+            self._T_N,
         )
-        gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo))
-        output.SetFromVector([*mixed.tolist(), *mixed[0:3].tolist(), *gain])
+        gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo), check)
+        output.SetFromVector([*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state])
+
+    def _update(self, context, discrete_state):
+        discrete_state.set_value(self._check, self._mixing.Eval(context)[11:13])

@@ -31,16 +31,19 @@ from slipnav.systems.mixing import (
     MixingParameters,
     accumulate_delta_v,
     c3_residual,
+    free_side_slip_step,
     lateral_velocity_model,
     logsig,
     longitudinal_slip_speed,
     mix,
+    mix_checked,
     mixer_c1_step,
     mixing_c1,
     mixing_c2,
     mixing_c3,
     mixing_gain,
     side_slip_from_accelerations,
+    tyre_model_check,
     tyre_utilisation,
 )
 from slipnav.systems.navigation import (
@@ -503,6 +506,16 @@ def test_mixing_parameter_validation():
     with pytest.raises(ValueError, match=r"mixing.side_slip_from_accelerations='yes' .* allowed true, false"):
         MixingParameters(side_slip_from_accelerations="yes")
     assert MixingParameters(tyre_peak_acceleration=math.inf, q2_inertial=1.0).q2_inertial == 1.0
+    for bad in (0.0, -1.0, math.nan):
+        with pytest.raises(ValueError, match=r"mixing.tyre_model_gate_deg=.* allowed \(0, inf\] deg"):
+            MixingParameters(tyre_model_gate_deg=bad)
+    for name in ("tyre_model_gate_steepness", "free_side_slip_time_constant"):
+        for bad in (0.0, math.inf, math.nan):
+            with pytest.raises(ValueError, match=rf"mixing.{name}=.* allowed \(0, inf\)"):
+                MixingParameters(**{name: bad})
+    for bad in (0.0, 1.0, math.nan):
+        with pytest.raises(ValueError, match=r"mixing.free_side_slip_anchor=.* allowed \(0, 1\)"):
+            MixingParameters(free_side_slip_anchor=bad)
 
 
 # --- side slip S(18)-S(20), pose S(21), Gyrodometry --------------------------------------------------
@@ -885,3 +898,104 @@ def test_slip_detector_leaves_out_excluded_samples():
     mixer.GetInputPort("delta_v").FixValue(context, [0.2])
     simulator.AdvanceTo(0.1 + 0.02)
     assert mixer.GetOutputPort("C1").Eval(context)[0] < 0.2
+
+
+# --- the tyre-model check of S(17) (mix_checked) -------------------------------------------------------
+
+
+def test_tyre_model_check_weight_by_hand():
+    """w = (s(3 (d - 2.5)) - s(-3)) / (1 - s(-3)), s(x) = 1 / (1 + e^-x), d the disagreement in deg
+    (zero up to 1 deg below the gate); 0 for a gate of inf."""
+    p = MixingParameters()
+
+    def s(x):
+        return 1.0 / (1.0 + math.exp(-x))
+
+    def by_hand(d):
+        return (s(3.0 * (d - 2.5)) - s(-3.0)) / (1.0 - s(-3.0))
+
+    v = 1.5  # reference speed: d deg of side slip is v * radians(d) of v_n
+    for d in (1.51, 2.0, 2.5, 3.0, 4.0, 8.0):
+        assert tyre_model_check(-v * math.radians(d), 0.0, v, p) == pytest.approx(by_hand(d), rel=1e-12)
+    assert by_hand(2.5) == pytest.approx(0.47511, abs=1e-5)
+    assert by_hand(4.0) == pytest.approx(0.98847, abs=1e-5)
+    for d in (0.0, 0.5, 1.49):  # the dead zone: exactly 0
+        assert tyre_model_check(0.1 + v * math.radians(d), 0.1, v, p) == 0.0
+    assert tyre_model_check(-1.0, 0.0, v, dc.replace(p, tyre_model_gate_deg=math.inf)) == 0.0
+    # The free integral: anchored to the estimate below the anchor utilisation, else relaxed by T_N/tau.
+    assert free_side_slip_step(-0.3, -0.1, 0.19, p, 0.002) == -0.1
+    assert free_side_slip_step(-0.3, -0.1, 0.21, p, 0.002) == pytest.approx(-0.3 + 0.008 * 0.2, rel=1e-12)
+
+
+def test_the_free_integral_outweighs_a_tyre_curve_the_body_slides_past():
+    """A steady turn at u = 0.68 of the curve's peak (C2 = 0). The EKF's kinematics carry v_n by
+    -2 mm/s per sample (a_n - omega v_t = -1 m/s^2: the body slides outwards, as on a floor with less
+    grip than the curve). S(17) alone holds v_n near the curve's f + q dv / (1 - q) (q = q_I); with the
+    check the estimate follows the free integral once it has parted from the curve by ~2.5 deg. Where the
+    kinematics agree with the curve, the check gives w = 0 and exactly mix's estimate."""
+    p = MixingParameters(odometry_slip_compensation=False, drag_acceleration=0.0, drag_per_speed=0.0)
+    off = dc.replace(p, tyre_model_gate_deg=math.inf)
+    v_t, omega = 1.5, 2.5
+    odo = [v_t, omega, v_t, v_t]
+    f, u = side_slip_from_accelerations(v_t, v_t, 0.0, v_t * omega, p)
+    q = 1.0 - 0.05 * math.sqrt(1.0 - u**2)
+    assert u == pytest.approx(3.75 / 5.49, rel=1e-12)
+
+    def run(params, dv, n=100):
+        x, state, weights = np.array([v_t, f, omega, 0.0, v_t * omega]), (f, f), []
+        for _ in range(n):
+            inertial = [v_t, x[1] + dv, omega, 0.0, v_t * omega]
+            x, w, state = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, params, state, 0.002)
+            weights.append(w)
+        return x[1], state, weights
+
+    held, _, weights = run(off, -0.002)
+    assert max(weights) == 0.0
+    assert held - f == pytest.approx(q * -0.002 / (1.0 - q) * (1.0 - q**100), rel=1e-9)  # 2 deg short
+    followed, (free, curve), weights = run(p, -0.002, 150)
+    assert weights[-1] > 0.95 and weights[20] < 0.01  # parted from the curve after ~25 samples
+    # The slide of 0.3 m/s in 0.3 s: the estimate within a tenth of the gap S(17) alone leaves (it closes
+    # on the free integral at the pull's rate).
+    assert followed - f < -0.2 and abs(followed - free) < 0.1 * abs(free - held)
+    assert curve - f == pytest.approx((held - f) / (1.0 - q**100) * (1.0 - q**150), rel=1e-3)  # S alone
+    # Consistent kinematics: w stays 0 and the estimate is exactly mix's.
+    x = np.array([v_t, f + 0.01, omega, 0.0, v_t * omega])
+    inertial = [v_t, f + 0.011, omega, 0.0, v_t * omega]
+    checked, w, _ = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f + 0.01, f + 0.01), 0.002)
+    assert w == 0.0
+    np.testing.assert_array_equal(checked, mix(odo, inertial, 1.0, 0.0, 1.0, x, p))
+    # Below the anchor utilisation both restart from the estimate.
+    slow = [0.5, 0.5, 0.5, 0.5]
+    x = np.array([0.5, -0.01, 0.5, 0.0, 0.25])
+    out, _, state = mix_checked(slow, [0.5, -0.01, 0.5, 0.0, 0.25], 1.0, 1.0, 1.0, x, p, (-0.3, 0.2), 0.002)
+    assert state == (out[1], out[1])
+
+
+def test_tyre_model_check_on_a_floor_with_less_grip():
+    """Corner with the plant's tyre friction 0.5 (the navigation's curve is the nominal 0.7's), plain
+    closed loop (the diagram's twin): the side-slip RMS error where |alpha| > 1 deg falls from 3.2-3.3 deg
+    to 1.2-1.4 on seeds 1 and 3 with the check (seed 0: 3.3 -> 3.1, where the slide's onset already
+    costs v_t); on the matched robot every signal is as without it."""
+    from slipnav.scenarios.config import with_keys
+    from slipnav.scenarios.metrics import side_slip_rms_error
+    from slipnav.scenarios.plain_loop import run_scenario_plain_loop
+
+    def alpha_rms(scenario, seed):
+        a = run_scenario_plain_loop(scenario, seed, 1600)  # 3.2 s: the turn ends at 2.9 s
+        a = {k.removeprefix("nav_"): v for k, v in a.items()}
+        a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
+        return math.degrees(side_slip_rms_error(a)), a
+
+    slippery = with_keys(load_scenario("corner"), {"plant.robot_overrides.tyre_friction": 0.5})
+    unchecked = with_keys(slippery, {"navigation.mixing.tyre_model_gate_deg": math.inf})
+    for seed, (above, below, opened) in {1: (3.0, 1.5, 0.9), 3: (3.0, 1.5, 0.9), 0: (3.2, 3.2, 0.5)}.items():
+        with_check, a = alpha_rms(slippery, seed)
+        without, _ = alpha_rms(unchecked, seed)
+        assert without > above and with_check < below, (seed, without, with_check)
+        assert np.max(a["tyre_model_weight"]) > opened
+    matched = load_scenario("corner")
+    _, a = alpha_rms(matched, 1)
+    _, b = alpha_rms(with_keys(matched, {"navigation.mixing.tyre_model_gate_deg": math.inf}), 1)
+    assert np.max(a["tyre_model_weight"]) == 0.0
+    for key in ("est_x", "est_y", "est_v_n", "true_x"):
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)

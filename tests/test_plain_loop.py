@@ -73,10 +73,19 @@ def test_diagram_equals_plain_loop_with_a_calibrated_model(tmp_path):
     assert a["plant_gyro_scale_error"] == pytest.approx(0.01)  # the plant is not the model
 
 
-def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes):
+def test_diagram_equals_plain_loop_where_the_tyre_model_check_opens():
+    """A floor with less grip than the navigation's tyre curve (friction 0.5): the VelocityMixer's
+    state (the free integral and the curve's own side slip) opens the check in the turn."""
+    from slipnav.scenarios.config import with_keys
+
+    scenario = with_keys(load_scenario("corner"), {"plant.robot_overrides.tyre_friction": 0.5})
+    a = assert_diagram_equals_plain_loop(scenario, 2.6, {}, {"plant": True}, seed=1)
+    assert np.max(a["tyre_model_weight"]) > 0.5
+
+
+def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes, seed=7):
     """The run's artifact arrays after comparing every plain-loop signal with the diagram's."""
     name = scenario.name
-    seed = 7
     result = run_scenario(scenario, seed=seed, duration=duration, **overrides)
     a = result.arrays
     n = len(a["t"])
