@@ -207,11 +207,15 @@ def plot_navigation(a, axes):
         for key, name, color in series:
             ax.plot(t, a[key], color, lw=1.4 if name == "true" else 0.8, label=name)
         ax.set_ylabel(label)
+    if "free_v_n" in a:  # S(17)'s tyre-model check: the free integral of the lateral kinematics
+        axes[1].plot(t, a["free_v_n"], "C4", lw=0.6, ls="--", label="free integral (check)")
     axes[3].plot(t, np.degrees(moving_alpha(a)), "C0", lw=1.4, label="true")
     axes[3].plot(t, np.degrees(a["est_alpha"]), "C3", lw=0.8, label="estimate S(19)")
     axes[3].set_ylabel("$\\alpha$ (deg)")
     for key, color in (("C1", "C3"), ("C2", "C1"), ("C3", "C2")):
         axes[4].plot(t, a[key], color, lw=0.8, label=key)
+    if "tyre_model_weight" in a:
+        axes[4].plot(t, a["tyre_model_weight"], "C4", lw=0.8, label="w (tyre-model check)")
     axes[4].set_ylabel("mixing")
     axes[4].set_ylim(-0.05, 1.05)
     axes[4].set_xlabel("t (s)")
