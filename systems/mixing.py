@@ -425,7 +425,16 @@ def free_side_slip_step(
 
 
 def mix_checked(
-    odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters, check_state, T_N
+    odo,
+    inertial,
+    c1: float,
+    c2: float,
+    c3: float,
+    previous,
+    p: MixingParameters,
+    check_state,
+    T_N: float,
+    inertial_fault: bool = False,
 ):
     """mix with the tyre-model check: (mixed estimate, w, check state after this sample).
 
@@ -435,7 +444,8 @@ def mix_checked(
     w = tyre_model_check(F, S, v_ref), and S(17)'s inertial branch relaxes towards (1 - w) f + w F
     instead of the curve's f. While the tyres' lateral utilisation |^I a_n| / a_peak is below
     free_side_slip_anchor both restart from the mixed v_n (a braking lock uses the tyres to the full,
-    but not sideways)."""
+    but not sideways), and so they do while an inertial channel is excluded (``inertial_fault``: the
+    sensor checks replace it; a replacement is no evidence against the curve, w = 0)."""
     # Wheels that did not turn this sample do not creep: their tyres hold the force (at a standstill
     # only the accelerometers' bias) by static friction.
     at_rest = wheels_at_rest(odo)
@@ -458,7 +468,7 @@ def mix_checked(
         )
 
     check = 0.0
-    if check_state is not None:
+    if check_state is not None and not inertial_fault:
         increment = inertial[1] - previous[1]
         free, curve = (
             check_state[0] + increment,
@@ -471,9 +481,10 @@ def mix_checked(
     next_state = None
     if check_state is not None:
         lateral = abs(inertial[4]) / p.tyre_peak_acceleration
-        next_state = (free_side_slip_step(free, v_n, lateral, p, T_N), curve)
-        if lateral < p.free_side_slip_anchor:
+        if inertial_fault or lateral < p.free_side_slip_anchor:
             next_state = (v_n, v_n)
+        else:
+            next_state = (free_side_slip_step(free, v_n, lateral, p, T_N), curve)
     return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
 
 
@@ -611,11 +622,13 @@ class VelocityMixer(LeafSystem):
         - C1
         - C2_C3
         - previous_estimate
+        - inertial_fault
         output_ports:
         - mixing
 
     - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 and the tyre
       model's previous value in S(17).
+    - inertial_fault: 1 while the sensor checks exclude an inertial channel (the check rests, mix_checked).
     - mixing (direct feedthrough), in MIXER_LAYOUT's order: mixed_estimate [v_t, v_n, omega, ^I a_t,
       ^I a_n]; body_velocity [v_t, v_n, omega] for pose integration and the side-slip angle; mixing_gain
       [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P;
@@ -638,6 +651,7 @@ class VelocityMixer(LeafSystem):
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._c23 = self.DeclareVectorInputPort("C2_C3", 2)
         self._prev = self.DeclareVectorInputPort("previous_estimate", 5)
+        self._fault = self.DeclareVectorInputPort("inertial_fault", 1)
         self._check = self.DeclareDiscreteState([initial_v_n, initial_v_n])
         self._mixing = self.DeclareVectorOutputPort("mixing", 13, self._calc)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
@@ -656,6 +670,7 @@ class VelocityMixer(LeafSystem):
             self._p,
             context.get_discrete_state(self._check).get_value().tolist(),
             self._T_N,
+            self._fault.Eval(context)[0] > 0.5,
         )
         gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo), check)
         output.SetFromVector([*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state])

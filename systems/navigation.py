@@ -194,6 +194,7 @@ class NavigationLoop:
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state, self.tyre_model_weight = (float(self.x[1]),) * 2, 0.0  # mix_checked's
+        self.inertial_fault = False
         self.k = 0
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
@@ -201,7 +202,16 @@ class NavigationLoop:
         which updates ``tyre_model_state`` and ``tyre_model_weight``); ``previous`` is the EKF state x_k-1
         (studies/error_budget.py overrides this to feed oracle inputs)."""
         mixed, self.tyre_model_weight, self.tyre_model_state = mix_checked(
-            odo, inertial, self.c1, c2, c3, previous, self.params.mixing, self.tyre_model_state, self.T_N
+            odo,
+            inertial,
+            self.c1,
+            c2,
+            c3,
+            previous,
+            self.params.mixing,
+            self.tyre_model_state,
+            self.T_N,
+            self.inertial_fault,
         )
         return mixed
 
@@ -219,6 +229,7 @@ class NavigationLoop:
             cal = self.sensor_calibration
             acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)
         fault_imu = 1.0 if any(codes[0:5]) else 0.0
+        self.inertial_fault = fault_imu > 0.5  # the tyre-model check rests (velocity_mix)
         odo_next, odo_raw, odometry_held = odometry_step(
             self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
         )

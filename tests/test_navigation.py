@@ -966,6 +966,13 @@ def test_the_free_integral_outweighs_a_tyre_curve_the_body_slides_past():
     checked, w, _ = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f + 0.01, f + 0.01), 0.002)
     assert w == 0.0
     np.testing.assert_array_equal(checked, mix(odo, inertial, 1.0, 0.0, 1.0, x, p))
+    # While the sensor checks exclude an inertial channel the check rests: w = 0, both restart.
+    x = np.array([v_t, f, omega, 0.0, v_t * omega])
+    inertial = [v_t, f - 0.002, omega, 0.0, v_t * omega]
+    rested, w, state = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f - 0.2, f), 0.002, True)
+    assert w == 0.0 and state == (rested[1], rested[1])
+    np.testing.assert_array_equal(rested, mix(odo, inertial, 1.0, 0.0, 1.0, x, p))
+    assert mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f - 0.2, f), 0.002)[1] > 0.99  # not resting
     # Below the anchor utilisation both restart from the estimate.
     slow = [0.5, 0.5, 0.5, 0.5]
     x = np.array([0.5, -0.01, 0.5, 0.0, 0.25])
