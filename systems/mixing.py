@@ -104,6 +104,10 @@ class MixingParameters:
             deg on the long path; the matched corner bit for bit as without). inf: the curve alone.
         tyre_model_gate_steepness: steepness of that weight's logsig (1/deg): 3 gives 10 %-90 % from
             1.9 to 3.25 deg (the logsig rescaled to 0 at 1 deg below the gate).
+        tyre_model_gate_speed: the slowest speed the gate's degrees refer to (m/s): the disagreement is
+            |F - S| / max(|v_t|, this). 1: a slide matters at speed, and at 0.4 m/s the accelerometers'
+            commotion (or a fault in the 60 ms before the sensor checks exclude it) over a few samples
+            is several degrees.
         free_side_slip_time_constant: the free integral relaxes towards the estimate with this time
             constant (s) while it is not anchored, which bounds its drift (the accelerometers' bias
             integrated; Kurt3D's turns last seconds): 0.25, slow against a slide's build-up (60-100 ms).
@@ -138,6 +142,7 @@ class MixingParameters:
     tyre_reference_speed: float = 0.3
     tyre_model_gate_deg: float = 2.5
     tyre_model_gate_steepness: float = 3.0
+    tyre_model_gate_speed: float = 1.0
     free_side_slip_time_constant: float = 0.25
     free_side_slip_anchor: float = 0.2
     hold_at_rest: bool = True
@@ -180,7 +185,7 @@ class MixingParameters:
         gate = self.tyre_model_gate_deg
         if not gate > 0.0:  # also rejects NaN; inf: the tyre curve alone
             raise ValueError(f"mixing.tyre_model_gate_deg={gate!r} is out of range: allowed (0, inf] deg")
-        for name in ("tyre_model_gate_steepness", "free_side_slip_time_constant"):
+        for name in ("tyre_model_gate_steepness", "tyre_model_gate_speed", "free_side_slip_time_constant"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
@@ -474,7 +479,7 @@ def mix_checked(
             check_state[0] + increment,
             side_slip(check_state[1] + increment, check_state[1], target),
         )
-        check = tyre_model_check(free, curve, max(abs(v_t), p.tyre_reference_speed), p)
+        check = tyre_model_check(free, curve, max(abs(v_t), p.tyre_model_gate_speed), p)
         if check > 0.0:
             target = target + check * (free - target)
     v_n = side_slip(inertial[1], previous[1], target)

@@ -509,7 +509,7 @@ def test_mixing_parameter_validation():
     for bad in (0.0, -1.0, math.nan):
         with pytest.raises(ValueError, match=r"mixing.tyre_model_gate_deg=.* allowed \(0, inf\] deg"):
             MixingParameters(tyre_model_gate_deg=bad)
-    for name in ("tyre_model_gate_steepness", "free_side_slip_time_constant"):
+    for name in ("tyre_model_gate_steepness", "tyre_model_gate_speed", "free_side_slip_time_constant"):
         for bad in (0.0, math.inf, math.nan):
             with pytest.raises(ValueError, match=rf"mixing.{name}=.* allowed \(0, inf\)"):
                 MixingParameters(**{name: bad})
@@ -1002,6 +1002,15 @@ def test_tyre_model_check_on_a_floor_with_less_grip():
         without, _ = alpha_rms(unchecked, seed)
         assert without > above and with_check < below, (seed, without, with_check)
         assert np.max(a["tyre_model_weight"]) > opened
+    # An accelerometer that reads twice the lateral acceleration looks like a slide for the 60 ms before
+    # the sensor checks exclude it (square, seed 1, accel2_n from 2.73 s at 0.4 m/s): below the gate's
+    # reference speed of 1 m/s that is no evidence, and the run ends as without the check (16.1 mm; with
+    # the side slip referred to 0.4 m/s the check opened to 0.78 and the run ended at 54.7 mm).
+    from slipnav.systems.faults import FaultEvent
+
+    square = dc.replace(load_scenario("square"), faults=[FaultEvent("scale", "accel2_n", 2.73, 0.5, 1.0)])
+    a = run_scenario_plain_loop(square, 1, 2000)
+    assert np.max(a["nav_health_accel2_n"]) > 0 and np.max(a["nav_tyre_model_weight"]) < 0.1
     matched = load_scenario("corner")
     _, a = alpha_rms(matched, 1)
     _, b = alpha_rms(with_keys(matched, {"navigation.mixing.tyre_model_gate_deg": math.inf}), 1)
