@@ -10,9 +10,9 @@ wheel stopped by a hand from a robot that was commanded to stop. The commands ca
    loop can follow (between the command and a reference that follows it at most at
    reference_acceleration, so that a current-limited run-up or a commanded stop is in the band) by more
    than speed_threshold + speed_fraction |command|, in a PT1 of time_constant: slower (held, blocked,
-   pushed back) or faster (pushed on). A stuck encoder would read as a braked wheel: while the sensor
-   checks exclude a wheel's encoder and its motor draws a normal current (a hand makes the speed loop
-   draw the limit), that wheel's tests are suspended (perturbation_step's encoder_codes).
+   pushed back) or faster (pushed on). The encoders are read as the sensor checks pass them: a stuck or
+   jumping count is excluded and replaced by the other wheel and the gyro, so it does not read as a
+   braked or driven wheel.
 2. ``yaw``: while both wheels are in their band, the body's yaw rate (the navigation's, the gyro's in a
    turn) leaves the wheels' by more than yaw_threshold + yaw_fraction |omega_wheels| (PT1): a wheel off
    the ground, or a push that turns the robot. The tyres' own slip in a hard turn (the odometric yaw rate
@@ -127,9 +127,6 @@ class PerturbationParameters:
 # flags (4).
 STATE_SIZE = 28
 _REF, _RES, _YAW, _LAT, _CNT, _ENC, _STAGE1, _STAGE2, _FORCE, _FLAGS = 0, 2, 4, 5, 6, 10, 12, 17, 22, 24
-HELD_CURRENT = 0.9
-"""A motor drawing at least this share of its limit fights a hold: its wheel's flags stand even while
-the sensor checks exclude its encoder (a stuck-looking count)."""
 FORCE_CHANNELS = ("force_R", "force_L")
 """The force_residual output: each side's force the motors do not explain, per unit mass (m/s^2)."""
 
@@ -207,7 +204,6 @@ def perturbation_step(
     T_N: float,
     currents=NO_CURRENTS,
     robot: ForceModel | RobotParameters | None = None,
-    encoder_codes=(0, 0),
 ):
     """One T_N update (module docstring).
 
@@ -223,10 +219,6 @@ def perturbation_step(
             the limit: no force test in this sample.
         robot: the believed robot (its mass, inertias, motor constant, drags) for the force test, its
             ForceModel (faster) or RobotParameters; None: no force test.
-        encoder_codes: the sensor checks' codes of the two encoders (systems/sensor_health.py). A wheel
-            whose encoder is excluded while its motor draws less than HELD_CURRENT of its limit is a
-            sensor fault, not a perturbation (a held wheel draws the limit: the speed loop fights the
-            hand): its wheel tests are suspended and restart from zero.
 
     Returns:
         the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
@@ -237,17 +229,9 @@ def perturbation_step(
     a = math.exp(-T_N / params.time_constant)
     expected, outside, rates = [0.0, 0.0], [0, 0], [math.nan, math.nan]
     step = params.reference_acceleration * T_N
-    sensor_fault = [False, False]
-    if robot is not None:
-        held = HELD_CURRENT * robot.motor_current_limit
-        sensor_fault = [encoder_codes[w] > 0 and abs(currents[w]) < held for w in range(2)]  # NaN: False
     for w in range(2):
         cmd = float(command[w])
         s[_REF + w] = min(max(cmd, s[_REF + w] - step), s[_REF + w] + step)
-        if sensor_fault[w]:  # the encoder's own fault: the wheel taken as commanded, its tests restart
-            s[_RES + w], s[_ENC + w], s[_STAGE1] = 0.0, math.nan, math.nan
-            expected[w] = cmd
-            continue
         low, high = min(cmd, s[_REF + w]), max(cmd, s[_REF + w])
         theta, last = float(encoders[w]), s[_ENC + w]
         if math.isfinite(theta) and math.isfinite(last):
@@ -315,7 +299,6 @@ class PerturbationMonitor(LeafSystem):
         - encoders
         - mixed_estimate
         - motor_currents
-        - sensor_health
         output_ports:
         - perturbation
         - force_residual
@@ -326,8 +309,6 @@ class PerturbationMonitor(LeafSystem):
     - mixed_estimate: the navigation's [v_t, v_n, omega, a_t, a_n].
     - motor_currents (optional): the drivers' current readings [i_R, i_L] (A); unconnected (a replayed
       log without currents) or NaN: no force test.
-    - sensor_health (optional): the navigation's health codes (7, systems/sensor_health.py); its encoder
-      codes tell an encoder's fault from a held wheel (perturbation_step's encoder_codes).
     - perturbation: [wheel_R, wheel_L, yaw, body] (state, a copy of the flags that the update stores):
       a wheel 1 braked, 2 driven; yaw and body 1 when flagged.
     - force_residual: each side's force the motors do not explain per unit mass [e_R, e_L] (m/s^2,
@@ -357,7 +338,6 @@ class PerturbationMonitor(LeafSystem):
         self._encoders = self.DeclareVectorInputPort("encoders", 2)
         self._estimate = self.DeclareVectorInputPort("mixed_estimate", 5)
         self._currents = self.DeclareVectorInputPort("motor_currents", 2)
-        self._health = self.DeclareVectorInputPort("sensor_health", 7)
         state0 = perturbation_initial_state()
         self._state = self.DeclareDiscreteState(state0)
         # state[_FLAGS:] and state[_FORCE:_FLAGS], as outputs
@@ -369,7 +349,6 @@ class PerturbationMonitor(LeafSystem):
 
     def _update(self, context, discrete_state):
         currents = self._currents.Eval(context).tolist() if self._currents.HasValue(context) else NO_CURRENTS
-        codes = self._health.Eval(context)[5:7].tolist() if self._health.HasValue(context) else (0, 0)
         state = perturbation_step(
             discrete_state.get_value(self._state).tolist(),
             self._command.Eval(context).tolist(),
@@ -381,7 +360,6 @@ class PerturbationMonitor(LeafSystem):
             self._T_N,
             currents,
             self._robot,
-            codes,
         )
         discrete_state.set_value(self._state, state)
         discrete_state.set_value(self._flags, state[_FLAGS:])
@@ -392,7 +370,7 @@ def add_perturbation_monitor(
     builder, params, command_port, encoders_port, navigation, robot, T_N, currents_port=None
 ):
     """Add a PerturbationMonitor reading ``command_port``, ``encoders_port``, the navigation subsystem's
-    mixed estimate and health codes and the drivers' ``currents_port`` (None: no force test); returns
+    mixed estimate and the drivers' ``currents_port`` (None: no force test); returns
     the monitor."""
     monitor = builder.AddSystem(
         PerturbationMonitor(params, (robot.radius_R, robot.radius_L), robot.track_width, T_N, robot)
@@ -401,7 +379,6 @@ def add_perturbation_monitor(
     builder.Connect(command_port, monitor.GetInputPort("wheel_speed_command"))
     builder.Connect(encoders_port, monitor.GetInputPort("encoders"))
     builder.Connect(navigation.GetOutputPort("mixed_estimate"), monitor.GetInputPort("mixed_estimate"))
-    builder.Connect(navigation.GetOutputPort("health"), monitor.GetInputPort("sensor_health"))
     if currents_port is not None:
         builder.Connect(currents_port, monitor.GetInputPort("motor_currents"))
     return monitor

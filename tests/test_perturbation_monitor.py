@@ -225,29 +225,10 @@ def test_closed_loop_push_on_a_wheel_and_on_the_body_flagged_within_100_ms():
     assert "wheel_R" not in caught and "wheel_L" not in caught
 
 
-def test_an_excluded_encoder_is_its_own_fault_unless_the_motor_fights_a_hold():
-    """perturbation_step's encoder_codes: a wheel whose encoder the sensor checks exclude, while its
-    motor draws a normal current, is a sensor fault (no wheel flag; the tests restart from zero); at the
-    current limit the speed loop fights a hand, and the braked flag stands. On the closed-loop corner a
-    stuck right encoder for 0.5 s raised 301 samples of wheel_R flags before; now none."""
-    p = tinyphoon()
-    params = PerturbationParameters(confirm_samples=1, force_threshold=math.inf)  # the speed band alone
-
-    def last_flags(current, codes):
-        _, state, theta = drive(300, (1.0, 1.0), (1.0, 1.0))  # the reference has reached the command
-        for _ in range(60):  # then the right encoder stands still under the 1 m/s command
-            state = perturbation_step(
-                state, (1.0, 1.0), theta, (1.0, 0.0, 0.0, 0.0, 0.0), params, (R, R), B, T_N,
-                (current, 0.3), p, codes,
-            )  # fmt: skip
-            theta = [theta[0], theta[1] + 1.0 * T_N / R]
-        return state[-4:]
-
-    assert last_flags(0.3, (0, 0))[0] == WHEEL_BRAKED  # no sensor flag: a perturbation
-    assert last_flags(0.3, (3, 0))[0] == 0  # the encoder is stuck, the motor runs normally
-    assert last_flags(p.motor_current_limit, (3, 0))[0] == WHEEL_BRAKED  # a hold: the loop fights it
-    assert last_flags(math.nan, (3, 0))[0] == WHEEL_BRAKED  # no current read: as before
-
+def test_a_stuck_encoder_raises_no_wheel_flag_on_the_closed_loop():
+    """The monitor reads the navigation's checked encoders: a stuck right encoder on the corner (0.5 s)
+    is excluded and replaced by the other wheel and the gyro, so no wheel reads as held (reading the raw
+    counts, 301 samples of wheel_R flags)."""
     scenario = load_scenario("corner")
     stuck = run_scenario(scenario, seed=0, faults=[FaultEvent("stuck", "encoder_R", 2.11, 0.5)])
     assert stuck.summary["sensor_health"]["encoder_R"]["first_s"] <= 2.21
@@ -257,9 +238,10 @@ def test_an_excluded_encoder_is_its_own_fault_unless_the_motor_fights_a_hold():
 def test_a_stuck_encoder_at_the_current_limit_is_not_a_held_wheel():
     """Kurt3D's circle, encoder_R stuck for 0.5 s from 2.446 s (0.1 s before its largest reading, as
     slipnav faults injects it): the motors run at their current limit in that turn, so the current
-    cannot tell the speed loop from a hand (HELD_CURRENT). The monitor reads the sensor checks' angles,
-    the replaced one for the excluded encoder, and flags no wheel (reading the raw counts it flagged
-    wheel_R braked for 270 ms)."""
+    cannot tell the speed loop from a hand. The monitor reads the sensor checks' angles, the replaced
+    one for the excluded encoder, and flags nothing (reading the raw counts it flagged wheel_R braked
+    for 270 ms; with the former rule that took an excluded encoder's wheel as commanded below 0.9 of the
+    current limit, a 3-sample body flag)."""
     from slipnav.systems.faults import FaultEvent
 
     scenario = load_scenario("circle")
@@ -271,4 +253,5 @@ def test_a_stuck_encoder_at_the_current_limit_is_not_a_held_wheel():
     assert np.any(a["health_encoder_R"][during] > 0)
     limit = scenario.robot_parameters().motor_current_limit
     assert np.max(np.abs(a["meas_current_R"][during])) > 0.9 * limit
-    assert not np.any(a["perturbation_wheel_R"]) and not np.any(a["perturbation_wheel_L"])
+    for channel in ("wheel_R", "wheel_L", "yaw", "body"):
+        assert not np.any(a[f"perturbation_{channel}"]), channel
