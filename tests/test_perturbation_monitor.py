@@ -23,12 +23,12 @@ T_N, R, B = 0.002, 0.015, 0.068
 P = PerturbationParameters()
 
 
-def drive(n, command, speeds, estimate=(0.0, 0.0, 0.0, 0.0, 0.0), state=None, theta=(0.0, 0.0)):
+def drive(n, command, speeds, estimate=(0.0, 0.0, 0.0, 0.0, 0.0), state=None, theta=(0.0, 0.0), params=P):
     """n samples with constant command and wheel speeds (m/s); returns (flag rows, state, angles)."""
     state = state or perturbation_initial_state()
     theta, rows = list(theta), []
     for _ in range(n):
-        state = perturbation_step(state, command, theta, estimate, P, (R, R), B, T_N)
+        state = perturbation_step(state, command, theta, estimate, params, (R, R), B, T_N)
         rows.append(state[-4:])
         theta = [theta[w] + speeds[w] * T_N / R for w in range(2)]
     return np.array(rows), state, theta
@@ -85,9 +85,36 @@ def test_yaw_flag_on_a_turn_the_wheels_do_not_make_but_not_on_a_turns_understeer
 
 
 def test_body_flag_on_a_lateral_acceleration_beyond_the_centripetal():
-    rows, _, _ = drive(60, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 2.5))  # bound 1.5 + 0.5 * 1
+    """The lateral test alone (no slide test): beyond 1.5 + 0.5 * 1 m/s^2 flagged, 1.8 not."""
+    lateral = PerturbationParameters(slide_threshold=math.inf)
+    rows, _, _ = drive(60, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 2.5), params=lateral)
     assert rows[-1, 3] == 1
-    rows, _, _ = drive(200, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8))
+    rows, _, _ = drive(200, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8), params=lateral)
+    assert not rows.any()
+
+
+def test_body_flag_on_a_side_slip_no_tyre_explains():
+    """The slide test by hand: on a straight (no lateral demand) at 1 m/s, a_n = 1.8 m/s^2 with the
+    estimate's v_n at 0 (below the lateral bound 1.5 + 0.5 * 1) integrates to
+    L_k = q (L_k-1 + T_N a_n), q = exp(-T_N / 0.1), from L_0 = 0: L passes the bound 0.025 + 0.015 * 1
+    m/s at sample n, the flag 4 samples later (5 confirmed). The same a_n - v_t omega in a turn that
+    asks 2 m/s^2 of the tyres (above slide_demand, 1 m/s^2) is the tyres' own side slip: no flag."""
+    q, bound = math.exp(-T_N / P.slide_time_constant), P.slide_threshold + P.slide_per_speed * 1.0
+    L, n = 0.0, 0
+    while L <= bound:
+        L, n = q * (L + T_N * 1.8), n + 1
+    rows, state, _ = drive(n + 10, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8))
+    first = int(np.argmax(rows[:, 3] > 0))
+    assert first == n - 1 + P.confirm_samples and not rows[:, :3].any()
+    L_end = q * (1 - q ** (n + 9)) / (1 - q) * T_N * 1.8  # the first sample starts L at the estimate
+    np.testing.assert_allclose(state[22], L_end, rtol=1e-12)
+    turning = (1.0 + 0.5 * B * 2.0, 1.0 - 0.5 * B * 2.0)  # 2 rad/s at 1 m/s: v_t omega = 2 m/s^2
+    rows, _, _ = drive(n + 10, turning, turning, (1.0, 0.0, 2.0, 0.0, 3.8))
+    assert not rows.any()
+    with pytest.raises(ValueError, match=r"perturbation_monitor.slide_threshold=0.0 is out of range"):
+        PerturbationParameters(slide_threshold=0.0)
+    off = PerturbationParameters(slide_threshold=math.inf)  # no slide test
+    rows, _, _ = drive(n + 10, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8), params=off)
     assert not rows.any()
 
 
@@ -209,7 +236,8 @@ def test_force_test_classifies_sides_and_needs_currents():
 def test_closed_loop_push_on_a_wheel_and_on_the_body_flagged_within_100_ms():
     """Corner: the right wheel pushed with 0.6 x the motor's stall torque (the speed loop absorbs it: no
     speed band is left) and the body pushed backwards at 5 m/s^2 x its mass, each from 2 s: the force
-    balance flags wheel_R driven, and body, within 0.1 s."""
+    balance flags wheel_R driven, and body, within 0.1 s; pushed to either side, the slide test flags
+    body within 0.1 s."""
     scenario = load_scenario("corner")
     robot = scenario.robot_parameters()
     tau = 0.6 * robot.motor_constant * robot.motor_current_limit
@@ -223,6 +251,10 @@ def test_closed_loop_push_on_a_wheel_and_on_the_body_flagged_within_100_ms():
     caught = body.summary["perturbations"]
     assert 2.0 <= caught["body"]["first_s"] <= 2.1
     assert "wheel_R" not in caught and "wheel_L" not in caught
+    for side in (1.0, -1.0):  # sideways, a push the tyres hold: the slide test (28-36 ms)
+        event = FaultEvent("body_push", "body_n", 2.0, 0.5, side * 5.0 * robot.mass)
+        caught = run_scenario(scenario, seed=1, faults=[event]).summary["perturbations"]
+        assert set(caught) == {"body"} and 2.0 <= caught["body"]["first_s"] <= 2.1
 
 
 def test_a_stuck_encoder_raises_no_wheel_flag_on_the_closed_loop():
