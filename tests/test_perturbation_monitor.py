@@ -10,6 +10,7 @@ from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.faults import FaultEvent
 from slipnav.systems.perturbation_monitor import (
+    _SLIDE,
     WHEEL_BRAKED,
     WHEEL_DRIVEN,
     PerturbationMonitor,
@@ -107,15 +108,33 @@ def test_body_flag_on_a_side_slip_no_tyre_explains():
     first = int(np.argmax(rows[:, 3] > 0))
     assert first == n - 1 + P.confirm_samples and not rows[:, :3].any()
     L_end = q * (1 - q ** (n + 9)) / (1 - q) * T_N * 1.8  # the first sample starts L at the estimate
-    np.testing.assert_allclose(state[22], L_end, rtol=1e-12)
+    np.testing.assert_allclose(state[_SLIDE], L_end, rtol=1e-12)
     turning = (1.0 + 0.5 * B * 2.0, 1.0 - 0.5 * B * 2.0)  # 2 rad/s at 1 m/s: v_t omega = 2 m/s^2
     rows, _, _ = drive(n + 10, turning, turning, (1.0, 0.0, 2.0, 0.0, 3.8))
     assert not rows.any()
-    with pytest.raises(ValueError, match=r"perturbation_monitor.slide_threshold=0.0 is out of range"):
-        PerturbationParameters(slide_threshold=0.0)
+
+
+def test_slide_test_keys_take_inf_and_reject_what_is_not_a_bound():
+    """slide_threshold: .inf switches the slide test off, slide_demand: .inf runs it at any demand (from
+    YAML too); zero, negative or NaN bounds name the key; a NaN estimate keeps the held demand."""
+    for key in ("slide_threshold", "slide_demand"):
+        scenario = scenario_from_yaml(
+            "trajectory: {segments: [!Straight {length: 0.5, v_peak: 0.5}]}\n"
+            f"perturbation_monitor: {{{key}: .inf}}\n"
+        )
+        assert getattr(scenario.perturbation_monitor, key) == math.inf
+        for bad in (0.0, -1.0, math.nan):
+            with pytest.raises(ValueError, match=rf"perturbation_monitor.{key}={bad!r} is out of range"):
+                PerturbationParameters(**{key: bad})
+    turning = (1.0 + 0.5 * B * 2.0, 1.0 - 0.5 * B * 2.0)
+    _, state, theta = drive(10, turning, turning, (1.0, 0.0, 2.0, 0.0, 2.0))  # held demand 2 m/s^2
+    held = state[_SLIDE + 1]
+    state = perturbation_step(state, turning, theta, (1.0, 0.0, math.nan, 0.0, 2.0), P, (R, R), B, T_N)
+    np.testing.assert_allclose(state[_SLIDE + 1], held * math.exp(-T_N / P.slide_demand_hold), rtol=1e-12)
+    straight, pushed = (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8)
+    assert drive(60, straight, straight, pushed)[0][-1, 3] == 1
     off = PerturbationParameters(slide_threshold=math.inf)  # no slide test
-    rows, _, _ = drive(n + 10, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8), params=off)
-    assert not rows.any()
+    assert not drive(60, straight, straight, pushed, params=off)[0].any()
 
 
 def test_missing_encoder_samples_hold_the_residual():
