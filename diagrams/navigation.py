@@ -33,7 +33,6 @@ NAVIGATION_OUTPUTS = (
     "C1",
     "C2_C3",
     "tyre_model_check",
-    "lateral_push",
     "delta_v",
     "odometry",
     "odometry_pose",
@@ -84,7 +83,6 @@ def build_navigation_diagram(
         - C1
         - C2_C3
         - tyre_model_check
-        - lateral_push
         - delta_v
         - odometry
         - odometry_pose
@@ -189,7 +187,6 @@ def build_navigation_diagram(
     b.ExportOutput(c1.GetOutputPort("C1"), "C1")
     b.ExportOutput(c23["C2_C3"], "C2_C3")
     b.ExportOutput(mixer["tyre_model_check"], "tyre_model_check")
-    b.ExportOutput(mixer["lateral_push"], "lateral_push")
     b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")
     b.ExportOutput(raw_odo, "odometry")
     b.ExportOutput(odo_pose.GetOutputPort("pose"), "odometry_pose")

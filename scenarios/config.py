@@ -508,11 +508,11 @@ INFINITY_ALLOWED = {
     "navigation.mixing.tyre_model_gate_deg",
     "navigation.gyro_bias.averaging_time",
     "perturbation_monitor.force_threshold",
-    "navigation.mixing.push_threshold",
-    "navigation.mixing.push_demand",
+    "perturbation_monitor.slide_threshold",
+    "perturbation_monitor.slide_demand",
 }
 """Float keys where .inf means something (no tyre curve; no gyro turn rule; no tyre-model check; a
-never-forgetting average; no force test; no push test; a push test at any demand)."""
+never-forgetting average; no force test; no slide test; a slide test at any demand)."""
 
 
 def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:

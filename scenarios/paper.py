@@ -117,14 +117,6 @@ DEVIATIONS = (
         lambda s: _nav(s, "mixing", tyre_model_gate_deg=math.inf),
     ),
     Deviation(
-        "lateral_push",
-        "S(17): v_n follows the lateral kinematics while a side slip no tyre explains lasts (a push from "
-        "the side)",
-        "S(17): the tyre model holds v_n",
-        "navigation.mixing.push_threshold: .inf",
-        lambda s: _nav(s, "mixing", push_threshold=math.inf),
-    ),
-    Deviation(
         "rest_hold",
         "wheels at rest hold the body sideways: S(17)'s v_n scaled by 1 - C1",
         "S(17) at rest as while rolling",

@@ -71,7 +71,6 @@ PLAIN_LOOP_KEYS = (
     + ["meas_current_R", "meas_current_L"]
 )
 """Columns of run_plain_loop's result, each the value at t_k (as a Drake logger at t_k records it)."""
-LATERAL_PUSH = LOOP_KEYS.index("lateral_push")
 MIXED_ESTIMATE_COLUMNS = [
     LOOP_KEYS.index(k) for k in ("est_v_t", "est_v_n", "est_omega", "est_a_t", "est_a_n")
 ]
@@ -219,7 +218,6 @@ def run_plain_loop(
             T_N,
             meas_current,
             force,
-            nav_row[LATERAL_PUSH] > 0.5,
         )
 
         if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K

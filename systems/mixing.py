@@ -114,21 +114,6 @@ class MixingParameters:
         free_side_slip_anchor: lateral tyre utilisation |^I a_n| / a_peak below which the free integral
             is the estimate itself (anchored): 0.2 (Tinyphoon 1.1 m/s^2), where the side slip is below
             1 deg whatever the friction, and above a braking lock's lateral commotion (0.25 m/s^2).
-        push_threshold: a side slip no tyre explains (lateral_push_step): the lateral velocity the
-            kinematics integrate, L (leaky towards the estimate with push_time_constant), beyond
-            push_threshold + push_per_speed |v_t| (m/s) while the turn asks little of the tyres. inf: no
-            push test. Fault-free built-ins (2 seeds): at most 0.75 of the bound (long path at 4 m/s),
-            every robustness case of corner and square at most 0.7; the faults benchmark's sideways
-            pushes 1.2-5.3.
-        push_per_speed: the push bound's growth with |v_t| (1).
-        push_demand: the push test runs while |v_t omega| has stayed below this (m/s^2); inf: at any
-            demand. Without lateral demand no tyre curve, whatever the floor's grip, lets the body
-            gain side slip; only an outside force does.
-        push_demand_hold: time constant with which the peak of |v_t omega| is held (s).
-        push_time_constant: L's leak towards the estimate (s).
-        push_release_time_constant: while pushed, v_n follows the lateral kinematics and relaxes
-            towards S(17)'s v_n with this time constant (s), which bounds the integral's drift; the push
-            ends when they agree within the bound.
         hold_at_rest: while neither wheel turned (wheels_at_rest), S(17)'s v_n is scaled by 1 - C1: tyres
             that hold the body by static friction hold it sideways too, and the inertial branch does not
             integrate the a_n bias at a standstill (mix). False: S(17) as while rolling.
@@ -160,12 +145,6 @@ class MixingParameters:
     tyre_model_gate_speed: float = 1.0
     free_side_slip_time_constant: float = 0.25
     free_side_slip_anchor: float = 0.2
-    push_threshold: float = 0.025
-    push_per_speed: float = 0.015
-    push_demand: float = 1.0
-    push_demand_hold: float = 0.5
-    push_time_constant: float = 0.1
-    push_release_time_constant: float = 1.0
     hold_at_rest: bool = True
 
     def __post_init__(self):
@@ -214,15 +193,7 @@ class MixingParameters:
             raise ValueError(
                 f"mixing.free_side_slip_anchor={self.free_side_slip_anchor!r} is out of range: allowed (0, 1)"
             )
-        for name in ("push_threshold", "push_demand"):  # inf: no push test; a push test at any demand
-            v = getattr(self, name)
-            if not v > 0.0:  # also rejects NaN
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf]")
-        for name in ("push_demand_hold", "push_time_constant", "push_release_time_constant"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf) s")
-        for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed", "push_per_speed"):
+        for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed [0, inf)")
@@ -401,7 +372,7 @@ def wheels_at_rest(odo) -> bool:
 
 
 def mixing_gain(
-    mixed, c1: float, c2: float, p: MixingParameters, at_rest: bool = False, check: float = 0.0, pushed=False
+    mixed, c1: float, c2: float, p: MixingParameters, at_rest: bool = False, check: float = 0.0
 ) -> np.ndarray:
     """[w_t, w_n]: how much the mixed estimate ``mixed`` (mix's output) took from outside the EKF.
 
@@ -412,8 +383,7 @@ def mixing_gain(
     share from the tyre model: the branch's outside weight is (1 - q_I)(1 - w) (the free integral is the
     EKF's own kinematics, no measurement).
     With the wheels at rest (wheels_at_rest) and hold_at_rest mix scales that v_n by 1 - C1 (the wheels'
-    v_n = 0 weighs C1): w_n = 1 - (1 - C1)(1 - w_n). While ``pushed`` (lateral_push_step) v_n is the
-    EKF's own kinematics: w_n = 0.
+    v_n = 0 weighs C1): w_n = 1 - (1 - C1)(1 - w_n).
     The EKF's covariance takes the mixing as updates with these gains (ekf.ekf_mixing_covariance).
     """
     utilisation = mixing_utilisation(mixed[0], mixed[2], mixed[3], mixed[4], p)
@@ -423,7 +393,7 @@ def mixing_gain(
     w_n = 1.0 - c2 * p.q2 - (1.0 - c2) * q_inertial
     if at_rest and p.hold_at_rest:
         w_n = 1.0 - (1.0 - c1) * (1.0 - w_n)
-    return np.array([c1, 0.0 if pushed else w_n])
+    return np.array([c1, w_n])
 
 
 def tyre_model_check(free_v_n: float, curve_v_n: float, reference_speed: float, p: MixingParameters) -> float:
@@ -459,60 +429,6 @@ def free_side_slip_step(
     return predicted + (T_N / p.free_side_slip_time_constant) * (v_n - predicted)
 
 
-PUSH_CONFIRM_SAMPLES = 5
-"""Samples the push test's condition must hold before v_n follows the kinematics (10 ms)."""
-NO_PUSH = (math.nan, 0.0, 0.0, math.nan)
-"""lateral_push_step's state before the first sample: (L, held demand, count, pushed v_n)."""
-
-
-def lateral_push_step(
-    state, v_t: float, omega: float, v_n: float, reference: float, increment: float, p, T_N: float, rest=False
-):
-    """A side slip no tyre explains: a push from the side (Indiveri et al. Fig. 5's hand on the body).
-
-    While the turn asks little of the tyres (|v_t omega| has stayed below push_demand, its peak held
-    with push_demand_hold), the lateral velocity the kinematics integrate,
-    L_k = v_n,k + q (L_k-1 + increment - v_n,k), q = exp(-T_N / push_time_constant), leaky towards S(17)'s
-    v_n, should stay near it: no tyre curve, whatever the floor's grip, lets the body gain side slip
-    without lateral demand. Beyond push_threshold + push_per_speed |v_t| for PUSH_CONFIRM_SAMPLES
-    samples the body is pushed: from then on v_n follows the kinematics, P_k = r_k + q_r (P_k-1 +
-    increment - r_k), q_r = exp(-T_N / push_release_time_constant) (the drift of the integral
-    bounded), until P and r, S(17)'s tyre-model side slip, agree within the bound again. S(17)'s tyre
-    model alone would hold v_n at the curve's side slip of the measured lateral acceleration, which is
-    near zero while the body drifts at the slip angle the push needs.
-
-    Args:
-        state: (L, held demand, count, P) after sample k-1 (NO_PUSH before the first; P NaN: not pushed).
-        v_t, omega: the mixed estimate's (m/s, rad/s). v_n: S(17)'s v_n (m/s). reference: r, the side
-            slip S(17) relaxes towards, C2 m + (1 - C2) f (without the pushed estimate's memory, which
-            S(17)'s v_n carries). increment: the EKF's
-            lateral increment ^I v_n - v_n,k-1 = T_N (a_n - omega v_t). rest: an inertial channel is
-            excluded (the sensor checks replace it): no new push is detected.
-
-    Returns:
-        (the state after sample k, v_n, pushed).
-    """
-    L, held, count, pushed_v_n = state
-    demand = abs(v_t * omega)
-    held = math.exp(-T_N / p.push_demand_hold) * held
-    held = max(demand, held) if math.isfinite(demand) else held  # a NaN sample keeps the peak
-    bound = p.push_threshold + p.push_per_speed * abs(v_t)
-    if math.isnan(pushed_v_n):
-        if rest or math.isinf(p.push_threshold) or not math.isfinite(L):
-            return (v_n, held, 0.0, math.nan), v_n, False
-        L = v_n + math.exp(-T_N / p.push_time_constant) * (L + increment - v_n)
-        count = count + 1.0 if held < p.push_demand and abs(L) > bound else 0.0
-        if count < PUSH_CONFIRM_SAMPLES:
-            return (L, held, count, math.nan), v_n, False
-        pushed_v_n = L
-    else:
-        q = math.exp(-T_N / p.push_release_time_constant)
-        pushed_v_n = reference + q * (pushed_v_n + increment - reference)
-        if not abs(pushed_v_n - reference) >= bound:  # released (NaN too)
-            return (v_n, held, 0.0, math.nan), v_n, False
-    return (pushed_v_n, held, count, pushed_v_n), pushed_v_n, True
-
-
 def mix_checked(
     odo,
     inertial,
@@ -525,12 +441,9 @@ def mix_checked(
     T_N: float,
     inertial_fault: bool = False,
 ):
-    """mix with the tyre-model check and the push test: (mixed estimate, w, check state after this
-    sample, pushed).
+    """mix with the tyre-model check: (mixed estimate, w, check state after this sample).
 
-    ``check_state``: (F, S, *push) after sample k-1 (None: no check, w = 0, no push test, as mix); push
-    is lateral_push_step's state (NO_PUSH before the first sample), whose v_n replaces S(17)'s while the
-    body is pushed from the side. F the free integral of
+    ``check_state``: (F, S) after sample k-1 (None: no check, w = 0, as mix): F the free integral of
     the lateral kinematics (free_side_slip_step), S the side slip the tyre curve alone would give (S(17)
     as in mix, run on its own). Both are carried to this sample by the EKF's increment ^I v_n - v_n,k-1;
     w = tyre_model_check(F, S, v_ref), and S(17)'s inertial branch relaxes towards (1 - w) f + w F
@@ -569,19 +482,15 @@ def mix_checked(
         check = tyre_model_check(free, curve, max(abs(v_t), p.tyre_model_gate_speed), p)
         if check > 0.0:
             target = target + check * (free - target)
-    reference = c2 * model + (1.0 - c2) * target
     v_n = side_slip(inertial[1], previous[1], target)
-    if check_state is None:
-        return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, None, False
-    lateral = abs(inertial[4]) / p.tyre_peak_acceleration
-    if inertial_fault or lateral < p.free_side_slip_anchor:
-        next_state = (v_n, v_n)
-    else:
-        next_state = (free_side_slip_step(free, v_n, lateral, p, T_N), curve)
-    push, v_n, pushed = lateral_push_step(
-        check_state[2:6], v_t, omega, v_n, reference, inertial[1] - previous[1], p, T_N, inertial_fault
-    )
-    return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, (*next_state, *push), pushed
+    next_state = None
+    if check_state is not None:
+        lateral = abs(inertial[4]) / p.tyre_peak_acceleration
+        if inertial_fault or lateral < p.free_side_slip_anchor:
+            next_state = (v_n, v_n)
+        else:
+            next_state = (free_side_slip_step(free, v_n, lateral, p, T_N), curve)
+    return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
 
 
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
@@ -655,14 +564,7 @@ class MixerC1(LeafSystem):
 
 C2C3_STEP_LAYOUT = (("C2_C3", 2), ("C3_filters", 2))
 """MixerC2C3's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
-MIXER_LAYOUT = (
-    ("mixed_estimate", 5),
-    ("body_velocity", 3),
-    ("mixing_gain", 2),
-    ("tyre_model_check", 3),
-    ("lateral_push", 1),
-    ("push_state", 4),
-)
+MIXER_LAYOUT = (("mixed_estimate", 5), ("body_velocity", 3), ("mixing_gain", 2), ("tyre_model_check", 3))
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
@@ -736,12 +638,10 @@ class VelocityMixer(LeafSystem):
       ^I a_n]; body_velocity [v_t, v_n, omega] for pose integration and the side-slip angle; mixing_gain
       [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P;
       tyre_model_check [w, F_k, S_k], the free integral's weight (tyre_model_check), the free integral
-      and the tyre curve's own side slip after this sample (mix_checked); lateral_push, 1 while the
-      body is pushed from the side (lateral_push_step: v_n follows the kinematics); push_state, that
-      test's state after this sample. One vector, one Python call per sample; the navigation diagram
-      slices it with a Demultiplexer (diagrams/split.py).
+      and the tyre curve's own side slip after this sample (mix_checked). One vector, one Python call
+      per sample; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
-    Update every T_N: F, S and the push test's state (state).
+    Update every T_N: F and S (state).
 
     Args:
         params: MixingParameters. T_N: navigation period (s). initial_v_n: F_-1 = S_-1, the initial
@@ -757,15 +657,15 @@ class VelocityMixer(LeafSystem):
         self._c23 = self.DeclareVectorInputPort("C2_C3", 2)
         self._prev = self.DeclareVectorInputPort("previous_estimate", 5)
         self._fault = self.DeclareVectorInputPort("inertial_fault", 1)
-        self._check = self.DeclareDiscreteState([initial_v_n, initial_v_n, *NO_PUSH])
-        self._mixing = self.DeclareVectorOutputPort("mixing", 18, self._calc)
+        self._check = self.DeclareDiscreteState([initial_v_n, initial_v_n])
+        self._mixing = self.DeclareVectorOutputPort("mixing", 13, self._calc)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc(self, context, output):
         c2, c3 = self._c23.Eval(context).tolist()
         c1 = float(self._c1.Eval(context)[0])
         odo = self._odo.Eval(context).tolist()
-        mixed, check, state, pushed = mix_checked(
+        mixed, check, state = mix_checked(
             odo,
             self._inertial.Eval(context).tolist(),
             c1,
@@ -777,11 +677,8 @@ class VelocityMixer(LeafSystem):
             self._T_N,
             self._fault.Eval(context)[0] > 0.5,
         )
-        gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo), check, pushed)
-        output.SetFromVector(
-            [*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state[0:2], float(pushed), *state[2:6]]
-        )
+        gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo), check)
+        output.SetFromVector([*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state])
 
     def _update(self, context, discrete_state):
-        out = self._mixing.Eval(context)
-        discrete_state.set_value(self._check, [out[11], out[12], *out[14:18]])
+        discrete_state.set_value(self._check, self._mixing.Eval(context)[11:13])

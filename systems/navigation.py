@@ -37,7 +37,6 @@ from slipnav.systems.ekf import (
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
-    NO_PUSH,
     MixingParameters,
     c3_residual,
     c3_turn_rate,
@@ -111,8 +110,7 @@ class NavigationInitialState:
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
-    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 tyre_model_weight free_v_n lateral_push delta_v "
-    "odo_v_t "
+    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 tyre_model_weight free_v_n delta_v odo_v_t "
     "odo_omega fault est_gyro_bias"
 ).split() + [f"health_{channel}" for channel in SENSOR_CHANNELS]
 
@@ -195,17 +193,15 @@ class NavigationLoop:
         self.gyro_state = [*initial.pose, 0.0, 0.0]
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
-        self.tyre_model_state = (float(self.x[1]),) * 2 + NO_PUSH  # mix_checked's
-        self.tyre_model_weight, self.lateral_push = 0.0, False
+        self.tyre_model_state, self.tyre_model_weight = (float(self.x[1]),) * 2, 0.0  # mix_checked's
         self.inertial_fault = False
         self.k = 0
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
         """S(15)-(17) at sample ``self.k`` with the C1 in force and the tyre-model check (mix_checked,
-        which updates ``tyre_model_state``, ``tyre_model_weight`` and ``lateral_push``); ``previous`` is the
-        EKF state x_k-1
+        which updates ``tyre_model_state`` and ``tyre_model_weight``); ``previous`` is the EKF state x_k-1
         (studies/error_budget.py overrides this to feed oracle inputs)."""
-        mixed, self.tyre_model_weight, self.tyre_model_state, self.lateral_push = mix_checked(
+        mixed, self.tyre_model_weight, self.tyre_model_state = mix_checked(
             odo,
             inertial,
             self.c1,
@@ -266,7 +262,6 @@ class NavigationLoop:
             c3,
             self.tyre_model_weight,
             self.tyre_model_state[0],
-            float(self.lateral_push),
             self.dv_held,
             odo_raw[0],
             odo_raw[1],
@@ -275,9 +270,7 @@ class NavigationLoop:
             *codes,
         )
         self.x = mixed
-        gain = mixing_gain(
-            mixed, self.c1, c2, mp, wheels_at_rest(odo), self.tyre_model_weight, self.lateral_push
-        )
+        gain = mixing_gain(mixed, self.c1, c2, mp, wheels_at_rest(odo), self.tyre_model_weight)
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)

@@ -131,10 +131,10 @@ def test_a_run_whose_estimate_becomes_non_finite_stops_with_status_3(tmp_path, m
 
     def broken(*args, **kwargs):
         calls[0] += 1
-        out, check, state, pushed = real(*args, **kwargs)
+        out, check, state = real(*args, **kwargs)
         if calls[0] > 1000:
             out[0] = math.nan
-        return out, check, state, pushed
+        return out, check, state
 
     monkeypatch.setattr(mixing, "mix_checked", broken)  # what VelocityMixer calls
     assert main(["run", "corner", "--out", str(tmp_path), "--no-figures"]) == 3

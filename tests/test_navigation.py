@@ -26,15 +26,12 @@ from slipnav.systems.ekf import (
 )
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
-    NO_PUSH,
-    PUSH_CONFIRM_SAMPLES,
     MixerC1,
     MixerC2C3,
     MixingParameters,
     accumulate_delta_v,
     c3_residual,
     free_side_slip_step,
-    lateral_push_step,
     lateral_velocity_model,
     logsig,
     longitudinal_slip_speed,
@@ -947,17 +944,17 @@ def test_the_free_integral_outweighs_a_tyre_curve_the_body_slides_past():
     assert u == pytest.approx(3.75 / 5.49, rel=1e-12)
 
     def run(params, dv, n=100):
-        x, state, weights = np.array([v_t, f, omega, 0.0, v_t * omega]), (f, f, *NO_PUSH), []
+        x, state, weights = np.array([v_t, f, omega, 0.0, v_t * omega]), (f, f), []
         for _ in range(n):
             inertial = [v_t, x[1] + dv, omega, 0.0, v_t * omega]
-            x, w, state, _ = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, params, state, 0.002)
+            x, w, state = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, params, state, 0.002)
             weights.append(w)
         return x[1], state, weights
 
     held, _, weights = run(off, -0.002)
     assert max(weights) == 0.0
     assert held - f == pytest.approx(q * -0.002 / (1.0 - q) * (1.0 - q**100), rel=1e-9)  # 2 deg short
-    followed, (free, curve, *_), weights = run(p, -0.002, 150)
+    followed, (free, curve), weights = run(p, -0.002, 150)
     assert weights[-1] > 0.95 and weights[20] < 0.01  # parted from the curve after ~25 samples
     # The slide of 0.3 m/s in 0.3 s: the estimate within a tenth of the gap S(17) alone leaves (it closes
     # on the free integral at the pull's rate).
@@ -966,22 +963,21 @@ def test_the_free_integral_outweighs_a_tyre_curve_the_body_slides_past():
     # Consistent kinematics: w stays 0 and the estimate is exactly mix's.
     x = np.array([v_t, f + 0.01, omega, 0.0, v_t * omega])
     inertial = [v_t, f + 0.011, omega, 0.0, v_t * omega]
-    checked, w, _, _ = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f + 0.01, f + 0.01, *NO_PUSH), 0.002)
+    checked, w, _ = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f + 0.01, f + 0.01), 0.002)
     assert w == 0.0
     np.testing.assert_array_equal(checked, mix(odo, inertial, 1.0, 0.0, 1.0, x, p))
     # While the sensor checks exclude an inertial channel the check rests: w = 0, both restart.
     x = np.array([v_t, f, omega, 0.0, v_t * omega])
     inertial = [v_t, f - 0.002, omega, 0.0, v_t * omega]
-    rested, w, state, _ = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f - 0.2, f, *NO_PUSH), 0.002, True)
-    assert w == 0.0 and state[0:2] == (rested[1], rested[1])
+    rested, w, state = mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f - 0.2, f), 0.002, True)
+    assert w == 0.0 and state == (rested[1], rested[1])
     np.testing.assert_array_equal(rested, mix(odo, inertial, 1.0, 0.0, 1.0, x, p))
-    assert mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f - 0.2, f, *NO_PUSH), 0.002)[1] > 0.99
+    assert mix_checked(odo, inertial, 1.0, 0.0, 1.0, x, p, (f - 0.2, f), 0.002)[1] > 0.99  # not resting
     # Below the anchor utilisation both restart from the estimate.
     slow = [0.5, 0.5, 0.5, 0.5]
     x = np.array([0.5, -0.01, 0.5, 0.0, 0.25])
-    state = (-0.3, 0.2, *NO_PUSH)
-    out, _, state, _ = mix_checked(slow, [0.5, -0.01, 0.5, 0.0, 0.25], 1.0, 1.0, 1.0, x, p, state, 0.002)
-    assert state[0:2] == (out[1], out[1])
+    out, _, state = mix_checked(slow, [0.5, -0.01, 0.5, 0.0, 0.25], 1.0, 1.0, 1.0, x, p, (-0.3, 0.2), 0.002)
+    assert state == (out[1], out[1])
 
 
 def test_tyre_model_check_on_a_floor_with_less_grip():
@@ -1021,99 +1017,3 @@ def test_tyre_model_check_on_a_floor_with_less_grip():
     assert np.max(a["tyre_model_weight"]) == 0.0
     for key in ("est_x", "est_y", "est_v_n", "true_x"):
         np.testing.assert_array_equal(a[key], b[key], err_msg=key)
-
-
-# --- a push from the side: S(17)'s v_n follows the kinematics (lateral_push_step) -----------------------
-
-
-def test_lateral_push_step_by_hand():
-    """A straight at 1 m/s (no lateral demand), S(17) holding v_n = r = 0, the kinematics gaining 1.8
-    m/s^2 sideways: L_k = q (L_k-1 + T_N 1.8) from L_0 = 0 passes 0.025 + 0.015 * 1 m/s at sample n, the
-    push is confirmed PUSH_CONFIRM_SAMPLES later and v_n = P = L from then; P follows the kinematics,
-    P_k = q_r (P_k-1 + increment) towards r = 0, and is released when the kinematics bring it back within
-    the bound. The same kinematics in a turn that asks 2 m/s^2 of the tyres, with an inertial channel
-    excluded, or with push_threshold = inf: never pushed."""
-    p, T = MixingParameters(), 0.002
-    q, q_r = math.exp(-T / p.push_time_constant), math.exp(-T / p.push_release_time_constant)
-    bound = p.push_threshold + p.push_per_speed * 1.0
-    L, n = 0.0, 0
-    while L <= bound:
-        L, n = q * (L + T * 1.8), n + 1
-    state, pushed_at, v_n = NO_PUSH, None, []
-    for k in range(n + 40):
-        state, out, pushed = lateral_push_step(state, 1.0, 0.0, 0.0, 0.0, T * 1.8, p, T)
-        v_n.append(out)
-        if pushed and pushed_at is None:
-            pushed_at = k
-    assert pushed_at == n + PUSH_CONFIRM_SAMPLES - 1  # sample 0 starts L at v_n
-    L_n4 = q * (1 - q ** (n + 4)) / (1 - q) * T * 1.8
-    assert v_n[pushed_at] == pytest.approx(L_n4, rel=1e-12) and v_n[pushed_at - 1] == 0.0
-    P = v_n[pushed_at]
-    for k in range(pushed_at + 1, n + 40):
-        P = q_r * (P + T * 1.8)
-        assert v_n[k] == pytest.approx(P, rel=1e-12)
-    released = None
-    for k in range(400):  # the push ends: the tyres bring the body back at 3 m/s^2
-        state, out, pushed = lateral_push_step(state, 1.0, 0.0, 0.0, 0.0, -T * 3.0, p, T)
-        if not pushed:
-            released = k
-            break
-    assert released is not None and out == 0.0 and state[3] != state[3]  # NaN: watching again
-    for args in ((1.0, 2.0, 0.0, 0.0, T * 1.8, p, T), (1.0, 0.0, 0.0, 0.0, T * 1.8, p, T, True)):
-        state = NO_PUSH
-        for _ in range(200):
-            state, out, pushed = lateral_push_step(state, *args)
-            assert not pushed and out == 0.0
-    off = dc.replace(p, push_threshold=math.inf)
-    state = NO_PUSH
-    for _ in range(200):
-        state, out, pushed = lateral_push_step(state, 1.0, 0.0, 0.0, 0.0, T * 1.8, off, T)
-        assert not pushed
-
-
-def test_push_keys_take_inf_and_reject_what_is_not_a_bound():
-    """navigation.mixing.push_threshold: .inf switches the push test off, push_demand: .inf runs it at
-    any demand (from YAML too); zero, negative or NaN bounds name the key."""
-    from slipnav.scenarios.config import scenario_from_yaml
-
-    for key in ("push_threshold", "push_demand"):
-        scenario = scenario_from_yaml(
-            "trajectory: {segments: [!Straight {length: 0.5, v_peak: 0.5}]}\n"
-            f"navigation: {{mixing: {{{key}: .inf}}}}\n"
-        )
-        assert getattr(scenario.navigation.mixing, key) == math.inf
-        for bad in (0.0, -1.0, math.nan):
-            with pytest.raises(ValueError, match=rf"mixing.{key}={bad!r} is out of range"):
-                MixingParameters(**{key: bad})
-    with pytest.raises(ValueError, match=r"mixing.push_release_time_constant=inf is out of range"):
-        MixingParameters(push_release_time_constant=math.inf)
-
-
-def test_a_push_from_the_side_is_followed_on_the_closed_loop():
-    """Corner, seed 0, the body pushed to the right at 5 m/s^2 x its mass for 0.5 s from 1 s after the
-    controller starts (the faults benchmark's push, mirrored): the robot slides at up to ~1 m/s
-    sideways. S(17) alone held v_n on its tyre curve (v_n RMS error 0.52 m/s over the second from the
-    push, fused final error 0.54 m, worse than Gyrodometry's 0.40 m); following the kinematics while
-    pushed: 0.09 m/s and 0.17 m. The fault-free run never finds a push: every signal as without."""
-    from slipnav.scenarios.config import with_keys
-    from slipnav.scenarios.metrics import final_position_error
-    from slipnav.systems.faults import FaultEvent
-
-    scenario = load_scenario("corner")
-    clean = run_scenario(scenario, seed=0).arrays
-    start = round(float(clean["start_time"]) + 1.0, 3)
-    push = FaultEvent("body_push", "body_n", start, 0.5, -5.0 * scenario.robot_parameters().mass)
-    figures = {}
-    for label, keys in (("on", {}), ("off", {"navigation.mixing.push_threshold": math.inf})):
-        a = run_scenario(with_keys(scenario, keys), seed=0, faults=[push]).arrays
-        window = (a["t"] >= start) & (a["t"] < start + 1.0)
-        v_n = float(np.sqrt(np.mean((a["est_v_n"][window] - a["true_v_n"][window]) ** 2)))
-        figures[label] = (v_n, final_position_error(a, "est"), final_position_error(a, "gyro"), a)
-    on, off = figures["on"], figures["off"]
-    assert off[0] > 0.4 and on[0] < 0.15
-    assert off[1] > off[2] and on[1] < 0.5 * on[2]  # now well inside Gyrodometry's error
-    assert 0 < np.sum(on[3]["lateral_push"]) < 500 and not np.any(off[3]["lateral_push"])
-    unpushed = run_scenario(with_keys(scenario, {"navigation.mixing.push_threshold": math.inf}), seed=0)
-    assert not np.any(clean["lateral_push"])
-    for key in ("est_x", "est_y", "est_v_n", "est_v_t"):
-        np.testing.assert_array_equal(clean[key], unpushed.arrays[key])

@@ -10,6 +10,7 @@ from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.faults import FaultEvent
 from slipnav.systems.perturbation_monitor import (
+    _SLIDE,
     WHEEL_BRAKED,
     WHEEL_DRIVEN,
     PerturbationMonitor,
@@ -85,27 +86,55 @@ def test_yaw_flag_on_a_turn_the_wheels_do_not_make_but_not_on_a_turns_understeer
 
 
 def test_body_flag_on_a_lateral_acceleration_beyond_the_centripetal():
-    rows, _, _ = drive(60, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 2.5))  # bound 1.5 + 0.5 * 1
+    """The lateral test alone (no slide test): beyond 1.5 + 0.5 * 1 m/s^2 flagged, 1.8 not."""
+    lateral = PerturbationParameters(slide_threshold=math.inf)
+    rows, _, _ = drive(60, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 2.5), params=lateral)
     assert rows[-1, 3] == 1
-    rows, _, _ = drive(200, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8))
+    rows, _, _ = drive(200, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8), params=lateral)
     assert not rows.any()
 
 
-def test_body_flag_while_the_navigation_finds_the_body_pushed():
-    """perturbation_step's ``pushed`` (the navigation's lateral_push): body after confirm_samples, as
-    every condition; the wheels and the yaw untouched; it ends with the push."""
-    _, state, theta = drive(300, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 0.0))
-    flags = []
-    for k in range(20):
-        pushed = k < 10
-        state = perturbation_step(
-            state, (1.0, 1.0), theta, (1.0, 0, 0, 0, 0), P, (R, R), B, T_N, pushed=pushed
+def test_body_flag_on_a_side_slip_no_tyre_explains():
+    """The slide test by hand: on a straight (no lateral demand) at 1 m/s, a_n = 1.8 m/s^2 with the
+    estimate's v_n at 0 (below the lateral bound 1.5 + 0.5 * 1) integrates to
+    L_k = q (L_k-1 + T_N a_n), q = exp(-T_N / 0.1), from L_0 = 0: L passes the bound 0.025 + 0.015 * 1
+    m/s at sample n, the flag 4 samples later (5 confirmed). The same a_n - v_t omega in a turn that
+    asks 2 m/s^2 of the tyres (above slide_demand, 1 m/s^2) is the tyres' own side slip: no flag."""
+    q, bound = math.exp(-T_N / P.slide_time_constant), P.slide_threshold + P.slide_per_speed * 1.0
+    L, n = 0.0, 0
+    while L <= bound:
+        L, n = q * (L + T_N * 1.8), n + 1
+    rows, state, _ = drive(n + 10, (1.0, 1.0), (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8))
+    first = int(np.argmax(rows[:, 3] > 0))
+    assert first == n - 1 + P.confirm_samples and not rows[:, :3].any()
+    L_end = q * (1 - q ** (n + 9)) / (1 - q) * T_N * 1.8  # the first sample starts L at the estimate
+    np.testing.assert_allclose(state[_SLIDE], L_end, rtol=1e-12)
+    turning = (1.0 + 0.5 * B * 2.0, 1.0 - 0.5 * B * 2.0)  # 2 rad/s at 1 m/s: v_t omega = 2 m/s^2
+    rows, _, _ = drive(n + 10, turning, turning, (1.0, 0.0, 2.0, 0.0, 3.8))
+    assert not rows.any()
+
+
+def test_slide_test_keys_take_inf_and_reject_what_is_not_a_bound():
+    """slide_threshold: .inf switches the slide test off, slide_demand: .inf runs it at any demand (from
+    YAML too); zero, negative or NaN bounds name the key; a NaN estimate keeps the held demand."""
+    for key in ("slide_threshold", "slide_demand"):
+        scenario = scenario_from_yaml(
+            "trajectory: {segments: [!Straight {length: 0.5, v_peak: 0.5}]}\n"
+            f"perturbation_monitor: {{{key}: .inf}}\n"
         )
-        theta = [t + 1.0 * T_N / R for t in theta]
-        flags.append(state[-4:])
-    flags = np.array(flags)
-    assert flags[:, 3].tolist() == [0] * 4 + [1] * 6 + [0] * 10
-    assert not flags[:, :3].any()
+        assert getattr(scenario.perturbation_monitor, key) == math.inf
+        for bad in (0.0, -1.0, math.nan):
+            with pytest.raises(ValueError, match=rf"perturbation_monitor.{key}={bad!r} is out of range"):
+                PerturbationParameters(**{key: bad})
+    turning = (1.0 + 0.5 * B * 2.0, 1.0 - 0.5 * B * 2.0)
+    _, state, theta = drive(10, turning, turning, (1.0, 0.0, 2.0, 0.0, 2.0))  # held demand 2 m/s^2
+    held = state[_SLIDE + 1]
+    state = perturbation_step(state, turning, theta, (1.0, 0.0, math.nan, 0.0, 2.0), P, (R, R), B, T_N)
+    np.testing.assert_allclose(state[_SLIDE + 1], held * math.exp(-T_N / P.slide_demand_hold), rtol=1e-12)
+    straight, pushed = (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8)
+    assert drive(60, straight, straight, pushed)[0][-1, 3] == 1
+    off = PerturbationParameters(slide_threshold=math.inf)  # no slide test
+    assert not drive(60, straight, straight, pushed, params=off)[0].any()
 
 
 def test_missing_encoder_samples_hold_the_residual():
@@ -226,8 +255,8 @@ def test_force_test_classifies_sides_and_needs_currents():
 def test_closed_loop_push_on_a_wheel_and_on_the_body_flagged_within_100_ms():
     """Corner: the right wheel pushed with 0.6 x the motor's stall torque (the speed loop absorbs it: no
     speed band is left) and the body pushed backwards at 5 m/s^2 x its mass, each from 2 s: the force
-    balance flags wheel_R driven, and body, within 0.1 s; pushed to either side, the navigation's push
-    test (mixing.lateral_push_step) raises body within 0.1 s."""
+    balance flags wheel_R driven, and body, within 0.1 s; pushed to either side, the slide test flags
+    body within 0.1 s."""
     scenario = load_scenario("corner")
     robot = scenario.robot_parameters()
     tau = 0.6 * robot.motor_constant * robot.motor_current_limit
@@ -241,7 +270,7 @@ def test_closed_loop_push_on_a_wheel_and_on_the_body_flagged_within_100_ms():
     caught = body.summary["perturbations"]
     assert 2.0 <= caught["body"]["first_s"] <= 2.1
     assert "wheel_R" not in caught and "wheel_L" not in caught
-    for side in (1.0, -1.0):  # sideways, a push the tyres hold: the navigation's push test
+    for side in (1.0, -1.0):  # sideways, a push the tyres hold: the slide test (28-36 ms)
         event = FaultEvent("body_push", "body_n", 2.0, 0.5, side * 5.0 * robot.mass)
         caught = run_scenario(scenario, seed=1, faults=[event]).summary["perturbations"]
         assert set(caught) == {"body"} and 2.0 <= caught["body"]["first_s"] <= 2.1

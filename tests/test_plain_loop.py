@@ -83,19 +83,6 @@ def test_diagram_equals_plain_loop_where_the_tyre_model_check_opens():
     assert np.max(a["tyre_model_weight"]) > 0.5
 
 
-def test_diagram_equals_plain_loop_while_the_body_is_pushed_from_the_side():
-    """Corner, the body pushed to the right from 2 s: the VelocityMixer's push test (its state) finds
-    it and v_n follows the kinematics; the perturbation monitor reads the flag."""
-    from slipnav.systems.faults import FaultEvent
-
-    scenario = load_scenario("corner")
-    push = FaultEvent("body_push", "body_n", 2.0, 0.5, -5.0 * scenario.robot_parameters().mass)
-    a = assert_diagram_equals_plain_loop(
-        dc.replace(scenario, faults=[push]), 2.6, {}, {"faults": [push]}, seed=1
-    )
-    assert np.sum(a["lateral_push"]) > 50 and np.sum(a["perturbation_body"]) > 50
-
-
 def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes, seed=7):
     """The run's artifact arrays after comparing every plain-loop signal with the diagram's."""
     name = scenario.name
