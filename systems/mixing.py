@@ -418,15 +418,17 @@ GATE_DEAD_ZONE = 1.0
 
 
 def free_side_slip_step(
-    predicted: float, v_n: float, utilisation: float, p: MixingParameters, T_N: float
-) -> float:
-    """The free integral of the lateral kinematics after sample k: ``predicted`` (the previous one plus
-    the EKF's v_n increment ^I v_n - v_n,k-1, i.e. the integral of a_n - omega v_t) anchored to the
-    mixed ``v_n`` while the tyres' lateral ``utilisation`` |a_n| / a_peak is below free_side_slip_anchor,
-    else relaxed towards it with free_side_slip_time_constant (which bounds the integral's drift)."""
+    predicted: float, curve: float, v_n: float, utilisation: float, p: MixingParameters, T_N: float
+) -> tuple[float, float]:
+    """The tyre-model check's state (F, S) after sample k. ``predicted``: the free integral of the
+    lateral kinematics carried to this sample (the previous one plus the EKF's v_n increment
+    ^I v_n - v_n,k-1, i.e. the integral of a_n - omega v_t); ``curve``: the tyre curve's own side slip.
+    While the tyres' lateral ``utilisation`` |a_n| / a_peak is below free_side_slip_anchor both are
+    anchored to the mixed ``v_n``; else F relaxes towards it with free_side_slip_time_constant (which
+    bounds the integral's drift) and S is ``curve``."""
     if utilisation < p.free_side_slip_anchor:
-        return v_n
-    return predicted + (T_N / p.free_side_slip_time_constant) * (v_n - predicted)
+        return v_n, v_n
+    return predicted + (T_N / p.free_side_slip_time_constant) * (v_n - predicted), curve
 
 
 def mix_checked(
@@ -486,10 +488,7 @@ def mix_checked(
     next_state = None
     if check_state is not None:
         lateral = abs(inertial[4]) / p.tyre_peak_acceleration
-        if inertial_fault or lateral < p.free_side_slip_anchor:
-            next_state = (v_n, v_n)
-        else:
-            next_state = (free_side_slip_step(free, v_n, lateral, p, T_N), curve)
+        next_state = (v_n, v_n) if inertial_fault else free_side_slip_step(free, curve, v_n, lateral, p, T_N)
     return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
 
 

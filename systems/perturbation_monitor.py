@@ -129,13 +129,17 @@ class PerturbationParameters:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed (0, inf)")
-        for name in ("force_threshold", "slide_threshold", "slide_demand"):
+        for name in ("force_threshold", "slide_threshold", "slide_demand"):  # inf allowed
             value = getattr(self, name)
-            if not value > 0.0 or math.isnan(value):
+            if not value > 0.0:  # also rejects NaN
                 raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed (0, inf]")
-        fractions = ("speed_fraction", "yaw_fraction", "lateral_per_speed", "slide_per_speed")
-        fractions += ("force_fraction",)
-        for name in fractions:
+        for name in (
+            "speed_fraction",
+            "yaw_fraction",
+            "lateral_per_speed",
+            "slide_per_speed",
+            "force_fraction",
+        ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed [0, inf)")
@@ -223,13 +227,13 @@ def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float)
     return [0.5 * (along + yaw), 0.5 * (along - yaw)]
 
 
-def slide_step(s, v_t: float, v_n: float, omega: float, a_n: float, params, T_N: float) -> bool:
+def slide_step(s, v_t: float, v_n: float, centripetal: float, a_n: float, params, T_N: float) -> bool:
     """Update the slide test's state in ``s`` (L and the held demand; module docstring, 3.) and return
-    whether the side slip is one no tyre explains."""
-    demand = abs(v_t * omega)
+    whether the side slip is one no tyre explains (``centripetal``: v_t omega, the turn's demand)."""
+    demand = abs(centripetal)
     held = math.exp(-T_N / params.slide_demand_hold) * s[_DEMAND]
     s[_DEMAND] = max(demand, held) if math.isfinite(demand) else held  # a NaN sample keeps the peak
-    L = s[_SLIDE] + T_N * (a_n - v_t * omega)
+    L = s[_SLIDE] + T_N * (a_n - centripetal)
     if not math.isfinite(L):  # the first sample
         L = v_n
     s[_SLIDE] = v_n + math.exp(-T_N / params.slide_time_constant) * (L - v_n)
@@ -317,10 +321,11 @@ def perturbation_step(
     omega_wheels = (expected[0] - expected[1]) / track_width
     v_t, omega, a_n = float(estimate[0]), float(estimate[2]), float(estimate[4])
     s[_YAW] = a * s[_YAW] + (1.0 - a) * (omega - omega_wheels)
-    s[_LAT] = a * s[_LAT] + (1.0 - a) * (a_n - v_t * omega)
+    centripetal = v_t * omega
+    s[_LAT] = a * s[_LAT] + (1.0 - a) * (a_n - centripetal)
     yaw_bound = params.yaw_threshold + params.yaw_fraction * abs(omega_wheels)
     lateral_bound = params.lateral_threshold + params.lateral_per_speed * abs(v_t)
-    slide = slide_step(s, v_t, float(estimate[1]), omega, a_n, params, T_N)
+    slide = slide_step(s, v_t, float(estimate[1]), centripetal, a_n, params, T_N)
     conditions = (
         outside[0],
         outside[1],

@@ -924,9 +924,11 @@ def test_tyre_model_check_weight_by_hand():
     assert tyre_model_check(-1.0, 0.0, v, dc.replace(p, tyre_model_gate_deg=math.inf)) == 0.0
     assert tyre_model_check(-1.0, 0.0, v, dc.replace(p, tyre_peak_acceleration=math.inf)) == 0.0  # no curve
     assert tyre_model_check(-1.0, 0.0, 0.0, dc.replace(p, tyre_reference_speed=0.0)) == 0.0  # at rest
-    # The free integral: anchored to the estimate below the anchor utilisation, else relaxed by T_N/tau.
-    assert free_side_slip_step(-0.3, -0.1, 0.19, p, 0.002) == -0.1
-    assert free_side_slip_step(-0.3, -0.1, 0.21, p, 0.002) == pytest.approx(-0.3 + 0.008 * 0.2, rel=1e-12)
+    # The free integral and the curve's side slip: both anchored to the estimate below the anchor
+    # utilisation, else the integral relaxed by T_N/tau and the curve's own.
+    assert free_side_slip_step(-0.3, 0.2, -0.1, 0.19, p, 0.002) == (-0.1, -0.1)
+    free, curve = free_side_slip_step(-0.3, 0.2, -0.1, 0.21, p, 0.002)
+    assert free == pytest.approx(-0.3 + 0.008 * 0.2, rel=1e-12) and curve == 0.2
 
 
 def test_the_free_integral_outweighs_a_tyre_curve_the_body_slides_past():
