@@ -12,8 +12,19 @@ from pydrake.systems.primitives import LogVectorOutput
 from slipnav.diagrams.split import split_port
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from slipnav.systems.gyrodometry import Gyrodometry
-from slipnav.systems.mixing import C2C3_STEP_LAYOUT, MIXER_LAYOUT, MixerC1, MixerC2C3, VelocityMixer
-from slipnav.systems.navigation import NavigationInitialState, NavigationParameters, health_geometry
+from slipnav.systems.mixing import (
+    C2C3_STEP_LAYOUT,
+    MIXER_LAYOUT,
+    MixerC1,
+    MixerC2C3,
+    VelocityMixer,
+)
+from slipnav.systems.navigation import (
+    NavigationInitialState,
+    NavigationParameters,
+    check_slide_onset,
+    health_geometry,
+)
 from slipnav.systems.odometry import ODOMETRY_STEP_LAYOUT, Odometry
 from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import PoseIntegrator
@@ -31,6 +42,7 @@ NAVIGATION_OUTPUTS = (
     "side_slip_angle",
     "track_speed",
     "C1",
+    "slide_onset",
     "C2_C3",
     "tyre_model_check",
     "delta_v",
@@ -81,6 +93,7 @@ def build_navigation_diagram(
         - side_slip_angle
         - track_speed
         - C1
+        - slide_onset
         - C2_C3
         - tyre_model_check
         - delta_v
@@ -105,6 +118,7 @@ def build_navigation_diagram(
         return b.AddSystem(system)
 
     geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed, robot)
+    check_slide_onset(params.mixing, geometry)
     monitor = add(SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
     b.ExportInput(monitor.GetInputPort("motor_currents"), "motor_currents")
     check = split_port(b, monitor.GetOutputPort("step"), HEALTH_STEP_LAYOUT, "Sensor checks' signals")
@@ -125,7 +139,10 @@ def build_navigation_diagram(
     yaw_calibration = add(
         YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
     )
-    mixer_block = add(VelocityMixer(params.mixing, T_N, initial.ekf_state()[1]), "Velocity mixer")
+    mixer_block = add(
+        VelocityMixer(params.mixing, T_N, initial.ekf_state()[1], geometry.accelerometer_position[0]),
+        "Velocity mixer",
+    )
     mixer = split_port(b, mixer_block.GetOutputPort("mixing"), MIXER_LAYOUT, "Velocity mixer's signals")
     sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
     pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
@@ -172,6 +189,7 @@ def build_navigation_diagram(
     b.Connect(c23["C2_C3"], mixer_block.GetInputPort("C2_C3"))
     b.Connect(ekf.GetOutputPort("estimate"), mixer_block.GetInputPort("previous_estimate"))
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
+    b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
     b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
     b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P
     b.Connect(mixer["body_velocity"], sideslip.GetInputPort("body_velocity"))
@@ -185,6 +203,7 @@ def build_navigation_diagram(
     b.ExportOutput(sideslip.GetOutputPort("side_slip_angle"), "side_slip_angle")
     b.ExportOutput(sideslip.GetOutputPort("track_speed"), "track_speed")
     b.ExportOutput(c1.GetOutputPort("C1"), "C1")
+    b.ExportOutput(mixer["slide_onset"], "slide_onset")
     b.ExportOutput(c23["C2_C3"], "C2_C3")
     b.ExportOutput(mixer["tyre_model_check"], "tyre_model_check")
     b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")

@@ -506,13 +506,16 @@ INFINITY_ALLOWED = {
     "navigation.mixing.tyre_peak_acceleration",
     "navigation.mixing.gyro_turn_rate",
     "navigation.mixing.tyre_model_gate_deg",
+    "navigation.mixing.slide_onset_jump",
     "navigation.gyro_bias.averaging_time",
+    "navigation.health.stuck_braking_deceleration",
     "perturbation_monitor.force_threshold",
     "perturbation_monitor.slide_threshold",
     "perturbation_monitor.slide_demand",
 }
-"""Float keys where .inf means something (no tyre curve; no gyro turn rule; no tyre-model check; a
-never-forgetting average; no force test; no slide test; a slide test at any demand)."""
+"""Float keys where .inf means something (no tyre curve; no gyro turn rule; no tyre-model check; no
+slide-onset test; a never-forgetting average; a stuck test at any braking; no force test; no slide test; a
+slide test at any demand)."""
 
 
 def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:

@@ -722,6 +722,7 @@ def collect_navigation(a: dict, data) -> None:
     a["est_alpha"] = data("nav_side_slip_angle")[0]
     a["est_track_speed"] = data("nav_track_speed")[0]
     a["C1"] = data("nav_C1")[0]
+    a["slide_onset"] = data("nav_slide_onset")[0]
     c23 = data("nav_C2_C3")
     a["C2"], a["C3"] = c23[0], c23[1]
     check = data("nav_tyre_model_check")

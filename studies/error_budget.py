@@ -86,7 +86,7 @@ class OracleNavigationLoop(NavigationLoop):
         if self._side_slip is not None and self._side_slip[self.k]:
             c2 = 0.0
         if self._slipping is not None:
-            self.c1 = 0.0 if self._slipping[self.k] else 1.0
+            self.c1 = self.c1_mixed = 0.0 if self._slipping[self.k] else 1.0
         mixed = super().velocity_mix(odo, inertial, c2, c3, previous)
         if self._true_v_t is not None:
             mixed[0] = self._true_v_t[self.k]

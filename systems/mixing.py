@@ -117,6 +117,23 @@ class MixingParameters:
         hold_at_rest: while neither wheel turned (wheels_at_rest), S(17)'s v_n is scaled by 1 - C1: tyres
             that hold the body by static friction hold it sideways too, and the inertial branch does not
             integrate the a_n bias at a standstill (mix). False: S(17) as while rolling.
+        slide_onset_jump: the per-sample wheel-speed test (slide_onset_step): when the odometric v_t
+            changes in one T_N by more than this (m/s) beyond what ^I a_t T_N allows, the wheels have
+            left the body (a lock or a spin: 0.05 m/s in 2 ms is 25 m/s^2, four times the tyres' peak),
+            and S(15) takes v_t from the inertial estimate alone (C1 = 0) from this sample on, while
+            S(11)'s batch of T_C still fills. inf (default): off, S(12)'s C1 alone. 0.05 suits Tinyphoon
+            (6.5 of its 7.7 mm/s encoder quanta per sample; README, Navigation: why it is not the
+            default yet); at least 3 quanta (check_slide_onset).
+        slide_onset_release: the test releases when the odometric v_t has agreed with ^I v_t within
+            this (m/s) for slide_onset_release_samples samples in a row: 0.03.
+        slide_onset_release_samples: 5 (10 ms).
+        slide_onset_max_time: the test releases after this long (s) whatever the agreement, which
+            bounds the inertial v_t's drift (the accelerometers' bias and scale): 0.5.
+        slide_onset_pair_tolerance: the test trusts the accelerometers only while their two t axes
+            agree within this (m/s^2) beyond the centripetal difference 2 omega^2 x of S(3)
+            (accelerometer_pair_disagreement; 1.5, 3.5 sigma of their noise and commotion at 2 m/s): a
+            channel that fails before the sensor checks exclude it (a clipped reading, 60 ms) would
+            otherwise be integrated alone. After the exclusion the replacement agrees by construction.
     """
 
     a1: float = 150.0
@@ -146,6 +163,11 @@ class MixingParameters:
     free_side_slip_time_constant: float = 0.25
     free_side_slip_anchor: float = 0.2
     hold_at_rest: bool = True
+    slide_onset_jump: float = math.inf
+    slide_onset_release: float = 0.03
+    slide_onset_release_samples: int = 5
+    slide_onset_max_time: float = 0.5
+    slide_onset_pair_tolerance: float = 1.5
 
     def __post_init__(self):
         for name in ("a1", "b1", "a2", "b2", "a3", "b3", "tyre_stiffness_factor"):
@@ -197,6 +219,23 @@ class MixingParameters:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed [0, inf)")
+        if not self.slide_onset_jump > 0.0:  # also rejects NaN; inf: no per-sample test
+            raise ValueError(
+                f"mixing.slide_onset_jump={self.slide_onset_jump!r} is out of range: allowed (0, inf] m/s"
+            )
+        for name, unit in (
+            ("slide_onset_release", "m/s"),
+            ("slide_onset_max_time", "s"),
+            ("slide_onset_pair_tolerance", "m/s^2"),
+        ):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf) {unit}")
+        n = self.slide_onset_release_samples
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000:
+            raise ValueError(
+                f"mixing.slide_onset_release_samples={n!r} is out of range: allowed an integer in [1, 1000]"
+            )
 
 
 def logsig(a: float, x: float, b: float) -> float:
@@ -369,6 +408,69 @@ def mixing_utilisation(v_t: float, omega: float, a_t: float, a_n: float, p: Mixi
 def wheels_at_rest(odo) -> bool:
     """Neither wheel turned this sample: the odometric v_t and omega are both exactly 0."""
     return odo[0] == 0.0 and odo[1] == 0.0
+
+
+def accelerometer_pair_disagreement(accelerometers, omega: float, position_x: float) -> float:
+    """|a_t1 - a_t2 + 2 omega^2 x|: how far the two accelerometers' t axes (S(3): at +-(x, y)) disagree
+    beyond their centripetal difference -2 omega^2 x (the angular-acceleration term -2 omega_dot y is
+    left in: it is part of what the tolerance allows). NaN if a reading is not finite."""
+    return abs(accelerometers[0] - accelerometers[2] + 2.0 * omega * omega * position_x)
+
+
+SLIDE_ONSET_INITIAL = (0, -10, math.nan)
+"""slide_onset_step's initial state: released, armed after 10 samples (one Tinyphoon T_C)."""
+
+
+def slide_onset_step(
+    state,
+    odo_v_t: float,
+    inertial_v_t: float,
+    inertial_a_t: float,
+    disagreement: float,
+    p: MixingParameters,
+    T_N: float,
+):
+    """The per-sample wheel-speed test that hands S(15)'s v_t to the inertial estimate at a slide's onset
+    (an extension of S(11)-(12): C1 follows S(11)'s batch of T_C, which sees a lock only at the batch's
+    end and falls over three batches, 60 ms in which the mixed v_t follows the locked wheels).
+
+    The test sets when the odometric v_t changes in one sample by more than slide_onset_jump beyond
+    ^I a_t T_N (no body accelerates at that rate: the wheels left it); it holds while the odometric and
+    the inertial v_t disagree, and releases after slide_onset_release_samples samples of agreement within
+    slide_onset_release, after slide_onset_max_time, or at once while the accelerometers disagree with
+    each other by slide_onset_pair_tolerance or more (``disagreement``,
+    accelerometer_pair_disagreement; NaN counts as disagreeing). A non-finite odometric v_t (an encoder
+    the sensor checks could not replace) neither sets nor releases it.
+
+    Args:
+        state: (count, age, previous odometric v_t): count 0 released, else 1 + samples of agreement
+            so far; age the samples since it set, or, negative while released, the samples until the
+            test arms (SLIDE_ONSET_INITIAL: the odometry's first speeds span an unknown previous angle,
+            and the EKF's v_t reaches the odometry's through C1 within one T_C).
+
+    Returns:
+        (next state, True while set: C1 = 0 in S(15) for this sample)
+    """
+    count, age, previous = state
+    if count == 0 and age < 0:  # arming
+        return (0, age + 1, odo_v_t), False
+    if not disagreement < p.slide_onset_pair_tolerance:
+        return (0, 0, odo_v_t), False
+    if not math.isfinite(odo_v_t):
+        return (count, age, previous), count > 0
+    if count == 0:
+        if abs(odo_v_t - previous - inertial_a_t * T_N) > p.slide_onset_jump:  # False for NaN previous
+            count, age = 1, 0
+        else:
+            return (0, 0, odo_v_t), False
+    if abs(odo_v_t - inertial_v_t) < p.slide_onset_release:
+        count = 0 if count >= p.slide_onset_release_samples else count + 1
+    else:
+        count = 1
+    age += 1
+    if age * T_N > p.slide_onset_max_time:
+        count = 0
+    return (count, age if count else 0, odo_v_t), count > 0
 
 
 def mixing_gain(
@@ -563,7 +665,14 @@ class MixerC1(LeafSystem):
 
 C2C3_STEP_LAYOUT = (("C2_C3", 2), ("C3_filters", 2))
 """MixerC2C3's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
-MIXER_LAYOUT = (("mixed_estimate", 5), ("body_velocity", 3), ("mixing_gain", 2), ("tyre_model_check", 3))
+MIXER_LAYOUT = (
+    ("mixed_estimate", 5),
+    ("body_velocity", 3),
+    ("mixing_gain", 2),
+    ("tyre_model_check", 3),
+    ("slide_onset", 1),
+    ("slide_onset_state", 3),
+)
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
@@ -614,8 +723,9 @@ class MixerC2C3(LeafSystem):
 
 
 class VelocityMixer(LeafSystem):
-    """Velocity mixer S(15)-(17) with the tyre-model check (mix_checked); its output is the navigation
-    estimate and the EKF's next state.
+    """Velocity mixer S(15)-(17) with the tyre-model check (mix_checked) and the per-sample slide-onset
+    test (slide_onset_step: while it holds, S(15) takes C1 = 0); its output is the navigation estimate
+    and the EKF's next state.
 
     .. pydrake_system::
 
@@ -627,46 +737,68 @@ class VelocityMixer(LeafSystem):
         - C2_C3
         - previous_estimate
         - inertial_fault
+        - accelerometers
         output_ports:
         - mixing
 
     - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 and the tyre
       model's previous value in S(17).
     - inertial_fault: 1 while the sensor checks exclude an inertial channel (the check rests, mix_checked).
+    - accelerometers: the checked (and corrected) [a_t1, a_n1, a_t2, a_n2] the EKF reads: the slide-onset
+      test trusts the inertial v_t only while the pair agrees (accelerometer_pair_disagreement, with
+      ^I omega).
     - mixing (direct feedthrough), in MIXER_LAYOUT's order: mixed_estimate [v_t, v_n, omega, ^I a_t,
       ^I a_n]; body_velocity [v_t, v_n, omega] for pose integration and the side-slip angle; mixing_gain
-      [C1, w_n] (mixing_gain), the weights of odometry and the tyre model, for the EKF's P;
-      tyre_model_check [w, F_k, S_k], the free integral's weight (tyre_model_check), the free integral
-      and the tyre curve's own side slip after this sample (mix_checked). One vector, one Python call
-      per sample; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+      [C1, w_n] (mixing_gain; C1 = 0 while the slide-onset test holds), the weights of odometry and the
+      tyre model, for the EKF's P; tyre_model_check [w, F_k, S_k], the free integral's weight
+      (tyre_model_check), the free integral and the tyre curve's own side slip after this sample
+      (mix_checked); slide_onset, 1 while the test holds; slide_onset_state, the test's state after this
+      sample. One vector, one Python call per sample; the navigation diagram slices it with a
+      Demultiplexer (diagrams/split.py).
 
-    Update every T_N: F and S (state).
+    Update every T_N: F and S, and the slide-onset test's state (state, from SLIDE_ONSET_INITIAL).
 
     Args:
         params: MixingParameters. T_N: navigation period (s). initial_v_n: F_-1 = S_-1, the initial
-            estimate's v_n (m/s).
+            estimate's v_n (m/s). accelerometer_x: the x of accelerometer 1's nominal position (m; S(3)).
     """
 
-    def __init__(self, params: MixingParameters, T_N: float, initial_v_n: float = 0.0):
+    def __init__(
+        self, params: MixingParameters, T_N: float, initial_v_n: float = 0.0, accelerometer_x: float = 0.02
+    ):
         super().__init__()
-        self._p, self._T_N = params, T_N
+        self._p, self._T_N, self._x = params, T_N, accelerometer_x
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._c23 = self.DeclareVectorInputPort("C2_C3", 2)
         self._prev = self.DeclareVectorInputPort("previous_estimate", 5)
         self._fault = self.DeclareVectorInputPort("inertial_fault", 1)
+        self._acc = self.DeclareVectorInputPort("accelerometers", 4)
         self._check = self.DeclareDiscreteState([initial_v_n, initial_v_n])
-        self._mixing = self.DeclareVectorOutputPort("mixing", 13, self._calc)
+        self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
+        self._mixing = self.DeclareVectorOutputPort("mixing", 17, self._calc)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc(self, context, output):
         c2, c3 = self._c23.Eval(context).tolist()
-        c1 = float(self._c1.Eval(context)[0])
         odo = self._odo.Eval(context).tolist()
+        inertial = self._inertial.Eval(context).tolist()
+        count, age, previous = context.get_discrete_state(self._onset_state).get_value().tolist()
+        disagreement = accelerometer_pair_disagreement(self._acc.Eval(context).tolist(), inertial[2], self._x)
+        onset_state, onset = slide_onset_step(
+            (int(count), int(age), previous),
+            odo[0],
+            inertial[0],
+            inertial[3],
+            disagreement,
+            self._p,
+            self._T_N,
+        )
+        c1 = 0.0 if onset else float(self._c1.Eval(context)[0])
         mixed, check, state = mix_checked(
             odo,
-            self._inertial.Eval(context).tolist(),
+            inertial,
             c1,
             c2,
             c3,
@@ -677,7 +809,11 @@ class VelocityMixer(LeafSystem):
             self._fault.Eval(context)[0] > 0.5,
         )
         gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo), check)
-        output.SetFromVector([*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state])
+        output.SetFromVector(
+            [*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state, 1.0 if onset else 0.0, *onset_state]
+        )
 
     def _update(self, context, discrete_state):
-        discrete_state.set_value(self._check, self._mixing.Eval(context)[11:13])
+        mixing = self._mixing.Eval(context)
+        discrete_state.set_value(self._check, mixing[11:13])
+        discrete_state.set_value(self._onset_state, mixing[14:17])

@@ -37,7 +37,9 @@ from slipnav.systems.ekf import (
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
+    SLIDE_ONSET_INITIAL,
     MixingParameters,
+    accelerometer_pair_disagreement,
     c3_residual,
     c3_turn_rate,
     mix_checked,
@@ -45,6 +47,7 @@ from slipnav.systems.mixing import (
     mixing_c2,
     mixing_c3,
     mixing_gain,
+    slide_onset_step,
     wheels_at_rest,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
@@ -110,12 +113,29 @@ class NavigationInitialState:
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
-    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 tyre_model_weight free_v_n delta_v odo_v_t "
-    "odo_omega fault est_gyro_bias"
+    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 slide_onset tyre_model_weight free_v_n delta_v "
+    "odo_v_t odo_omega fault est_gyro_bias"
 ).split() + [f"health_{channel}" for channel in SENSOR_CHANNELS]
 
 DEFAULT_WHEEL_SPEED_BOUND = 10.0
 """Plausible wheel speed (m/s) when neither the health parameters nor the robot give one."""
+
+
+SLIDE_ONSET_MIN_QUANTA = 3.0
+"""The per-sample slide-onset test's threshold must exceed this many encoder counts of the 2 ms odometric
+speed (one count, r dtheta / T_N, would set it at every flicker)."""
+
+
+def check_slide_onset(mixing: MixingParameters, geometry: HealthGeometry) -> None:
+    """Raise ValueError when mixing.slide_onset_jump is within SLIDE_ONSET_MIN_QUANTA encoder counts of one
+    sample's odometric speed (the larger wheel's), naming the allowed range."""
+    quantum = max(geometry.radius_R, geometry.radius_L) * geometry.encoder_step / geometry.T_N
+    if mixing.slide_onset_jump < SLIDE_ONSET_MIN_QUANTA * quantum:
+        raise ValueError(
+            f"mixing.slide_onset_jump={mixing.slide_onset_jump!r} is out of range for these encoders "
+            f"(one count is {quantum:.4g} m/s in a sample): allowed [{SLIDE_ONSET_MIN_QUANTA * quantum:.4g}, "
+            "inf] m/s (inf: no per-sample test)"
+        )
 
 
 def health_geometry(
@@ -176,6 +196,7 @@ class NavigationLoop:
         identity = calibration is None or calibration.validate().is_identity()
         self.sensor_calibration = None if identity else calibration
         self.geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed, robot)
+        check_slide_onset(params.mixing, self.geometry)
         self.health = health_initial_state(self.geometry, initial.speed)
         self.health_constants = health_constants(params.health, self.geometry)
         self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
@@ -195,16 +216,18 @@ class NavigationLoop:
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state, self.tyre_model_weight = (float(self.x[1]),) * 2, 0.0  # mix_checked's
         self.inertial_fault = False
+        self.slide_onset_state, self.slide_onset = SLIDE_ONSET_INITIAL, False
         self.k = 0
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
-        """S(15)-(17) at sample ``self.k`` with the C1 in force and the tyre-model check (mix_checked,
+        """S(15)-(17) at sample ``self.k`` with the C1 in force (``c1_mixed``: 0 during a slide onset) and
+        the tyre-model check (mix_checked,
         which updates ``tyre_model_state`` and ``tyre_model_weight``); ``previous`` is the EKF state x_k-1
         (studies/error_budget.py overrides this to feed oracle inputs)."""
         mixed, self.tyre_model_weight, self.tyre_model_state = mix_checked(
             odo,
             inertial,
-            self.c1,
+            self.c1_mixed,
             c2,
             c3,
             previous,
@@ -249,6 +272,13 @@ class NavigationLoop:
         residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
         turn = c3_turn_rate(self.c3_turn_rate, inertial[2], mp, T_N)
         c3 = mixing_c3(residual, mp, turn)
+        disagreement = accelerometer_pair_disagreement(
+            acc, inertial[2], self.geometry.accelerometer_position[0]
+        )
+        self.slide_onset_state, self.slide_onset = slide_onset_step(
+            self.slide_onset_state, odo[0], inertial[0], inertial[3], disagreement, mp, T_N
+        )
+        self.c1_mixed = 0.0 if self.slide_onset else self.c1
         mixed = self.velocity_mix(odo, inertial, c2, c3, x)
         row = (
             *self.pose,
@@ -260,6 +290,7 @@ class NavigationLoop:
             self.c1,
             c2,
             c3,
+            1.0 if self.slide_onset else 0.0,
             self.tyre_model_weight,
             self.tyre_model_state[0],
             self.dv_held,
@@ -270,7 +301,7 @@ class NavigationLoop:
             *codes,
         )
         self.x = mixed
-        gain = mixing_gain(mixed, self.c1, c2, mp, wheels_at_rest(odo), self.tyre_model_weight)
+        gain = mixing_gain(mixed, self.c1_mixed, c2, mp, wheels_at_rest(odo), self.tyre_model_weight)
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)

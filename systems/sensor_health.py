@@ -13,7 +13,9 @@ Checks (health codes, 0 = healthy):
    repeat practically impossible; a real ADC's quantum is stuck_tolerance); an encoder whose count stands
    still for stuck_samples while the other wheel and the gyro say it turns faster than
    stuck_min_speed + stuck_speed_fraction |v_other| (v_pred = v_other +- b omega: a wheel held by hand,
-   about which the robot pivots on rolling tyres, is not flagged).
+   about which the robot pivots on rolling tyres, is not flagged), counted only while the body does not
+   brake against that wheel's motion harder than stuck_braking_deceleration (a hard braking locks a wheel
+   honestly).
 4. ``jump``: the innovation test of S(2)'s prediction of omega and a (random walks: the prediction is
    the last accepted value) against what the robot can do in one sample (gyro_max_step,
    accel_max_step); an encoder increment implying a wheel speed beyond max_wheel_speed, or a change of
@@ -86,6 +88,11 @@ class SensorHealthParameters:
         stuck_tolerance: an analog change at most this large is a repeat (a real ADC's quantum).
         stuck_min_speed, stuck_speed_fraction: an encoder is stuck when it stands still while v_pred
             exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (m/s, 1).
+        stuck_braking_deceleration: no still count starts while the healthy accelerometers' mean a_t
+            opposes that wheel's predicted motion by more than this (m/s^2): a hard braking locks a
+            wheel while the other still turns (the square at 5.8 m/s^2, one wheel commanded to a stop),
+            and its honest standstill reads like a frozen counter. 3.0: above the built-ins' driving
+            decelerations outside such slides (drag 0.5-1, slip control's steps); inf: never.
         gyro_max_step: largest plausible change of the gyro in one sample (rad/s).
         accel_max_step: the same for an accelerometer axis (m/s^2).
         max_wheel_speed: largest plausible circumferential wheel speed (m/s); 1.5 x the motors' no-load
@@ -112,6 +119,7 @@ class SensorHealthParameters:
     stuck_tolerance: float = 0.0
     stuck_min_speed: float = 0.1
     stuck_speed_fraction: float = 0.3
+    stuck_braking_deceleration: float = 3.0
     gyro_max_step: float = 0.5
     accel_max_step: float = 25.0
     max_wheel_speed: float | None = None
@@ -144,6 +152,9 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
+        value = self.stuck_braking_deceleration
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
+            raise ValueError(f"stuck_braking_deceleration={value!r} is out of range: allowed (0, inf] m/s^2")
 
 
 def _positive(name: str, value) -> None:
@@ -220,7 +231,8 @@ def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.nd
 HealthConstants = collections.namedtuple(
     "HealthConstants",
     "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
-    "stuck_speed_fraction gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
+    "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
+    "accel_consistency "
     "accel_consistency_per_speed consistency_samples max_exclusion_time pair_offset_time_constant "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed "
     "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
@@ -363,10 +375,19 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
         predicted_increment(w, inc[1 - w]) if math.isfinite(inc[1 - w]) and gyro_ok else math.nan
         for w in range(2)
     ]
+    # The body's deceleration from the healthy tangential accelerometers (NaN if neither is).
+    a_body = math.nan
+    if codes[0] == 0 and codes[2] == 0:
+        a_body = 0.5 * (raw[0] + raw[2])
+    elif codes[0] == 0 or codes[2] == 0:
+        a_body = raw[0] if codes[0] == 0 else raw[2]
     for w in range(2):
+        braking = math.isfinite(predicted[w]) and a_body * math.copysign(1.0, predicted[w]) < (
+            -p.stuck_braking_deceleration
+        )
         if inc[w] == 0.0 and e_code[w] == STUCK:
             codes[5 + w] = STUCK  # still stuck
-        elif inc[w] == 0.0 and math.isfinite(predicted[w]):
+        elif inc[w] == 0.0 and math.isfinite(predicted[w]) and not braking:
             still[w] += 1
             pred[w] += predicted[w]
             pred_abs[w] += abs(predicted[w])

@@ -26,6 +26,10 @@ FAULT_EVENTS = [
 ]
 
 
+_SQUARE = load_scenario("square").navigation
+SLIDE_ONSET_ON = dc.replace(_SQUARE, mixing=dc.replace(_SQUARE.mixing, slide_onset_jump=0.05))
+
+
 @pytest.mark.parametrize(
     "name, duration, overrides, changes",
     [
@@ -41,6 +45,8 @@ FAULT_EVENTS = [
         # the checks off (paper mode): a NaN encoder reaches the odometry, which holds, and S(11) skips it
         ("corner", 2.0, {}, {"paper": True, "faults": [FaultEvent("nan", "encoder_L", 1.5, 0.1)]}),
         ("circle", 1.0, {}, {"paper": True}),  # max_speed mode in paper mode
+        # the per-sample slide-onset test on (C1 = 0 in S(15) from a lock's first sample; off by default)
+        ("square", 2.5, {}, {"navigation": SLIDE_ONSET_ON}),
     ],
 )
 def test_closed_loop_diagram_equals_plain_loop(name, duration, overrides, changes):
