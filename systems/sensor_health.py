@@ -15,7 +15,7 @@ Checks (health codes, 0 = healthy):
    stuck_min_speed + stuck_speed_fraction |v_other| (v_pred = v_other +- b omega: a wheel held by hand,
    about which the robot pivots on rolling tyres, is not flagged), counted only while the body does not
    brake against that wheel's motion harder than stuck_braking_deceleration (a hard braking locks a wheel
-   honestly).
+   honestly; inf by default: counted at any braking).
 4. ``jump``: the innovation test of S(2)'s prediction of omega and a (random walks: the prediction is
    the last accepted value) against what the robot can do in one sample (gyro_max_step,
    accel_max_step); an encoder increment implying a wheel speed beyond max_wheel_speed, or a change of
@@ -91,8 +91,10 @@ class SensorHealthParameters:
         stuck_braking_deceleration: no still count starts while the healthy accelerometers' mean a_t
             opposes that wheel's predicted motion by more than this (m/s^2): a hard braking locks a
             wheel while the other still turns (the square at 5.8 m/s^2, one wheel commanded to a stop),
-            and its honest standstill reads like a frozen counter. 3.0: above the built-ins' driving
-            decelerations outside such slides (drag 0.5-1, slip control's steps); inf: never.
+            and its honest standstill reads like a frozen counter. inf (default): the test counts at
+            any braking. 3.0 (above the built-ins' driving decelerations outside such slides: drag
+            0.5-1, slip control's steps) goes with mixing.slide_onset_jump (README, Sensor faults: it
+            costs a counter that freezes in a hard braking, accepted as still until the braking ends).
         gyro_max_step: largest plausible change of the gyro in one sample (rad/s).
         accel_max_step: the same for an accelerometer axis (m/s^2).
         max_wheel_speed: largest plausible circumferential wheel speed (m/s); 1.5 x the motors' no-load
@@ -119,7 +121,7 @@ class SensorHealthParameters:
     stuck_tolerance: float = 0.0
     stuck_min_speed: float = 0.1
     stuck_speed_fraction: float = 0.3
-    stuck_braking_deceleration: float = 3.0
+    stuck_braking_deceleration: float = math.inf
     gyro_max_step: float = 0.5
     accel_max_step: float = 25.0
     max_wheel_speed: float | None = None

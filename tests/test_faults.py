@@ -269,23 +269,23 @@ def test_a_wheel_locked_by_hard_braking_is_not_a_stuck_encoder():
     """At 0.2 m/s the left count stops while the right wheel turns and the gyro reads no pivot: a frozen
     counter (flagged after five samples, test_slowly_stuck_encoder_is_stuck) or a wheel the brakes lock
     while the body slides on (the square's final braking: 5.8 m/s^2, the left wheel commanded to a stop).
-    The accelerometers tell them apart: against a deceleration beyond stuck_braking_deceleration (3 m/s^2)
-    no still count starts; the same standstill at 2.9 m/s^2 is a stuck counter again."""
+    With stuck_braking_deceleration = 3 m/s^2 the accelerometers tell them apart: against a deceleration
+    beyond it no still count starts; the same standstill at 2.9 m/s^2 is a stuck counter again."""
+    on = SensorHealthParameters(stuck_braking_deceleration=3.0)  # the default, inf, counts at any braking
     for deceleration, flagged in ((5.8, False), (2.9, True)):
         rows = stream(400, 0.2, 0.0)
         rows[100:250, 5] = rows[99, 5]
         rows[:, [0, 2]] -= deceleration
-        _, codes = check(rows, v0=0.2)
+        _, codes = check(rows, on, v0=0.2)
         assert bool(codes[104:250, 5].any()) is flagged, deceleration
         assert not codes[:, 0:5].any()
     rows = stream(400, 0.2, 0.0)
     rows[100:250, 5] = rows[99, 5]
     rows[:, [0, 2]] -= 5.8
     rows[100:250, 0] = math.nan  # one accelerometer lost: the other still tells the braking
-    _, codes = check(rows, v0=0.2)
+    _, codes = check(rows, on, v0=0.2)
     assert not codes[104:250, 5].any()  # (the synthetic count resumes with a lump at 250: a jump)
-    off = SensorHealthParameters(stuck_braking_deceleration=math.inf)
-    assert np.all(check(rows, off, v0=0.2)[1][104:250, 5] == STUCK)
+    assert np.all(check(rows, v0=0.2)[1][104:250, 5] == STUCK)  # the default
     for bad in (0.0, -1.0, math.nan, True):
         with pytest.raises(ValueError, match=r"stuck_braking_deceleration=.*allowed \(0, inf\] m/s\^2"):
             SensorHealthParameters(stuck_braking_deceleration=bad)
