@@ -440,7 +440,8 @@ def slide_onset_step(
     slide_onset_release, after slide_onset_max_time, or at once while the accelerometers disagree with
     each other by slide_onset_pair_tolerance or more (``disagreement``,
     accelerometer_pair_disagreement; NaN counts as disagreeing). A non-finite odometric v_t (an encoder
-    the sensor checks could not replace) neither sets nor releases it.
+    the sensor checks could not replace) neither sets it nor counts as agreement (the hold ages on), and
+    the next finite one is not tested against it.
 
     Args:
         state: (count, age, previous odometric v_t): count 0 released, else 1 + samples of agreement
@@ -456,8 +457,13 @@ def slide_onset_step(
         return (0, age + 1, odo_v_t), False
     if not disagreement < p.slide_onset_pair_tolerance:
         return (0, 0, odo_v_t), False
-    if not math.isfinite(odo_v_t):
-        return (count, age, previous), count > 0
+    if not math.isfinite(odo_v_t):  # the hold ages on; the next finite speed has no previous one
+        if count == 0:
+            return (0, 0, math.nan), False
+        age += 1
+        if age * T_N > p.slide_onset_max_time:
+            return (0, 0, math.nan), False
+        return (count, age, math.nan), True
     if count == 0:
         if abs(odo_v_t - previous - inertial_a_t * T_N) > p.slide_onset_jump:  # False for NaN previous
             count, age = 1, 0
@@ -763,9 +769,7 @@ class VelocityMixer(LeafSystem):
             estimate's v_n (m/s). accelerometer_x: the x of accelerometer 1's nominal position (m; S(3)).
     """
 
-    def __init__(
-        self, params: MixingParameters, T_N: float, initial_v_n: float = 0.0, accelerometer_x: float = 0.02
-    ):
+    def __init__(self, params: MixingParameters, T_N: float, initial_v_n: float, accelerometer_x: float):
         super().__init__()
         self._p, self._T_N, self._x = params, T_N, accelerometer_x
         self._odo = self.DeclareVectorInputPort("odometry", 4)

@@ -216,7 +216,7 @@ class NavigationLoop:
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state, self.tyre_model_weight = (float(self.x[1]),) * 2, 0.0  # mix_checked's
         self.inertial_fault = False
-        self.slide_onset_state, self.slide_onset = SLIDE_ONSET_INITIAL, False
+        self.slide_onset_state, self.slide_onset, self.c1_mixed = SLIDE_ONSET_INITIAL, False, self.c1
         self.k = 0
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:

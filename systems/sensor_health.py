@@ -88,8 +88,9 @@ class SensorHealthParameters:
         stuck_tolerance: an analog change at most this large is a repeat (a real ADC's quantum).
         stuck_min_speed, stuck_speed_fraction: an encoder is stuck when it stands still while v_pred
             exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (m/s, 1).
-        stuck_braking_deceleration: no still count starts while the healthy accelerometers' mean a_t
-            opposes that wheel's predicted motion by more than this (m/s^2): a hard braking locks a
+        stuck_braking_deceleration: an encoder's still samples count only while the healthy
+            accelerometers' mean a_t does not oppose that wheel's predicted motion by more than this
+            (m/s^2; a braking sample restarts the count): a hard braking locks a
             wheel while the other still turns (the square at 5.8 m/s^2, one wheel commanded to a stop),
             and its honest standstill reads like a frozen counter. inf (default): the test counts at
             any braking. 3.0 (above the built-ins' driving decelerations outside such slides: drag

@@ -270,7 +270,7 @@ def test_a_wheel_locked_by_hard_braking_is_not_a_stuck_encoder():
     counter (flagged after five samples, test_slowly_stuck_encoder_is_stuck) or a wheel the brakes lock
     while the body slides on (the square's final braking: 5.8 m/s^2, the left wheel commanded to a stop).
     With stuck_braking_deceleration = 3 m/s^2 the accelerometers tell them apart: against a deceleration
-    beyond it no still count starts; the same standstill at 2.9 m/s^2 is a stuck counter again."""
+    beyond it no still sample counts; the same standstill at 2.9 m/s^2 is a stuck counter again."""
     on = SensorHealthParameters(stuck_braking_deceleration=3.0)  # the default, inf, counts at any braking
     for deceleration, flagged in ((5.8, False), (2.9, True)):
         rows = stream(400, 0.2, 0.0)

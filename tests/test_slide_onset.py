@@ -72,16 +72,22 @@ def test_the_test_arms_after_ten_samples_and_is_off_at_an_infinite_threshold():
     # The odometry's first speeds span an unknown previous angle (a start at speed reads 0, then 1.5).
     _, flags = run(SLIDE_ONSET_INITIAL, [(0.0, 0.0, 0.0, 0.0)] * 2 + [(1.5, 0.0, 0.0, 0.0)] * 8)
     assert not any(flags)
+    _, flags = run(SLIDE_ONSET_INITIAL, [(1.0, 1.0, 0.0, 0.0)] * 9 + [(0.5, 1.0, 0.0, 0.0)])
+    assert not any(flags)  # a jump at the tenth sample: still arming
     state, flags = run(SLIDE_ONSET_INITIAL, [(1.0, 1.0, 0.0, 0.0)] * 10 + [(0.5, 1.0, 0.0, 0.0)])
-    assert flags[-1]
+    assert flags[-1] and not any(flags[:-1])
     off = MixingParameters()  # the default
     assert not any(run(ARMED, [(0.0, 1.0, 0.0, 0.0), (5.0, 1.0, 0.0, 0.0)], off)[1])
 
 
 def test_a_non_finite_odometric_speed_neither_sets_nor_releases():
-    assert run(ARMED, [(math.nan, 1.0, 0.0, 0.0)]) == (ARMED, [False])
+    state, flags = run(ARMED, [(math.nan, 1.0, 0.0, 0.0), (0.5, 1.0, 0.0, 0.0)])
+    assert flags == [False, False]  # the finite speed after the gap is not tested against the old one
     state, _ = run(ARMED, [(0.8, 1.0, 0.0, 0.0)])
-    assert run(state, [(math.nan, 1.0, 0.0, 0.0)]) == (state, [True])
+    state, flags = run(state, [(math.nan, 1.0, 0.0, 0.0)] * 3)
+    assert all(flags) and state[0] == 1 and state[1] == 4  # held, ageing
+    n = round(P.slide_onset_max_time / T_N)
+    assert not run(state, [(math.nan, 1.0, 0.0, 0.0)] * n)[1][-1]  # the longest time bounds it still
 
 
 def test_pair_disagreement_removes_the_centripetal_difference_of_S3():
@@ -153,6 +159,17 @@ def test_closed_loop_square_braking_slides_keep_the_bodys_speed():
     t = np.arange(len(onset)) * T_N
     for end in (2.2, 4.0, 5.8, 7.6):
         assert np.any(onset[(t > end - 0.3) & (t < end + 0.3)] > 0), end
+
+
+def test_the_diagram_runs_the_test_when_it_is_on():
+    """The closed-loop diagram (run_scenario) with the test on: it holds in the square's first braking
+    (test_closed_loop_diagram_equals_plain_loop shows the diagram equals the plain loop there)."""
+    from slipnav.scenarios.runner import run_scenario
+
+    square = with_keys(load_scenario("square"), {"navigation.mixing.slide_onset_jump": 0.05})
+    a = run_scenario(square, duration=2.5).arrays
+    assert 50 < np.sum(a["slide_onset"]) < 0.5 * len(a["slide_onset"])
+    assert not np.any(run_scenario(load_scenario("square"), duration=2.5).arrays["slide_onset"])
 
 
 def test_slide_onset_parameters_are_checked_at_construction():
