@@ -86,3 +86,11 @@ def test_docs_point_into_the_repository(capsys):
         main(["--help"])
     help_text = capsys.readouterr().out
     assert "docs/design.md" in help_text and "docs/artifacts.md" in help_text
+
+
+def test_schema_doc_names_every_key_where_inf_means_something():
+    from slipnav.scenarios.config import INFINITY_ALLOWED
+
+    header = (DOCS / "scenario-schema.md").read_text().split("## Ranges checked across keys")[0]
+    for key in sorted(INFINITY_ALLOWED):
+        assert f"`{key}`" in header, key
