@@ -140,7 +140,7 @@ def build_navigation_diagram(
         YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
     )
     mixer_block = add(
-        VelocityMixer(params.mixing, T_N, initial.ekf_state()[1], geometry.accelerometer_position[0]),
+        VelocityMixer(params.mixing, T_N, initial.ekf_state()[1], geometry.accelerometer_position),
         "Velocity mixer",
     )
     mixer = split_port(b, mixer_block.GetOutputPort("mixing"), MIXER_LAYOUT, "Velocity mixer's signals")

@@ -23,6 +23,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.rates import pt1_step
+from slipnav.systems.sensor_health import pair_rotational_difference
 
 
 @dc.dataclass
@@ -410,11 +411,12 @@ def wheels_at_rest(odo) -> bool:
     return odo[0] == 0.0 and odo[1] == 0.0
 
 
-def accelerometer_pair_disagreement(accelerometers, omega: float, position_x: float) -> float:
-    """|a_t1 - a_t2 + 2 omega^2 x|: how far the two accelerometers' t axes (S(3): at +-(x, y)) disagree
-    beyond their centripetal difference -2 omega^2 x (the angular-acceleration term -2 omega_dot y is
-    left in: it is part of what the tolerance allows). NaN if a reading is not finite."""
-    return abs(accelerometers[0] - accelerometers[2] + 2.0 * omega * omega * position_x)
+def accelerometer_pair_disagreement(accelerometers, omega: float, position) -> float:
+    """|a_t1 - a_t2 - (-2 omega^2 x)|: how far the two accelerometers' t axes (S(3): at +-(x, y))
+    disagree beyond their centripetal difference (sensor_health.pair_rotational_difference; the
+    angular-acceleration term -2 omega_dot y is left in: it is part of what the tolerance allows). NaN if
+    a reading is not finite."""
+    return abs(accelerometers[0] - accelerometers[2] - pair_rotational_difference(omega, position)[0])
 
 
 SLIDE_ONSET_INITIAL = (0, -10, math.nan)
@@ -766,12 +768,13 @@ class VelocityMixer(LeafSystem):
 
     Args:
         params: MixingParameters. T_N: navigation period (s). initial_v_n: F_-1 = S_-1, the initial
-            estimate's v_n (m/s). accelerometer_x: the x of accelerometer 1's nominal position (m; S(3)).
+            estimate's v_n (m/s). accelerometer_position: accelerometer 1's nominal (x, y) (m; S(3)).
     """
 
-    def __init__(self, params: MixingParameters, T_N: float, initial_v_n: float, accelerometer_x: float):
+    def __init__(self, params: MixingParameters, T_N: float, initial_v_n: float, accelerometer_position):
         super().__init__()
-        self._p, self._T_N, self._x = params, T_N, accelerometer_x
+        self._p, self._T_N = params, T_N
+        self._position = (float(accelerometer_position[0]), float(accelerometer_position[1]))
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._c1 = self.DeclareVectorInputPort("C1", 1)
@@ -789,7 +792,9 @@ class VelocityMixer(LeafSystem):
         odo = self._odo.Eval(context).tolist()
         inertial = self._inertial.Eval(context).tolist()
         count, age, previous = context.get_discrete_state(self._onset_state).get_value().tolist()
-        disagreement = accelerometer_pair_disagreement(self._acc.Eval(context).tolist(), inertial[2], self._x)
+        disagreement = accelerometer_pair_disagreement(
+            self._acc.Eval(context).tolist(), inertial[2], self._position
+        )
         onset_state, onset = slide_onset_step(
             (int(count), int(age), previous),
             odo[0],

@@ -272,9 +272,7 @@ class NavigationLoop:
         residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
         turn = c3_turn_rate(self.c3_turn_rate, inertial[2], mp, T_N)
         c3 = mixing_c3(residual, mp, turn)
-        disagreement = accelerometer_pair_disagreement(
-            acc, inertial[2], self.geometry.accelerometer_position[0]
-        )
+        disagreement = accelerometer_pair_disagreement(acc, inertial[2], self.geometry.accelerometer_position)
         self.slide_onset_state, self.slide_onset = slide_onset_step(
             self.slide_onset_state, odo[0], inertial[0], inertial[3], disagreement, mp, T_N
         )

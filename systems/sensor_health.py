@@ -474,7 +474,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             this_sample = math.sqrt(max(w2, 0.0)) if math.isfinite(w2) else 0.0
             omega = math.copysign(max(full_scale, this_sample), raw[4])
     omega_dot = (omega - ref[4]) / g.T_N if math.isfinite(ref[4]) else 0.0
-    rot = (-2.0 * omega * omega * px, -2.0 * omega * omega * py)  # a_1 - a_2 without omega_dot
+    rot = pair_rotational_difference(omega, (px, py))
     # Noisy per sample, but its integral is x omega (exact): the replacements carry it.
     rot_dot = (-2.0 * omega_dot * py, 2.0 * omega_dot * px)
     average, deviation, level = s[_W : _W + 2], s[_W + 4 : _W + 8], s[_W + 8 : _W + 12]
@@ -539,6 +539,14 @@ def _all_in(values, allowed) -> bool:
         if value not in allowed:
             return False
     return True
+
+
+@jitable
+def pair_rotational_difference(omega: float, position) -> tuple:
+    """S(3)'s centripetal difference of the accelerometer pair at +-(x, y), (a_t1 - a_t2, a_n1 - a_n2)
+    without the angular-acceleration terms: (-2 omega^2 x, -2 omega^2 y)."""
+    x, y = position
+    return (-2.0 * omega * omega * x, -2.0 * omega * omega * y)
 
 
 @jitable

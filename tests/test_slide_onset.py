@@ -94,14 +94,14 @@ def test_pair_disagreement_removes_the_centripetal_difference_of_S3():
     """S(3): accelerometers at +-(x, y) read a_t -/+ (omega_dot y + omega^2 x)."""
     x, omega, a_t = 0.02, 4.0, -3.0
     acc = [a_t - omega**2 * x, 0.0, a_t + omega**2 * x, 0.0]
-    assert accelerometer_pair_disagreement(acc, omega, x) == pytest.approx(0.0, abs=1e-15)
+    assert accelerometer_pair_disagreement(acc, omega, (x, 0.015)) == pytest.approx(0.0, abs=1e-15)
     acc[0] += 0.7
-    assert accelerometer_pair_disagreement(acc, omega, x) == pytest.approx(0.7)
-    assert math.isnan(accelerometer_pair_disagreement([math.nan, 0.0, 0.0, 0.0], omega, x))
+    assert accelerometer_pair_disagreement(acc, omega, (x, 0.015)) == pytest.approx(0.7)
+    assert math.isnan(accelerometer_pair_disagreement([math.nan, 0.0, 0.0, 0.0], omega, (x, 0.015)))
 
 
 def test_velocity_mixer_runs_the_test_and_takes_v_t_from_the_ekf_while_it_holds():
-    mixer = VelocityMixer(P, T_N, 0.0, 0.02)
+    mixer = VelocityMixer(P, T_N, 0.0, (0.02, 0.015))
     context = mixer.CreateDefaultContext()
     inertial = [0.99, 0.0, 0.5, -5.0, 0.0]
     odo = [0.9, 0.5, 0.0, 0.0]
