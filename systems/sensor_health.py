@@ -46,7 +46,10 @@ encoder's travel missed before the detection is added then; the first increment 
 spans the gap) is never used.
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement, an encoder when
-its increment agrees with v_pred (with no prediction, with its previous increment); either after
+its increments agree with v_pred sample by sample and, summed over a block of
+encoder_readmission_samples, within two counts plus encoder_readmission_fraction of the predicted travel
+(a doubled encoder passes one sample's bound at low speed; with no prediction, one increment agreeing with
+the previous one suffices); either after
 max_exclusion_time if only that test still fails (a persistent new level: the yaw calibration's
 innovation gate judges a gyro bias step from there).
 """
@@ -108,6 +111,14 @@ class SensorHealthParameters:
             path at 4 m/s; Tinyphoon's at 0.39).
         consistency_samples: samples of that average, in [2, 50].
         max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s).
+        encoder_readmission_samples, encoder_readmission_fraction: an excluded encoder is re-admitted
+            only after this many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the
+            prediction from the other wheel and the gyro, and whose summed difference from it stays
+            within two counts plus this fraction (in [0, 1]) of the predicted travel. One sample's bound
+            (max_wheel_acceleration T_N, 0.3 m/s) lets a doubled encoder through below 0.3 m/s; the
+            quantisation telescopes over the block, a scale error does not (the square's final braking:
+            a x2 encoder re-admitted at 0.33 m/s read v_t 0.15 m/s fast). 0.2: well above the
+            differential slip of the built-ins' turns.
         pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
             the rotational terms (their bias and misalignment difference), learned while both and the gyro
             are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
@@ -132,6 +143,8 @@ class SensorHealthParameters:
     consistency_samples: int = 15
     max_exclusion_time: float = 1.0
     pair_offset_time_constant: float = 1.0
+    encoder_readmission_samples: int = 10
+    encoder_readmission_fraction: float = 0.2
 
     def __post_init__(self):
         for name in (
@@ -151,6 +164,14 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
+        value = self.encoder_readmission_samples
+        if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
+            raise ValueError(
+                f"encoder_readmission_samples={value!r} is out of range: allowed integers in [1, 50]"
+            )
+        value = self.encoder_readmission_fraction
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
+            raise ValueError(f"encoder_readmission_fraction={value!r} is out of range: allowed [0, 1]")
         for name in ("stuck_tolerance", "stuck_speed_fraction", "accel_consistency_per_speed"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
@@ -214,11 +235,13 @@ _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E
 # stuck encoder's missed travel (_RESTORED); the previous odometric v,
 # each sensor's averaged deviation from the kinematic reference (t1, n1, t2, n2), each sensor's level
 # before the pair became suspect (t1, n1, t2, n2), the pair's averaged omega^2, the pair's learned offset
-# a_1 - a_2 beyond the rotational terms (t, n).
+# a_1 - a_2 beyond the rotational terms (t, n). Last, per encoder (2 each), the re-admission block:
+# its agreeing samples, their summed difference from the prediction and the predicted travel.
 _W = _E + 20
 _RESTORED = _W + 2
 _OFFSET = _W + 13
-STATE_SIZE = _W + 15
+_R_COUNT, _R_DIFF, _R_TRAVEL = (slice(_W + 15 + 2 * i, _W + 17 + 2 * i) for i in range(3))
+STATE_SIZE = _W + 21
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -237,6 +260,7 @@ HealthConstants = collections.namedtuple(
     "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
     "accel_consistency "
     "accel_consistency_per_speed consistency_samples max_exclusion_time pair_offset_time_constant "
+    "encoder_readmission_samples encoder_readmission_fraction "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed "
     "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
     "shoe_viscous_drag shoe_slip_speed shoe_normal_load",
@@ -258,7 +282,7 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
             value = (float(value[0]), float(value[1]))
         elif name == "enabled":
             value = bool(value)
-        elif name in ("stuck_samples", "consistency_samples"):
+        elif name in ("stuck_samples", "consistency_samples", "encoder_readmission_samples"):
             value = int(value)
         else:
             value = float(value)
@@ -325,6 +349,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
     e_last, e_out, e_inc = s[_E_LAST], s[_E_OUT], s[_E_INC]
     still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
     e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
+    r_count, r_diff, r_travel = s[_R_COUNT], s[_R_DIFF], s[_R_TRAVEL]
     previous_out = [e_last[w] + e_out[w] for w in range(2)]  # e_out: the output less the last raw
 
     def predicted_increment(w: int, other_increment: float) -> float:
@@ -367,7 +392,19 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
         else:  # re-admission: agree with the prediction, else (none) with the last raw increment
             other = inc_candidate[1 - w]
             if math.isfinite(other) and gyro_ok:
-                ok = abs(d - predicted_increment(w, other)) <= bound
+                expected = predicted_increment(w, other)
+                ok = abs(d - expected) <= bound
+                if ok:  # and over a block of samples, where the counts' quantisation telescopes
+                    r_count[w] += 1.0
+                    r_diff[w] += d - expected
+                    r_travel[w] += abs(expected)
+                    ok = False
+                    if r_count[w] >= p.encoder_readmission_samples:
+                        tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * r_travel[w]
+                        ok = abs(r_diff[w]) <= tolerance
+                        r_count[w] = r_diff[w] = r_travel[w] = 0.0  # failed: a new block
+                else:
+                    r_count[w] = r_diff[w] = r_travel[w] = 0.0
             else:
                 ok = abs(d - d_prev) <= bound
             if ok or e_excl[w] >= max_excl:
@@ -432,6 +469,8 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
         e_code[w] = codes[5 + w]
         e_inc[w] = e_inc[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         e_excl[w] = e_excl[w] + 1.0 if codes[5 + w] else 0.0
+        if codes[5 + w] != RECOVERING:
+            r_count[w] = r_diff[w] = r_travel[w] = 0.0
     s[_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
     v_o, omega_o = 0.5 * (v_R + v_L), (v_R - v_L) / g.track_width
