@@ -218,6 +218,7 @@ def run_plain_loop(
             T_N,
             meas_current,
             force,
+            nav.slide_onset,
         )
 
         if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K

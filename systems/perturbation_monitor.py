@@ -16,7 +16,10 @@ wheel stopped by a hand from a robot that was commanded to stop. The commands ca
 2. ``yaw``: while both wheels are in their band, the body's yaw rate (the navigation's, the gyro's in a
    turn) leaves the wheels' by more than yaw_threshold + yaw_fraction |omega_wheels| (PT1): a wheel off
    the ground, or a push that turns the robot. The tyres' own slip in a hard turn (the odometric yaw rate
-   leads the gyro by 10-15 %) stays below it.
+   leads the gyro by 10-15 %) stays below it. While the navigation's slide-onset test holds
+   (mixing.slide_onset_jump: the wheels slide along the ground) the wheels' yaw rate is not the
+   ground's and the test pauses, its PT1 at 0: in the square's braking slides the follower steers the
+   sliding wheels apart (1.5 rad/s) while the body does not turn.
 3. ``body``: the lateral acceleration the navigation measures leaves the centripetal v_t omega by more
    than lateral_threshold + lateral_per_speed |v_t| (PT1; the accelerometers' commotion grows with the
    speed): a push from the side beyond what the tyres hold. A push the tyres do hold leaves that trace
@@ -252,6 +255,7 @@ def perturbation_step(
     T_N: float,
     currents=NO_CURRENTS,
     robot: ForceModel | RobotParameters | None = None,
+    sliding: bool = False,
 ):
     """One T_N update (module docstring).
 
@@ -267,6 +271,7 @@ def perturbation_step(
             the limit: no force test in this sample.
         robot: the believed robot (its mass, inertias, motor constant, drags) for the force test, its
             ForceModel (faster) or RobotParameters; None: no force test.
+        sliding: the navigation's slide-onset test holds this sample (the wheels slide): no yaw test.
 
     Returns:
         the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
@@ -320,7 +325,7 @@ def perturbation_step(
                     outside[w] = WHEEL_BRAKED if forces[w] * direction < 0.0 else WHEEL_DRIVEN
     omega_wheels = (expected[0] - expected[1]) / track_width
     v_t, omega, a_n = float(estimate[0]), float(estimate[2]), float(estimate[4])
-    s[_YAW] = a * s[_YAW] + (1.0 - a) * (omega - omega_wheels)
+    s[_YAW] = 0.0 if sliding else a * s[_YAW] + (1.0 - a) * (omega - omega_wheels)
     centripetal = v_t * omega
     s[_LAT] = a * s[_LAT] + (1.0 - a) * (a_n - centripetal)
     yaw_bound = params.yaw_threshold + params.yaw_fraction * abs(omega_wheels)
@@ -349,6 +354,7 @@ class PerturbationMonitor(LeafSystem):
         - encoders
         - mixed_estimate
         - motor_currents
+        - slide_onset
         output_ports:
         - perturbation
         - force_residual
@@ -359,6 +365,8 @@ class PerturbationMonitor(LeafSystem):
     - mixed_estimate: the navigation's [v_t, v_n, omega, a_t, a_n].
     - motor_currents (optional): the drivers' current readings [i_R, i_L] (A); unconnected (a replayed
       log without currents) or NaN: no force test.
+    - slide_onset (optional): the navigation's [1 while its slide-onset test holds, else 0]; unconnected:
+      0.
     - perturbation: [wheel_R, wheel_L, yaw, body] (state, a copy of the flags that the update stores):
       a wheel 1 braked, 2 driven; yaw and body 1 when flagged.
     - force_residual: each side's force the motors do not explain per unit mass [e_R, e_L] (m/s^2,
@@ -388,6 +396,7 @@ class PerturbationMonitor(LeafSystem):
         self._encoders = self.DeclareVectorInputPort("encoders", 2)
         self._estimate = self.DeclareVectorInputPort("mixed_estimate", 5)
         self._currents = self.DeclareVectorInputPort("motor_currents", 2)
+        self._sliding = self.DeclareVectorInputPort("slide_onset", 1)
         state0 = perturbation_initial_state()
         self._state = self.DeclareDiscreteState(state0)
         # state[_FLAGS:] and state[_FORCE:_FLAGS], as outputs
@@ -410,6 +419,7 @@ class PerturbationMonitor(LeafSystem):
             self._T_N,
             currents,
             self._robot,
+            self._sliding.HasValue(context) and self._sliding.Eval(context).tolist()[0] > 0.5,
         )
         discrete_state.set_value(self._state, state)
         discrete_state.set_value(self._flags, state[_FLAGS:])
@@ -420,7 +430,7 @@ def add_perturbation_monitor(
     builder, params, command_port, encoders_port, navigation, robot, T_N, currents_port=None
 ):
     """Add a PerturbationMonitor reading ``command_port``, ``encoders_port``, the navigation subsystem's
-    mixed estimate and the drivers' ``currents_port`` (None: no force test); returns
+    mixed estimate and slide-onset flag and the drivers' ``currents_port`` (None: no force test); returns
     the monitor."""
     monitor = builder.AddSystem(
         PerturbationMonitor(params, (robot.radius_R, robot.radius_L), robot.track_width, T_N, robot)
@@ -429,6 +439,7 @@ def add_perturbation_monitor(
     builder.Connect(command_port, monitor.GetInputPort("wheel_speed_command"))
     builder.Connect(encoders_port, monitor.GetInputPort("encoders"))
     builder.Connect(navigation.GetOutputPort("mixed_estimate"), monitor.GetInputPort("mixed_estimate"))
+    builder.Connect(navigation.GetOutputPort("slide_onset"), monitor.GetInputPort("slide_onset"))
     if currents_port is not None:
         builder.Connect(currents_port, monitor.GetInputPort("motor_currents"))
     return monitor

@@ -11,6 +11,7 @@ from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.faults import FaultEvent
 from slipnav.systems.perturbation_monitor import (
     _SLIDE,
+    _YAW,
     WHEEL_BRAKED,
     WHEEL_DRIVEN,
     PerturbationMonitor,
@@ -83,6 +84,31 @@ def test_yaw_flag_on_a_turn_the_wheels_do_not_make_but_not_on_a_turns_understeer
     turning = (1.0 + 0.5 * B * 4.0, 1.0 - 0.5 * B * 4.0)  # the wheels say 4 rad/s
     rows, _, _ = drive(200, turning, turning, (1.0, 0.0, 3.4, 0.0, 3.4))  # 15 % understeer, a_n = v omega
     assert not rows.any()
+
+
+def test_yaw_test_pauses_while_the_wheels_slide():
+    """The square's braking slide: the wheels follow commands 1.5 rad/s apart, (0.19 - 0.086) / b,
+    while the sliding body does not turn. With the slide-onset test holding no yaw flag and the
+    residual's PT1 stays at 0; once the slide ends the flag needs the PT1's full build-up again (the
+    same sample count as from a fresh start)."""
+    command = (0.19, 0.086)
+    estimate = (0.4, 0.0, 0.0, -5.8, 0.0)
+
+    def run(n, sliding, state=None, theta=(0.0, 0.0)):
+        state, theta, rows = state or perturbation_initial_state(), list(theta), []
+        for _ in range(n):
+            state = perturbation_step(state, command, theta, estimate, P, (R, R), B, T_N, sliding=sliding)
+            rows.append(state[-4:])
+            theta = [theta[w] + command[w] * T_N / R for w in range(2)]
+        return np.array(rows), state, theta
+
+    fresh, _, _ = run(100, False)
+    first = int(np.argmax(fresh[:, 2] > 0))
+    assert fresh[-1, 2] == 1 and not fresh[:, :2].any() and first > P.confirm_samples
+    held, state, theta = run(100, True)
+    assert not held.any() and state[_YAW] == 0.0
+    after, _, _ = run(100, False, state, theta)
+    assert int(np.argmax(after[:, 2] > 0)) == first
 
 
 def test_body_flag_on_a_lateral_acceleration_beyond_the_centripetal():
