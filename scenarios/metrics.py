@@ -20,6 +20,14 @@ def final_position_error(a: dict, prefix: str) -> float:
     return math.hypot(a[f"{prefix}_x"][-1] - a["true_x"][-1], a[f"{prefix}_y"][-1] - a["true_y"][-1])
 
 
+def rms_position_error(a: dict, prefix: str) -> float:
+    """RMS over the run's samples of the distance between the ``prefix`` estimate and the true position
+    (m): unlike the final error, errors made along the way count even when later ones cancel them (the
+    square's four braking slides, a closed path's end)."""
+    error = np.hypot(np.asarray(a[f"{prefix}_x"]) - a["true_x"], np.asarray(a[f"{prefix}_y"]) - a["true_y"])
+    return float(np.sqrt(np.mean(error * error)))
+
+
 MIN_SIDE_SLIP_UPDATES = 10
 """Fewest T_C updates with |true alpha| > 1 deg on which a side-slip RMS error counts against its goal:
 S(18)-(20) give one alpha_K per T_C, so 10 updates are 0.2 s of side slip (the corner has ~27; the

@@ -8,6 +8,7 @@ from slipnav.scenarios.cli import main
 from slipnav.scenarios.metrics import (
     detection_latencies,
     final_position_error,
+    rms_position_error,
     side_slip_rms_error,
     side_slip_rms_error_at_updates,
     side_slip_sample_counts,
@@ -54,6 +55,12 @@ def test_position_and_side_slip_errors():
     a = synthetic()
     a.update(true_x=np.zeros(3), true_y=np.zeros(3), est_x=np.array([0, 0, 3.0]), est_y=np.array([0, 0, 4.0]))
     assert final_position_error(a, "est") == 5.0
+    # RMS over the run: errors 0, 0, 5 -> sqrt(25 / 3); a path that returns to the truth at the end has
+    # no final error but keeps its RMS.
+    assert rms_position_error(a, "est") == pytest.approx(math.sqrt(25 / 3))
+    a.update(est_x=np.array([0, 3.0, 0]), est_y=np.array([0, 4.0, 0]))
+    assert final_position_error(a, "est") == 0.0
+    assert rms_position_error(a, "est") == pytest.approx(5 / math.sqrt(3))
     b = synthetic(4)
     b["true_alpha"] = np.radians([0.5, 2.0, -3.0, 4.0])
     b["est_alpha"] = np.radians([0.0, 1.0, -3.0, 4.0])

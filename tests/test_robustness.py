@@ -28,6 +28,12 @@ def test_cases_change_the_plant_only_and_the_last_line_summarises(monkeypatch, t
     assert float(values["worst_fused_pct"]) == pytest.approx(worst, abs=1e-3)
     assert float(values["worst_fused_over_best_baseline"]) == pytest.approx(ratio, abs=1e-3)
     assert (tmp_path / "robustness.png").stat().st_size > 10_000
+    # The run RMS column: the runs' own figures (mean over the one seed), and the right wheel's +1 %
+    # costs plain odometry along the whole run, not only at its end.
+    assert right["odometry_run_rms_pct"] > 3 * matched["odometry_run_rms_pct"]
+    row = next(line for line in stream.getvalue().splitlines() if line.startswith("right radius +1 %"))
+    shown = "/".join(f"{right[f'{p}_run_rms_pct']:.2f}" for p in ("fused", "odometry", "gyrodometry"))
+    assert shown in row
 
 
 def test_robustness_command_rejects_bad_options(capsys):
