@@ -21,9 +21,10 @@ def final_position_error(a: dict, prefix: str) -> float:
 
 
 def rms_position_error(a: dict, prefix: str) -> float:
-    """RMS over the run's samples of the distance between the ``prefix`` estimate and the true position
-    (m): unlike the final error, errors made along the way count even when later ones cancel them (the
-    square's four braking slides, a closed path's end)."""
+    """RMS over every sample of the run (the standstill before the start included, alike for every
+    estimate) of the distance between the ``prefix`` estimate and the true position (m): unlike the final
+    error, errors made along the way count even when later ones cancel them (the square's four braking
+    slides, a closed path's end)."""
     error = np.hypot(np.asarray(a[f"{prefix}_x"]) - a["true_x"], np.asarray(a[f"{prefix}_y"]) - a["true_y"])
     return float(np.sqrt(np.mean(error * error)))
 

@@ -64,13 +64,23 @@ def run_case(name: str, case: str, seed: int, open_loop=None) -> dict:
     a = run_scenario(scenario, seed=seed, open_loop=open_loop, tolerances=spec is None).arrays
     length = float(a["path_length"])
     out = {"scenario": name, "case": case, "seed": seed}
-    for label, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+    for label, prefix in ESTIMATES:
         out[f"{label}_pct"] = 100.0 * final_position_error(a, prefix) / length
         heading = a[f"{prefix}_phi"][-1] - a["true_phi"][-1]
         out[f"{label}_heading_deg"] = math.degrees(math.remainder(heading, 2.0 * math.pi))
         out[f"{label}_run_rms_pct"] = 100.0 * rms_position_error(a, prefix) / length
     out["alpha_rms_deg"] = math.degrees(side_slip_rms_error(a))
     return out
+
+
+ESTIMATES = (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro"))
+"""(label, artifact prefix) of the three estimates compared."""
+RESULT_COLUMNS = (
+    "scenario case seed".split()
+    + [f"{label}_{figure}" for label, _ in ESTIMATES for figure in ("pct", "heading_deg", "run_rms_pct")]
+    + ["alpha_rms_deg"]
+)
+"""The columns of run_case's row (a resumed robustness.csv must have them all)."""
 
 
 def _run(job, open_loop=None):
@@ -103,7 +113,14 @@ def robustness(
     results = FilePath(out_dir) / "robustness.csv"
     run = functools.partial(_run, open_loop=open_loop)
     rows = run_jobs(
-        run, jobs, workers=workers, scheduler=scheduler, results=results, resume=resume, label="robustness"
+        run,
+        jobs,
+        workers=workers,
+        scheduler=scheduler,
+        results=results,
+        resume=resume,
+        label="robustness",
+        columns=RESULT_COLUMNS,
     )
     summary = summarise(rows, stream)
     print(f"{len(jobs)} runs in {time.perf_counter() - start:.0f} s", file=stream)
@@ -134,8 +151,7 @@ def summarise(rows: list, stream) -> tuple:
             sel = [r for r in rows if r["scenario"] == name and r["case"] == case]
             if not sel:
                 continue
-            keys = dict.fromkeys(k for r in sel for k in r if k not in ("scenario", "case"))
-            col = {k: np.array([r.get(k, math.nan) for r in sel], float) for k in keys}
+            col = {k: np.array([r[k] for r in sel], float) for k in sel[0] if k not in ("scenario", "case")}
             best = np.minimum(col["odometry_pct"], col["gyrodometry_pct"])
             ratio = col["fused_pct"].mean() / best.mean()
             above = int(

@@ -156,6 +156,18 @@ class ResultsFile:
                 "no --resume to start the file anew"
             )
 
+    def check_columns(self, columns) -> None:
+        """A resumed file must have the result columns this study's runs give (before any run starts:
+        a release that adds a column cannot append to an older file)."""
+        if self.columns is None or columns is None:
+            return
+        missing = [name for name in columns if name not in self.columns]
+        if missing:
+            raise ScenarioError(
+                f"--resume: {str(self.path)!r} has no column {missing[0]!r}: an older release wrote it; "
+                "allowed: no --resume to start the file anew"
+            )
+
     def row(self, key: str, job: dict) -> dict:
         """The finished run ``key``'s row (its job's values from ``job``, the rest parsed)."""
         return {
@@ -374,11 +386,14 @@ def run_jobs(
     resume: bool = False,
     label: str = "sweep",
     stream=None,
+    columns=None,
 ) -> list:
     """One call for a study: ``run`` over ``jobs`` on a fresh Engine, the rows in job order, appended
     to the CSV ``results`` (a path, or None for none) as they finish (``resume``: keep its finished
-    runs)."""
+    runs; ``columns``: the result columns a row has, if known, checked against a resumed file first)."""
     file = ResultsFile(results, resume) if results is not None else None
+    if file is not None:
+        file.check_columns(columns)
     try:
         with Engine(workers, scheduler) as engine:
             return engine.map(run, jobs, file, label, stream)

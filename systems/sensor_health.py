@@ -111,14 +111,16 @@ class SensorHealthParameters:
             path at 4 m/s; Tinyphoon's at 0.39).
         consistency_samples: samples of that average, in [2, 50].
         max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s).
-        encoder_readmission_samples, encoder_readmission_fraction: an excluded encoder is re-admitted
-            only after this many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the
-            prediction from the other wheel and the gyro, and whose summed difference from it stays
-            within two counts plus this fraction (in [0, 1]) of the predicted travel. One sample's bound
+        encoder_readmission_samples: an excluded encoder is re-admitted only after a block of this
+            many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the prediction from the
+            other wheel and the gyro and whose summed difference from it stays within two counts plus
+            encoder_readmission_fraction of the predicted travel. One sample's bound
             (max_wheel_acceleration T_N, 0.3 m/s) lets a doubled encoder through below 0.3 m/s; the
             quantisation telescopes over the block, a scale error does not (the square's final braking:
-            a x2 encoder re-admitted at 0.33 m/s read v_t 0.15 m/s fast). 0.2: well above the
-            differential slip of the built-ins' turns.
+            a x2 encoder re-admitted at 0.33 m/s read v_t 0.15 m/s fast). Like every channel it is
+            re-admitted after max_exclusion_time whatever the block says.
+        encoder_readmission_fraction: the block's tolerance beyond two counts, as a fraction of the
+            predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
         pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
             the rotational terms (their bias and misalignment difference), learned while both and the gyro
             are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
@@ -402,11 +404,12 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
                     if r_count[w] >= p.encoder_readmission_samples:
                         tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * r_travel[w]
                         ok = abs(r_diff[w]) <= tolerance
-                        r_count[w] = r_diff[w] = r_travel[w] = 0.0  # failed: a new block
+                        r_count[w] = r_diff[w] = r_travel[w] = 0.0  # judged: the next block starts anew
                 else:
                     r_count[w] = r_diff[w] = r_travel[w] = 0.0
             else:
                 ok = abs(d - d_prev) <= bound
+                r_count[w] = r_diff[w] = r_travel[w] = 0.0  # a block spans predicted samples only
             if ok or e_excl[w] >= max_excl:
                 inc[w] = d
             else:

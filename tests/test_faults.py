@@ -240,10 +240,10 @@ def test_encoder_spike_is_excluded_and_the_angle_stays_continuous():
 
 def test_a_doubled_encoder_is_not_readmitted_at_low_speed():
     """A NaN at sample 100, then the right encoder's increments doubled until sample 300 at 0.25 m/s:
-    each doubled increment (0.25 m/s off the prediction v_L + b omega) is within one sample's bound
-    (150 m/s^2 x T_N + two counts = 0.315 m/s), but their sum over a block of 10 is 0.5 mm against a
-    tolerance of two counts (0.03 mm) plus 0.2 x 0.5 mm: the encoder stays excluded, replaced by the
-    prediction, until the doubling ends, and is re-admitted one block later."""
+    each doubled increment (0.25 m/s off the prediction v_L + b omega, 0.5 mm of travel) is within one
+    sample's bound (150 m/s^2 x T_N + two counts = 0.315 m/s), but their sum over a block of 10 is 5 mm
+    against a tolerance of two counts (0.03 mm) plus 0.2 x 5 mm: the encoder stays excluded, replaced by
+    the prediction, until the doubling ends, and is re-admitted one block later."""
     v = 0.25
     clean = stream(500, v, 0.0)
     rows = clean.copy()

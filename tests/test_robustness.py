@@ -5,6 +5,7 @@ import io
 
 import pytest
 from slipnav.scenarios.cli import main
+from slipnav.scenarios.config import ScenarioError
 from slipnav.studies import robustness as study
 
 
@@ -116,3 +117,19 @@ def test_kurt3d_turns_are_the_gyros_when_the_track_is_off():
     assert abs(fused) < 0.5 and odometry > 2.0
     s14_alone, _ = heading_errors(math.inf)
     assert s14_alone > 2.0
+
+
+def test_resume_from_an_older_file_without_the_run_rms_columns_stops_before_any_run(tmp_path, monkeypatch):
+    """A robustness.csv an older release wrote (no run RMS columns) cannot take this release's rows: the
+    resume says so before a run starts (not after the first run, when appending fails)."""
+    old = [c for c in study.RESULT_COLUMNS if not c.endswith("run_rms_pct")]
+    row = {"scenario": "corner", "case": "matched", "seed": 0} | {c: 0.1 for c in old[3:]}
+    line = ",".join(["scenario=corner;case=matched;seed=0", *map(str, row.values())])
+    (tmp_path / "robustness.csv").write_text(",".join(["key", *old]) + "\n" + line + "\n")
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("a run started")
+
+    monkeypatch.setattr(study, "run_case", no_run)
+    with pytest.raises(ScenarioError, match=r"has no column 'fused_run_rms_pct'.*start the file anew"):
+        study.robustness(["corner"], 2, workers=0, out_dir=tmp_path, stream=io.StringIO(), resume=True)
