@@ -50,6 +50,16 @@ CASES = {
 """Case label -> (plant.deviations, plant.robot_overrides); None: random draws of TOLERANCE_PRESET."""
 
 
+ESTIMATES = (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro"))
+"""(label, artifact prefix) of the three estimates compared."""
+RESULT_COLUMNS = (
+    "scenario case seed".split()
+    + [f"{label}_{figure}" for label, _ in ESTIMATES for figure in ("pct", "heading_deg", "run_rms_pct")]
+    + ["alpha_rms_deg"]
+)
+"""The columns of run_case's row (a resumed robustness.csv must have them all)."""
+
+
 def run_case(name: str, case: str, seed: int, open_loop=None) -> dict:
     """One run of ``case``; returns its figures."""
     scenario = load_scenario(name)
@@ -71,16 +81,6 @@ def run_case(name: str, case: str, seed: int, open_loop=None) -> dict:
         out[f"{label}_run_rms_pct"] = 100.0 * rms_position_error(a, prefix) / length
     out["alpha_rms_deg"] = math.degrees(side_slip_rms_error(a))
     return out
-
-
-ESTIMATES = (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro"))
-"""(label, artifact prefix) of the three estimates compared."""
-RESULT_COLUMNS = (
-    "scenario case seed".split()
-    + [f"{label}_{figure}" for label, _ in ESTIMATES for figure in ("pct", "heading_deg", "run_rms_pct")]
-    + ["alpha_rms_deg"]
-)
-"""The columns of run_case's row (a resumed robustness.csv must have them all)."""
 
 
 def _run(job, open_loop=None):
@@ -169,15 +169,12 @@ def summarise(rows: list, stream) -> tuple:
             def mw(k, col=col):
                 return f"{col[k].mean():.2f} ({col[k].max():.2f})"
 
-            heading = "/".join(
-                f"{np.abs(col[f'{p}_heading_deg']).mean():.2f}" for p in ("fused", "odometry", "gyrodometry")
-            )
-            run_rms, run_above = "-", "-"
-            if all(f"{p}_run_rms_pct" in col for p in ("fused", "odometry", "gyrodometry")):
-                rms = {p: col[f"{p}_run_rms_pct"] for p in ("fused", "odometry", "gyrodometry")}
-                run_rms = "/".join(f"{rms[p].mean():.2f}" for p in rms)
-                beyond = (rms["fused"] > rms["odometry"]) | (rms["fused"] > rms["gyrodometry"])
-                run_above = f"{int(np.sum(beyond))}/{len(sel)}"
+            labels = [label for label, _ in ESTIMATES]
+            heading = "/".join(f"{np.abs(col[f'{p}_heading_deg']).mean():.2f}" for p in labels)
+            rms = {p: col[f"{p}_run_rms_pct"] for p in labels}
+            run_rms = "/".join(f"{rms[p].mean():.2f}" for p in labels)
+            beyond = (rms["fused"] > rms["odometry"]) | (rms["fused"] > rms["gyrodometry"])
+            run_above = f"{int(np.sum(beyond))}/{len(sel)}"
             print(
                 f"{case:<26}{mw('fused_pct'):>14}{mw('odometry_pct'):>14}{mw('gyrodometry_pct'):>14}{ratio:>11.2f}"
                 f"{f'{above}/{len(sel)}':>17}{heading:>30}{alpha_text:>15}{run_rms:>27}{run_above:>7}",

@@ -682,6 +682,10 @@ MIXER_LAYOUT = (
     ("slide_onset_state", 3),
 )
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
+_MIXER_START = {name: sum(size for _, size in MIXER_LAYOUT[:i]) for i, (name, _) in enumerate(MIXER_LAYOUT)}
+_CHECK_STATE = slice(_MIXER_START["tyre_model_check"] + 1, _MIXER_START["slide_onset"])
+"""The tyre-model check's state [F_k, S_k] in the mixing output (after its weight w)."""
+_ONSET_STATE = slice(_MIXER_START["slide_onset_state"], _MIXER_START["slide_onset_state"] + 3)
 
 
 class MixerC2C3(LeafSystem):
@@ -824,5 +828,5 @@ class VelocityMixer(LeafSystem):
 
     def _update(self, context, discrete_state):
         mixing = self._mixing.Eval(context)
-        discrete_state.set_value(self._check, mixing[11:13])
-        discrete_state.set_value(self._onset_state, mixing[14:17])
+        discrete_state.set_value(self._check, mixing[_CHECK_STATE])
+        discrete_state.set_value(self._onset_state, mixing[_ONSET_STATE])

@@ -363,6 +363,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
     missed = [0.0, 0.0]
     inc = [math.nan, math.nan]
     first = [False, False]
+    in_block = [False, False]  # this sample extended a re-admission block that is not judged yet
     inc_candidate = [math.nan, math.nan]  # the healthy wheels' raw increments, for re-admission
     for w in range(2):
         x = raw[5 + w]
@@ -400,16 +401,13 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
                     r_count[w] += 1.0
                     r_diff[w] += d - expected
                     r_travel[w] += abs(expected)
-                    ok = False
                     if r_count[w] >= p.encoder_readmission_samples:
                         tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * r_travel[w]
                         ok = abs(r_diff[w]) <= tolerance
-                        r_count[w] = r_diff[w] = r_travel[w] = 0.0  # judged: the next block starts anew
-                else:
-                    r_count[w] = r_diff[w] = r_travel[w] = 0.0
+                    else:
+                        ok, in_block[w] = False, True
             else:
                 ok = abs(d - d_prev) <= bound
-                r_count[w] = r_diff[w] = r_travel[w] = 0.0  # a block spans predicted samples only
             if ok or e_excl[w] >= max_excl:
                 inc[w] = d
             else:
@@ -472,7 +470,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
         e_code[w] = codes[5 + w]
         e_inc[w] = e_inc[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         e_excl[w] = e_excl[w] + 1.0 if codes[5 + w] else 0.0
-        if codes[5 + w] != RECOVERING:
+        if not in_block[w]:  # judged, broken, or no block: the next one starts anew
             r_count[w] = r_diff[w] = r_travel[w] = 0.0
     s[_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
