@@ -189,6 +189,7 @@ def build_navigation_diagram(
     b.Connect(c23["C2_C3"], mixer_block.GetInputPort("C2_C3"))
     b.Connect(ekf.GetOutputPort("estimate"), mixer_block.GetInputPort("previous_estimate"))
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
+    b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
     b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
     b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P

@@ -219,6 +219,12 @@ def plot_navigation(a, axes):
     axes[4].set_ylabel("mixing")
     axes[4].set_ylim(-0.05, 1.05)
     axes[4].set_xlabel("t (s)")
+    if _has(a, "est_tyre_peak") and np.all(np.isfinite(a["est_tyre_peak"])):  # mixing.tyre_peak_step
+        peak = axes[4].twinx()
+        peak.plot(t, a["est_tyre_peak"], "C5", lw=1.0, label="$a_{peak}$ identified")
+        peak.axhline(a["est_tyre_peak"][0], color="C5", lw=0.6, ls=":", label="$a_{peak}$ believed at start")
+        peak.set_ylabel("$a_{peak}$ (m/s$^2$)")
+        peak.legend(loc="lower right", fontsize=7)
     for ax in axes:
         for start, end in spans:
             ax.axvspan(start, end, color="0.85", zorder=0)

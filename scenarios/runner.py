@@ -727,6 +727,7 @@ def collect_navigation(a: dict, data) -> None:
     a["C2"], a["C3"] = c23[0], c23[1]
     check = data("nav_tyre_model_check")
     a["tyre_model_weight"], a["free_v_n"] = check[0], check[1]
+    a["est_tyre_peak"] = check[3]
     a["delta_v"] = data("nav_delta_v")[0]
     odo = data("nav_odometry")
     a["odo_v_t"], a["odo_omega"] = odo[0], odo[1]

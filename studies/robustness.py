@@ -299,9 +299,10 @@ def calibrated_model_path(scenario, seed: int, model_dir) -> FilePath:
     return path
 
 
-def run_calibrated(name: str, seed: int, model_dir) -> dict:
+def run_calibrated(name: str, seed: int, model_dir, open_loop=None) -> dict:
     """The preset draw of ``seed`` on scenario ``name`` with the nominal, the calibrated and the matched
-    model: each one's fused, odometry and Gyrodometry final errors (% of the path) and headings."""
+    model: each one's fused, odometry and Gyrodometry final errors (% of the path) and headings
+    (``open_loop``: as run_scenario's; True drives the same commands with every model)."""
     from slipnav.scenarios.model import write_model
 
     model_dir = FilePath(model_dir)
@@ -318,7 +319,7 @@ def run_calibrated(name: str, seed: int, model_dir) -> dict:
     out = {"scenario": name, "seed": seed}
     for label, path in models.items():
         run = scenario if path is None else dc.replace(scenario, model=str(path)).validate()
-        a = run_scenario(run, seed=seed, tolerances=True).arrays
+        a = run_scenario(run, seed=seed, tolerances=True, open_loop=open_loop).arrays
         length = float(a["path_length"])
         for estimate, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
             out[f"{label}_{estimate}_pct"] = 100.0 * final_position_error(a, prefix) / length

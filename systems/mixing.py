@@ -135,6 +135,31 @@ class MixingParameters:
             (accelerometer_pair_disagreement; 1.5, 3.5 sigma of their noise and commotion at 2 m/s): a
             channel that fails before the sensor checks exclude it (a clipped reading, 60 ms) would
             otherwise be integrated alone. After the exclusion the replacement agrees by construction.
+        tyre_peak_identification: identify a_peak online from the navigation's own sensors
+            (tyre_peak_step; issue 15: the floor's grip is not the data sheet's) and use it for the tyre
+            curve of S(15) and S(17), starting from tyre_peak_acceleration (the nominal or calibrated
+            value). False: tyre_peak_acceleration throughout.
+        tyre_peak_force_time_constant: PT1 of the tyres' force per unit mass |a| whose value the peak is
+            at least (s): 0.1, where the built-ins' matched runs stay below their peak (0.05: the long
+            path's 1.02 x) and their friction-0.5 runs read 0.99-1.03 x it.
+        tyre_peak_hold_time: that lower bound is held with this decay time constant (s): 10, long
+            against a slide's end, when the free integral's slip lags the force (an open corner at
+            friction 0.5 otherwise reads a_peak at 0.7 x), short against a change of floor.
+        tyre_peak_evidence_slip: share of the curve's peak slip sigma_peak (peak_slip) from which a sample
+            is evidence of the peak (its weight rises linearly from 0 here to 1 at
+            tyre_peak_full_evidence_slip): 0.4. Below, the free integral's drift (1-1.5 deg) makes
+            |a| / share(sigma) read 0.84 x the peak (matched corner, sigma 0.3-0.4 sigma_peak); from 0.4
+            on the median read is within 0.94-1.02 x on the matched and friction-0.5 built-ins.
+        tyre_peak_full_evidence_slip: share of sigma_peak from which a sample weighs in fully: 0.9 (the
+            curve's share there is 0.999, so the read is |a| within its scatter).
+        tyre_peak_identification_time_constant: time constant with which a_peak follows the evidence at
+            full weight (s): 0.05, 25 samples against the per-sample read's scatter (+-15 %).
+        tyre_peak_candidate_bound: one sample's read |a| / share is limited to within a_peak (1 + this)
+            and a_peak / (1 + this): 0.2, which bounds what one mistaken slip moves.
+        tyre_peak_min_ratio: the identified a_peak is at least this multiple of tyre_peak_acceleration:
+            0.5 (friction 0.35 on Tinyphoon's nominal 0.7).
+        tyre_peak_max_ratio: and at most this multiple: 1.5 (friction 1.05), which also bounds what a
+            push on the body, read as tyre force, raises the lower bound to.
     """
 
     a1: float = 150.0
@@ -169,6 +194,15 @@ class MixingParameters:
     slide_onset_release_samples: int = 5
     slide_onset_max_time: float = 0.5
     slide_onset_pair_tolerance: float = 1.5
+    tyre_peak_identification: bool = True
+    tyre_peak_force_time_constant: float = 0.1
+    tyre_peak_identification_time_constant: float = 0.05
+    tyre_peak_evidence_slip: float = 0.4
+    tyre_peak_full_evidence_slip: float = 0.9
+    tyre_peak_candidate_bound: float = 0.2
+    tyre_peak_hold_time: float = 10.0
+    tyre_peak_min_ratio: float = 0.5
+    tyre_peak_max_ratio: float = 1.5
 
     def __post_init__(self):
         for name in ("a1", "b1", "a2", "b2", "a3", "b3", "tyre_stiffness_factor"):
@@ -232,6 +266,33 @@ class MixingParameters:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf) {unit}")
+        if not isinstance(self.tyre_peak_identification, bool):
+            raise ValueError(
+                f"mixing.tyre_peak_identification={self.tyre_peak_identification!r} is out of range: "
+                "allowed true, false"
+            )
+        for name in (
+            "tyre_peak_force_time_constant",
+            "tyre_peak_hold_time",
+            "tyre_peak_identification_time_constant",
+            "tyre_peak_candidate_bound",
+        ):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
+        lo, hi = self.tyre_peak_evidence_slip, self.tyre_peak_full_evidence_slip
+        if not (math.isfinite(lo) and lo > 0.0):
+            raise ValueError(f"mixing.tyre_peak_evidence_slip={lo!r} is out of range: allowed (0, inf)")
+        if not (math.isfinite(hi) and hi > lo):
+            raise ValueError(
+                f"mixing.tyre_peak_full_evidence_slip={hi!r} is out of range: allowed "
+                f"(tyre_peak_evidence_slip={lo!r}, inf)"
+            )
+        lo, hi = self.tyre_peak_min_ratio, self.tyre_peak_max_ratio
+        if not (math.isfinite(lo) and 0.0 < lo <= 1.0):
+            raise ValueError(f"mixing.tyre_peak_min_ratio={lo!r} is out of range: allowed (0, 1]")
+        if not (math.isfinite(hi) and hi >= 1.0):
+            raise ValueError(f"mixing.tyre_peak_max_ratio={hi!r} is out of range: allowed [1, inf)")
         n = self.slide_onset_release_samples
         if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000:
             raise ValueError(
@@ -541,6 +602,86 @@ def free_side_slip_step(
     return predicted + (T_N / p.free_side_slip_time_constant) * (v_n - predicted), curve
 
 
+def peak_slip(p: MixingParameters) -> float:
+    """The slip sigma_peak = tan(pi / (2 C)) / B at which the tyre curve a_peak sin(C atan(B sigma))
+    peaks (Tinyphoon: 0.175, Kurt3D 0.219)."""
+    return math.tan(0.5 * math.pi / p.tyre_shape_factor) / p.tyre_stiffness_factor
+
+
+def believed_tyre(p: MixingParameters, a_peak: float) -> MixingParameters:
+    """``p`` with the identified tyre peak ``a_peak`` (tyre_peak_step); ``p`` itself while it is unchanged."""
+    if a_peak == p.tyre_peak_acceleration:
+        return p
+    return dc.replace(p, tyre_peak_acceleration=a_peak)
+
+
+def tyre_peak_step(
+    state,
+    wheel_speed: float,
+    v_t: float,
+    free_v_n: float,
+    a_t: float,
+    a_n: float,
+    learn: bool,
+    p: MixingParameters,
+    T_N: float,
+):
+    """Online identification of the tyres' peak force per unit mass a_peak = mu g f_w (issue 15: the
+    floor's grip is not the data sheet's), the a_peak the tyre curve of S(15) and S(17) uses from the
+    next sample on.
+
+    Two pieces of evidence, both from the navigation's own sensors:
+
+    - a lower bound: the tyres carried the force per unit mass |a| that the EKF's accelerations give
+      (tyre_force_per_mass), so a_peak is at least its PT1 over tyre_peak_force_time_constant, held
+      with the decay time tyre_peak_hold_time;
+    - the force while the tyres slip near or past their peak: the curve a_peak sin(C atan(B sigma))
+      inverted at the combined slip sigma = hypot(kappa, tan alpha), a_peak = |a| / sin(C atan(B sigma)).
+      kappa = (wheel_speed - v_t) / v_ref is the wheels' slip against the mixed v_t (C1 hands v_t to
+      the accelerometers in a lock or a spin), tan alpha = free_v_n / v_ref the free integral of the
+      lateral kinematics (free_side_slip_step, which does not use the curve), v_ref = max(|v_t|,
+      |wheel_speed|, tyre_model_gate_speed). Near the peak the read hardly depends on sigma: from
+      tyre_peak_evidence_slip x sigma_peak (peak_slip) on a sample weighs in, fully from
+      tyre_peak_full_evidence_slip x sigma_peak; a_peak follows the reads, each limited to a factor
+      1 + tyre_peak_candidate_bound of a_peak, with tyre_peak_identification_time_constant at full
+      weight.
+
+    The estimate stays within [tyre_peak_min_ratio, tyre_peak_max_ratio] x the nominal a_peak. Nothing
+    is learnt from a sample in which a sensor check failed or the wheels were at rest (``learn``
+    False), or from a non-finite one.
+
+    Args:
+        state: (a_peak, PT1 of |a|, its held value) after the previous sample (initial: nominal, 0, 0).
+        p: the nominal MixingParameters (its tyre_peak_acceleration is the nominal a_peak).
+
+    Returns:
+        the state after this sample.
+    """
+    a_peak, force_filtered, held = state
+    if not learn or not p.tyre_peak_identification or math.isinf(p.tyre_peak_acceleration):
+        return state
+    a_x, a_y = tyre_force_per_mass(wheel_speed, a_t, a_n, p)
+    force = math.hypot(a_x, a_y)
+    reference = max(abs(v_t), abs(wheel_speed), p.tyre_model_gate_speed)
+    slip = math.hypot((wheel_speed - v_t) / reference, free_v_n / reference)
+    if not (math.isfinite(force) and math.isfinite(slip)):
+        return state
+    force_filtered = pt1_step(force_filtered, force, p.tyre_peak_force_time_constant, T_N)
+    held = max(force_filtered, held * math.exp(-T_N / p.tyre_peak_hold_time))
+    evidence = (slip / peak_slip(p) - p.tyre_peak_evidence_slip) / (
+        p.tyre_peak_full_evidence_slip - p.tyre_peak_evidence_slip
+    )
+    if evidence > 0.0:
+        share = math.sin(p.tyre_shape_factor * math.atan(p.tyre_stiffness_factor * slip))
+        gain = min(evidence, 1.0) * min(T_N / p.tyre_peak_identification_time_constant, 1.0)
+        bound = p.tyre_peak_candidate_bound  # robust: a stale slip (the slide ending) moves it little
+        candidate = min(max(force / share, a_peak / (1.0 + bound)), a_peak * (1.0 + bound))
+        a_peak += gain * (candidate - a_peak)
+    nominal = p.tyre_peak_acceleration
+    a_peak = min(max(a_peak, held, p.tyre_peak_min_ratio * nominal), p.tyre_peak_max_ratio * nominal)
+    return a_peak, force_filtered, held
+
+
 def mix_checked(
     odo,
     inertial,
@@ -552,10 +693,14 @@ def mix_checked(
     check_state,
     T_N: float,
     inertial_fault: bool = False,
+    encoder_fault: bool = False,
 ):
     """mix with the tyre-model check: (mixed estimate, w, check state after this sample).
 
-    ``check_state``: (F, S) after sample k-1 (None: no check, w = 0, as mix): F the free integral of
+    ``check_state``: (F, S, a_peak, |a| PT1, held) after sample k-1, or (F, S) for the nominal
+    a_peak throughout (None: no check, w = 0, as mix). The tyre curve is the one at the identified
+    a_peak (tyre_peak_step updates the last three; it learns nothing while ``inertial_fault`` or
+    ``encoder_fault``). F the free integral of
     the lateral kinematics (free_side_slip_step), S the side slip the tyre curve alone would give (S(17)
     as in mix, run on its own). Both are carried to this sample by the EKF's increment ^I v_n - v_n,k-1;
     w = tyre_model_check(F, S, v_ref), and S(17)'s inertial branch relaxes towards (1 - w) f + w F
@@ -563,6 +708,10 @@ def mix_checked(
     free_side_slip_anchor both restart from the mixed v_n (a braking lock uses the tyres to the full,
     but not sideways), and so they do while an inertial channel is excluded (``inertial_fault``: the
     sensor checks replace it; a replacement is no evidence against the curve, w = 0)."""
+    nominal = p
+    identify = check_state is not None and len(check_state) == 5
+    if identify:
+        p = believed_tyre(p, check_state[2])
     # Wheels that did not turn this sample do not creep: their tyres hold the force (at a standstill
     # only the accelerometers' bias) by static friction.
     at_rest = wheels_at_rest(odo)
@@ -599,6 +748,19 @@ def mix_checked(
     if check_state is not None:
         lateral = abs(inertial[4]) / p.tyre_peak_acceleration
         next_state = (v_n, v_n) if inertial_fault else free_side_slip_step(free, curve, v_n, lateral, p, T_N)
+    if identify:
+        peak = tyre_peak_step(
+            check_state[2:5],
+            odo[0],
+            v_t,
+            next_state[0] if inertial_fault else free,
+            inertial[3],
+            inertial[4],
+            not (inertial_fault or encoder_fault or at_rest),
+            nominal,
+            T_N,
+        )
+        next_state = (*next_state, *peak)
     return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
 
 
@@ -677,14 +839,14 @@ MIXER_LAYOUT = (
     ("mixed_estimate", 5),
     ("body_velocity", 3),
     ("mixing_gain", 2),
-    ("tyre_model_check", 3),
+    ("tyre_model_check", 6),
     ("slide_onset", 1),
     ("slide_onset_state", 3),
 )
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
 _MIXER_START = {name: sum(size for _, size in MIXER_LAYOUT[:i]) for i, (name, _) in enumerate(MIXER_LAYOUT)}
 _CHECK_STATE = slice(_MIXER_START["tyre_model_check"] + 1, _MIXER_START["slide_onset"])
-"""The tyre-model check's state [F_k, S_k] in the mixing output (after its weight w)."""
+"""The tyre-model check's state [F_k, S_k, a_peak, |a| PT1, held] in the mixing output (after w)."""
 _ONSET_STATE = slice(_MIXER_START["slide_onset_state"], _MIXER_START["slide_onset_state"] + 3)
 
 
@@ -750,25 +912,29 @@ class VelocityMixer(LeafSystem):
         - previous_estimate
         - inertial_fault
         - accelerometers
+        - encoder_fault
         output_ports:
         - mixing
 
     - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 and the tyre
       model's previous value in S(17).
     - inertial_fault: 1 while the sensor checks exclude an inertial channel (the check rests, mix_checked).
+    - encoder_fault: 1 while they exclude an encoder (the tyre peak learns nothing, tyre_peak_step).
     - accelerometers: the checked (and corrected) [a_t1, a_n1, a_t2, a_n2] the EKF reads: the slide-onset
       test trusts the inertial v_t only while the pair agrees (accelerometer_pair_disagreement, with
       ^I omega).
     - mixing (direct feedthrough), in MIXER_LAYOUT's order: mixed_estimate [v_t, v_n, omega, ^I a_t,
       ^I a_n]; body_velocity [v_t, v_n, omega] for pose integration and the side-slip angle; mixing_gain
       [C1, w_n] (mixing_gain; C1 = 0 while the slide-onset test holds), the weights of odometry and the
-      tyre model, for the EKF's P; tyre_model_check [w, F_k, S_k], the free integral's weight
-      (tyre_model_check), the free integral and the tyre curve's own side slip after this sample
-      (mix_checked); slide_onset, 1 while the test holds; slide_onset_state, the test's state after this
-      sample. One vector, one Python call per sample; the navigation diagram slices it with a
+      tyre model, for the EKF's P; tyre_model_check [w, F_k, S_k, a_peak, |a| PT1, held], the free
+      integral's weight (tyre_model_check), the free integral and the tyre curve's own side slip after
+      this sample (mix_checked), the identified tyre peak and its lower bound's filter and held value
+      (tyre_peak_step); slide_onset, 1 while the test holds; slide_onset_state, the test's state after
+      this sample. One vector, one Python call per sample; the navigation diagram slices it with a
       Demultiplexer (diagrams/split.py).
 
-    Update every T_N: F and S, and the slide-onset test's state (state, from SLIDE_ONSET_INITIAL).
+    Update every T_N: F, S, a_peak with its filter and held value, and the slide-onset test's state
+    (state, from SLIDE_ONSET_INITIAL).
 
     Args:
         params: MixingParameters. T_N: navigation period (s). initial_v_n: F_-1 = S_-1, the initial
@@ -786,9 +952,14 @@ class VelocityMixer(LeafSystem):
         self._prev = self.DeclareVectorInputPort("previous_estimate", 5)
         self._fault = self.DeclareVectorInputPort("inertial_fault", 1)
         self._acc = self.DeclareVectorInputPort("accelerometers", 4)
-        self._check = self.DeclareDiscreteState([initial_v_n, initial_v_n])
+        self._enc_fault = self.DeclareVectorInputPort("encoder_fault", 1)
+        self._check = self.DeclareDiscreteState(
+            [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
+        )
         self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
-        self._mixing = self.DeclareVectorOutputPort("mixing", 17, self._calc)
+        self._mixing = self.DeclareVectorOutputPort(
+            "mixing", sum(size for _, size in MIXER_LAYOUT), self._calc
+        )
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc(self, context, output):
@@ -809,6 +980,7 @@ class VelocityMixer(LeafSystem):
             self._T_N,
         )
         c1 = 0.0 if onset else float(self._c1.Eval(context)[0])
+        check_state = context.get_discrete_state(self._check).get_value().tolist()
         mixed, check, state = mix_checked(
             odo,
             inertial,
@@ -817,11 +989,13 @@ class VelocityMixer(LeafSystem):
             c3,
             self._prev.Eval(context).tolist(),
             self._p,
-            context.get_discrete_state(self._check).get_value().tolist(),
+            check_state,
             self._T_N,
             self._fault.Eval(context)[0] > 0.5,
+            self._enc_fault.HasValue(context) and self._enc_fault.Eval(context)[0] > 0.5,
         )
-        gain = mixing_gain(mixed, c1, c2, self._p, wheels_at_rest(odo), check)
+        tyre = believed_tyre(self._p, check_state[2])
+        gain = mixing_gain(mixed, c1, c2, tyre, wheels_at_rest(odo), check)
         output.SetFromVector(
             [*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state, 1.0 if onset else 0.0, *onset_state]
         )

@@ -40,6 +40,7 @@ from slipnav.systems.mixing import (
     SLIDE_ONSET_INITIAL,
     MixingParameters,
     accelerometer_pair_disagreement,
+    believed_tyre,
     c3_residual,
     c3_turn_rate,
     mix_checked,
@@ -113,7 +114,8 @@ class NavigationInitialState:
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
-    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 slide_onset tyre_model_weight free_v_n delta_v "
+    "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 slide_onset tyre_model_weight free_v_n "
+    "est_tyre_peak delta_v "
     "odo_v_t odo_omega fault est_gyro_bias"
 ).split() + [f"health_{channel}" for channel in SENSOR_CHANNELS]
 
@@ -214,8 +216,9 @@ class NavigationLoop:
         self.gyro_state = [*initial.pose, 0.0, 0.0]
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
-        self.tyre_model_state, self.tyre_model_weight = (float(self.x[1]),) * 2, 0.0  # mix_checked's
-        self.inertial_fault = False
+        self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
+        self.tyre_model_weight = 0.0  # mix_checked's
+        self.inertial_fault = self.encoder_fault = False
         self.slide_onset_state, self.slide_onset, self.c1_mixed = SLIDE_ONSET_INITIAL, False, self.c1
         self.k = 0
 
@@ -235,6 +238,7 @@ class NavigationLoop:
             self.tyre_model_state,
             self.T_N,
             self.inertial_fault,
+            self.encoder_fault,
         )
         return mixed
 
@@ -257,6 +261,7 @@ class NavigationLoop:
             self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
         )
         fault_enc = max(odometry_held, 1.0 if any(codes[5:7]) else 0.0)
+        self.encoder_fault = any(codes[5:7])  # the tyre peak learns nothing (velocity_mix)
         cal, theta = self.params.yaw_calibration, self.calibration[0:2]
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         bias = theta[0]
@@ -277,6 +282,7 @@ class NavigationLoop:
             self.slide_onset_state, odo[0], inertial[0], inertial[3], disagreement, mp, T_N
         )
         self.c1_mixed = 0.0 if self.slide_onset else self.c1
+        tyre_state = self.tyre_model_state
         mixed = self.velocity_mix(odo, inertial, c2, c3, x)
         row = (
             *self.pose,
@@ -291,6 +297,7 @@ class NavigationLoop:
             1.0 if self.slide_onset else 0.0,
             self.tyre_model_weight,
             self.tyre_model_state[0],
+            self.tyre_model_state[2],
             self.dv_held,
             odo_raw[0],
             odo_raw[1],
@@ -299,7 +306,8 @@ class NavigationLoop:
             *codes,
         )
         self.x = mixed
-        gain = mixing_gain(mixed, self.c1_mixed, c2, mp, wheels_at_rest(odo), self.tyre_model_weight)
+        tyre = believed_tyre(mp, tyre_state[2])
+        gain = mixing_gain(mixed, self.c1_mixed, c2, tyre, wheels_at_rest(odo), self.tyre_model_weight)
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)

@@ -87,6 +87,7 @@ def test_diagram_equals_plain_loop_where_the_tyre_model_check_opens():
     scenario = with_keys(load_scenario("corner"), {"plant.robot_overrides.tyre_friction": 0.5})
     a = assert_diagram_equals_plain_loop(scenario, 2.6, {}, {"plant": True}, seed=1)
     assert np.max(a["tyre_model_weight"]) > 0.5
+    assert a["est_tyre_peak"][0] == 5.49 and a["est_tyre_peak"][-1] < 4.5  # identified in the slide
 
 
 def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes, seed=7):
