@@ -223,6 +223,8 @@ def plot_navigation(a, axes):
         peak = axes[4].twinx()
         peak.plot(t, a["est_tyre_peak"], "C5", lw=1.0, label="$a_{peak}$ identified")
         peak.axhline(a["est_tyre_peak"][0], color="C5", lw=0.6, ls=":", label="$a_{peak}$ believed at start")
+        start, values = a["est_tyre_peak"][0], a["est_tyre_peak"]
+        peak.set_ylim(min(0.8 * start, values.min()), max(1.2 * start, values.max()))  # 1 %: a flat line
         peak.set_ylabel("$a_{peak}$ (m/s$^2$)")
         peak.legend(loc="lower right", fontsize=7)
     for ax in axes:
