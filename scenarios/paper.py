@@ -117,6 +117,13 @@ DEVIATIONS = (
         lambda s: _nav(s, "mixing", tyre_model_gate_deg=math.inf),
     ),
     Deviation(
+        "tyre_peak",
+        "the tyre curve's peak mu g f_w identified online from the slip and the force the tyres carry",
+        "no tyre curve (S(17)); here: the data sheet's peak throughout",
+        "navigation.mixing.tyre_peak_identification: false",
+        lambda s: _nav(s, "mixing", tyre_peak_identification=False),
+    ),
+    Deviation(
         "rest_hold",
         "wheels at rest hold the body sideways: S(17)'s v_n scaled by 1 - C1",
         "S(17) at rest as while rolling",

@@ -17,6 +17,7 @@ curve's side slip by more than tyre_model_gate_deg, S(17)'s inertial branch is p
 integral instead (tyre_model_check, free_side_slip_step).
 """
 
+import copy
 import dataclasses as dc
 import math
 
@@ -608,11 +609,21 @@ def peak_slip(p: MixingParameters) -> float:
     return math.tan(0.5 * math.pi / p.tyre_shape_factor) / p.tyre_stiffness_factor
 
 
+_BELIEVED = [None, math.nan, None]
+"""believed_tyre's last (p, a_peak, result): mix_checked and mixing_gain ask for the same one."""
+
+
 def believed_tyre(p: MixingParameters, a_peak: float) -> MixingParameters:
-    """``p`` with the identified tyre peak ``a_peak`` (tyre_peak_step); ``p`` itself while it is unchanged."""
+    """``p`` with the identified tyre peak ``a_peak`` (tyre_peak_step); ``p`` itself while it is unchanged.
+    A copy without __post_init__'s checks (24 us): tyre_peak_step keeps a_peak within its valid range."""
     if a_peak == p.tyre_peak_acceleration:
         return p
-    return dc.replace(p, tyre_peak_acceleration=a_peak)
+    if _BELIEVED[0] is p and _BELIEVED[1] == a_peak:
+        return _BELIEVED[2]
+    believed = copy.copy(p)
+    believed.tyre_peak_acceleration = a_peak
+    _BELIEVED[:] = [p, a_peak, believed]
+    return believed
 
 
 def tyre_peak_step(
@@ -637,18 +648,23 @@ def tyre_peak_step(
       with the decay time tyre_peak_hold_time;
     - the force while the tyres slip near or past their peak: the curve a_peak sin(C atan(B sigma))
       inverted at the combined slip sigma = hypot(kappa, tan alpha), a_peak = |a| / sin(C atan(B sigma)).
-      kappa = (wheel_speed - v_t) / v_ref is the wheels' slip against the mixed v_t (C1 hands v_t to
-      the accelerometers in a lock or a spin), tan alpha = free_v_n / v_ref the free integral of the
-      lateral kinematics (free_side_slip_step, which does not use the curve), v_ref = max(|v_t|,
-      |wheel_speed|, tyre_model_gate_speed). Near the peak the read hardly depends on sigma: from
+      kappa = (wheel_speed - v_t) / v_ref is the wheels' slip against the mixed v_t, tan alpha =
+      free_v_n / v_ref the free integral of the lateral kinematics (free_side_slip_step), v_ref =
+      max(|v_t|, |wheel_speed|, tyre_model_gate_speed). kappa is evidence once C1 hands v_t to the
+      accelerometers (a lock, a spin); at C1 = 1 it is the believed curve's own creep (S(15)) and pulls
+      towards the belief. F is free of the curve while the tyres carry lateral force (anchored to the
+      estimate below free_side_slip_anchor). Near the peak the read hardly depends on sigma: from
       tyre_peak_evidence_slip x sigma_peak (peak_slip) on a sample weighs in, fully from
       tyre_peak_full_evidence_slip x sigma_peak; a_peak follows the reads, each limited to a factor
       1 + tyre_peak_candidate_bound of a_peak, with tyre_peak_identification_time_constant at full
       weight.
 
     The estimate stays within [tyre_peak_min_ratio, tyre_peak_max_ratio] x the nominal a_peak. Nothing
-    is learnt from a sample in which a sensor check failed or the wheels were at rest (``learn``
-    False), or from a non-finite one.
+    is learnt from a non-finite sample or while ``learn`` is False: mix_checked passes False while a
+    sensor check excludes a channel or the wheels are at rest (wheels_at_rest: a standstill, where the
+    force is the accelerometers' bias, or both wheels locked). The drag is taken at the wheels' speed,
+    as S(15)'s creep takes it (at the body's speed v_t the matched square's braking locks read 4 % low
+    instead of 3 %, and the built-ins' matched errors grew on 3 seeds).
 
     Args:
         state: (a_peak, PT1 of |a|, its held value) after the previous sample (initial: nominal, 0, 0).
@@ -660,7 +676,7 @@ def tyre_peak_step(
     a_peak, force_filtered, held = state
     if not learn or not p.tyre_peak_identification or math.isinf(p.tyre_peak_acceleration):
         return state
-    a_x, a_y = tyre_force_per_mass(wheel_speed, a_t, a_n, p)
+    a_x, a_y = tyre_force_per_mass(wheel_speed, a_t, a_n, p)  # as S(15)'s creep (longitudinal_slip_speed)
     force = math.hypot(a_x, a_y)
     reference = max(abs(v_t), abs(wheel_speed), p.tyre_model_gate_speed)
     slip = math.hypot((wheel_speed - v_t) / reference, free_v_n / reference)

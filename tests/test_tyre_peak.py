@@ -46,7 +46,7 @@ def test_a_slide_past_the_peak_identifies_it(true_peak):
     force = true_peak * curve_share(sigma)
     state = drive((5.49, 0.0, 0.0), 0.5, sigma, force)
     np.testing.assert_allclose(state[0], true_peak, rtol=1e-4)
-    first = drive((5.49, 0.0, 0.0), T_N, sigma, force)[0]  # one sample: 1/20 of a read within 1.2 x
+    first = drive((5.49, 0.0, 0.0), T_N, sigma, force)[0]  # one sample: 1/25 of a read within 1.2 x
     np.testing.assert_allclose(
         first, 5.49 + 0.04 * (min(max(force / curve_share(sigma), 5.49 / 1.2), 5.49 * 1.2) - 5.49)
     )
@@ -142,3 +142,25 @@ def test_the_closed_square_identifies_the_floor_and_its_estimate_gains():
         identified = final_error(run_scenario_plain_loop(slippery, seed, steps))
         fixed = final_error(run_scenario_plain_loop(nominal_curve, seed, steps))
         assert identified < 0.3 * fixed, (seed, identified, fixed)
+
+
+def test_mix_checked_learns_only_from_checked_samples_of_rolling_wheels():
+    """mix_checked's tyre peak (the state's last three) moves on a sliding sample, and not while a sensor
+    check excludes an inertial channel or an encoder, nor with both wheels at rest; a two-element check
+    state keeps the nominal curve without identification."""
+    from slipnav.systems.mixing import mix_checked
+
+    p = MixingParameters()
+    sigma = peak_slip(p)
+    odo = [2.0, 0.5, 2.0, 2.0]
+    inertial = [2.0, -sigma * 2.0, 0.5, 0.0, -3.0]  # the EKF's v_n slides at sigma_peak; 3 m/s^2 across
+    previous = np.array(inertial)
+    state = (-sigma * 2.0, -0.01, 5.49, 0.0, 0.0)  # F: the slide; S: the curve's own
+    learnt = mix_checked(odo, inertial, 1.0, 0.0, 0.0, previous, p, state, T_N)[2]
+    assert learnt[2] < 5.49 and learnt[3] > 0.0  # a read of about 3 m/s^2 pulls the peak down
+    for faults in ((True, False), (False, True)):
+        kept = mix_checked(odo, inertial, 1.0, 0.0, 0.0, previous, p, state, T_N, *faults)[2]
+        assert kept[2:] == state[2:], faults
+    at_rest = mix_checked([0.0, 0.0, 0.0, 0.0], inertial, 0.0, 0.0, 0.0, previous, p, state, T_N)[2]
+    assert at_rest[2:] == state[2:]
+    assert len(mix_checked(odo, inertial, 1.0, 0.0, 0.0, previous, p, state[:2], T_N)[2]) == 2
