@@ -15,6 +15,10 @@ def moving_alpha(a: dict, min_speed: float = MOVING_SPEED) -> np.ndarray:
     return np.where(speed > min_speed, a["true_alpha"], np.nan)
 
 
+ESTIMATES = (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro"))
+"""(label, artifact prefix) of the fused estimate and the two baselines on the same run."""
+
+
 def final_position_error(a: dict, prefix: str) -> float:
     """Distance between the final estimated (``est``/``odo``/``gyro``) and true positions (m)."""
     return math.hypot(a[f"{prefix}_x"][-1] - a["true_x"][-1], a[f"{prefix}_y"][-1] - a["true_y"][-1])

@@ -220,11 +220,13 @@ def plot_navigation(a, axes):
     axes[4].set_ylim(-0.05, 1.05)
     axes[4].set_xlabel("t (s)")
     if _has(a, "est_tyre_peak") and np.all(np.isfinite(a["est_tyre_peak"])):  # mixing.tyre_peak_step
+        identified = a["est_tyre_peak"]
+        believed = identified[0]
         peak = axes[4].twinx()
-        peak.plot(t, a["est_tyre_peak"], "C5", lw=1.0, label="$a_{peak}$ identified")
-        peak.axhline(a["est_tyre_peak"][0], color="C5", lw=0.6, ls=":", label="$a_{peak}$ believed at start")
-        start, values = a["est_tyre_peak"][0], a["est_tyre_peak"]
-        peak.set_ylim(min(0.8 * start, values.min()), max(1.2 * start, values.max()))  # 1 %: a flat line
+        peak.plot(t, identified, "C5", lw=1.0, label="$a_{peak}$ identified")
+        peak.axhline(believed, color="C5", lw=0.6, ls=":", label="$a_{peak}$ believed at start")
+        # at least +-20 % of the start, so that a change of 1 % reads flat
+        peak.set_ylim(min(0.8 * believed, identified.min()), max(1.2 * believed, identified.max()))
         peak.set_ylabel("$a_{peak}$ (m/s$^2$)")
         peak.legend(loc="lower right", fontsize=7)
     for ax in axes:

@@ -22,7 +22,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.metrics import final_position_error, rms_position_error, side_slip_rms_error
+from slipnav.scenarios.metrics import ESTIMATES, final_position_error, rms_position_error, side_slip_rms_error
 from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.tolerances import RobotDeviations
@@ -50,8 +50,6 @@ CASES = {
 """Case label -> (plant.deviations, plant.robot_overrides); None: random draws of TOLERANCE_PRESET."""
 
 
-ESTIMATES = (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro"))
-"""(label, artifact prefix) of the three estimates compared."""
 RESULT_COLUMNS = (
     "scenario case seed".split()
     + [f"{label}_{figure}" for label, _ in ESTIMATES for figure in ("pct", "heading_deg", "run_rms_pct")]
@@ -321,7 +319,7 @@ def run_calibrated(name: str, seed: int, model_dir, open_loop=None) -> dict:
         run = scenario if path is None else dc.replace(scenario, model=str(path)).validate()
         a = run_scenario(run, seed=seed, tolerances=True, open_loop=open_loop).arrays
         length = float(a["path_length"])
-        for estimate, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+        for estimate, prefix in ESTIMATES:
             out[f"{label}_{estimate}_pct"] = 100.0 * final_position_error(a, prefix) / length
             heading = math.remainder(a[f"{prefix}_phi"][-1] - a["true_phi"][-1], 2.0 * math.pi)
             out[f"{label}_{estimate}_heading_deg"] = math.degrees(heading)

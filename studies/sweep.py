@@ -476,11 +476,11 @@ def final_errors(a: dict) -> dict:
     """The final position error (% of path length) and heading error (deg) of the fused estimate,
     odometry-only and Gyrodometry, and the side-slip RMS error (deg, where |alpha| > 1 deg) of a run's
     arrays."""
-    from slipnav.scenarios.metrics import final_position_error, side_slip_rms_error
+    from slipnav.scenarios.metrics import ESTIMATES, final_position_error, side_slip_rms_error
 
     length = float(a["path_length"])
     out = {}
-    for label, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+    for label, prefix in ESTIMATES:
         out[f"{label}_pct"] = 100.0 * final_position_error(a, prefix) / length
         heading = float(a[f"{prefix}_phi"][-1] - a["true_phi"][-1])
         out[f"{label}_heading_deg"] = math.degrees(math.remainder(heading, 2.0 * math.pi))

@@ -1008,7 +1008,7 @@ class VelocityMixer(LeafSystem):
             check_state,
             self._T_N,
             self._fault.Eval(context)[0] > 0.5,
-            self._enc_fault.HasValue(context) and self._enc_fault.Eval(context)[0] > 0.5,
+            self._enc_fault.Eval(context)[0] > 0.5,
         )
         tyre = believed_tyre(self._p, check_state[2])
         gain = mixing_gain(mixed, c1, c2, tyre, wheels_at_rest(odo), check)

@@ -260,8 +260,8 @@ class NavigationLoop:
         odo_next, odo_raw, odometry_held = odometry_step(
             self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
         )
-        fault_enc = max(odometry_held, 1.0 if any(codes[5:7]) else 0.0)
         self.encoder_fault = any(codes[5:7])  # the tyre peak learns nothing (velocity_mix)
+        fault_enc = max(odometry_held, 1.0 if self.encoder_fault else 0.0)
         cal, theta = self.params.yaw_calibration, self.calibration[0:2]
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         bias = theta[0]

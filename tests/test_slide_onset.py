@@ -117,6 +117,7 @@ def test_velocity_mixer_runs_the_test_and_takes_v_t_from_the_ekf_while_it_holds(
         ("previous_estimate", [1.0, 0.0, 0.5, -5.0, 0.0]),
         ("inertial_fault", [0.0]),
         ("accelerometers", acc),
+        ("encoder_fault", [0.0]),
     ):
         mixer.GetInputPort(port).FixValue(context, value)
     initial = context.get_discrete_state(1).get_value()
