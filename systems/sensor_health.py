@@ -45,7 +45,8 @@ encoder advances by v_pred T_N / r (the other wheel and the gyro), else by its l
 encoder's travel missed before the detection is added then; the first increment after an exclusion (it
 spans the gap) is never used.
 
-An excluded analog channel is re-admitted when within its jump bound of its replacement, an encoder when
+An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
+of gyro_readmission_samples in a row), an encoder when
 its increments agree with v_pred sample by sample and, summed over a block of
 encoder_readmission_samples, within two counts plus encoder_readmission_fraction of the predicted travel
 (a doubled encoder passes one sample's bound at low speed; with no prediction, one increment agreeing with
@@ -121,6 +122,14 @@ class SensorHealthParameters:
             re-admitted after max_exclusion_time whatever the block says.
         encoder_readmission_fraction: the block's tolerance beyond two counts, as a fraction of the
             predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
+        gyro_readmission_samples: an excluded gyro is re-admitted only after this many consecutive
+            samples (in [1, 50]; 1: the first within the bound) within gyro_max_step of its replacement.
+            In a skidding turn the odometric yaw rate reads 15-20 % high, and a gyro with a 1 rad/s bias
+            step met it within the bound for a sample (corner, bias from 2.19 s: re-admitted after
+            60 ms and trusted for the rest of the step, 26 deg of heading, 0.47 m). 5 (10 ms): 3 already
+            keeps that gyro out (2.2 deg, as an outage); an outage ending in the skid costs 6.8 -> 7.2 mm
+            with 5, 8.2 with 10 (the honest gyro waits for the skidding odometry). Like every channel it
+            is re-admitted after max_exclusion_time whatever the block says.
         pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
             the rotational terms (their bias and misalignment difference), learned while both and the gyro
             are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
@@ -147,6 +156,7 @@ class SensorHealthParameters:
     pair_offset_time_constant: float = 1.0
     encoder_readmission_samples: int = 10
     encoder_readmission_fraction: float = 0.2
+    gyro_readmission_samples: int = 5
 
     def __post_init__(self):
         for name in (
@@ -166,11 +176,10 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
-        value = self.encoder_readmission_samples
-        if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
-            raise ValueError(
-                f"encoder_readmission_samples={value!r} is out of range: allowed integers in [1, 50]"
-            )
+        for name in ("encoder_readmission_samples", "gyro_readmission_samples"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
+                raise ValueError(f"{name}={value!r} is out of range: allowed integers in [1, 50]")
         value = self.encoder_readmission_fraction
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
             raise ValueError(f"encoder_readmission_fraction={value!r} is out of range: allowed [0, 1]")
@@ -238,12 +247,14 @@ _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E
 # each sensor's averaged deviation from the kinematic reference (t1, n1, t2, n2), each sensor's level
 # before the pair became suspect (t1, n1, t2, n2), the pair's averaged omega^2, the pair's learned offset
 # a_1 - a_2 beyond the rotational terms (t, n). Last, per encoder (2 each), the re-admission block:
-# its agreeing samples, their summed difference from the prediction and the predicted travel.
+# its agreeing samples, their summed difference from the prediction and the predicted travel; then the
+# excluded gyro's agreeing samples (its re-admission block).
 _W = _E + 20
 _RESTORED = _W + 2
 _OFFSET = _W + 13
 _R_COUNT, _R_DIFF, _R_TRAVEL = (slice(_W + 15 + 2 * i, _W + 17 + 2 * i) for i in range(3))
-STATE_SIZE = _W + 21
+_G_COUNT = _W + 21
+STATE_SIZE = _W + 22
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -262,7 +273,7 @@ HealthConstants = collections.namedtuple(
     "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
     "accel_consistency "
     "accel_consistency_per_speed consistency_samples max_exclusion_time pair_offset_time_constant "
-    "encoder_readmission_samples encoder_readmission_fraction "
+    "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed "
     "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
     "shoe_viscous_drag shoe_slip_speed shoe_normal_load",
@@ -284,7 +295,12 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
             value = (float(value[0]), float(value[1]))
         elif name == "enabled":
             value = bool(value)
-        elif name in ("stuck_samples", "consistency_samples", "encoder_readmission_samples"):
+        elif name in (
+            "stuck_samples",
+            "consistency_samples",
+            "encoder_readmission_samples",
+            "gyro_readmission_samples",
+        ):
             value = int(value)
         else:
             value = float(value)
@@ -344,6 +360,15 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             codes[c] = RECOVERING if excl[c] > 0 else JUMP
         elif hold[c] > 0:
             codes[c] = INCONSISTENT
+    # An excluded gyro comes back only after a block of samples within its bound of the replacement.
+    if codes[4] == 0 and 0.0 < excl[4] < max_excl and math.isfinite(ref[4]):
+        s[_G_COUNT] += 1.0
+        if s[_G_COUNT] < p.gyro_readmission_samples:
+            codes[4] = RECOVERING
+        else:
+            s[_G_COUNT] = 0.0
+    else:
+        s[_G_COUNT] = 0.0
     gyro_ok = codes[4] == 0
 
     # Encoders: raw-to-raw increments; implausible, spanning an exclusion, or still while predicted moving.

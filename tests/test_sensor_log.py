@@ -203,8 +203,9 @@ def test_nan_cells_reach_the_sensor_check_and_no_truth_means_no_comparison(corne
     result = replay_file(path, corner_run / "corner-seed0-tolerances.model.yaml")
     a = result.arrays
     # 401: the first encoder increment after the NaN spans it and is not used (recovering); 402-411 are
-    # the re-admission block (health.encoder_readmission_samples), 411 its last, re-admitted.
-    np.testing.assert_array_equal(np.flatnonzero(a["fault"]), [200, 300, *range(400, 411)])
+    # the re-admission block (health.encoder_readmission_samples), 411 its last, re-admitted. The gyro's
+    # NaN at 200 is followed by its own block (health.gyro_readmission_samples): 201-204 recovering.
+    np.testing.assert_array_equal(np.flatnonzero(a["fault"]), [*range(200, 205), 300, *range(400, 411)])
     assert np.isfinite(a["est_x"]).all() and np.isnan(a["true_x"]).all()
     assert result.summary["has_truth"] is False
     assert result.summary["final_position_error_m"] == {"fused": None, "odometry": None, "gyrodometry": None}
