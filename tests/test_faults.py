@@ -176,19 +176,22 @@ def test_a_biased_gyro_is_not_readmitted_by_a_sample_that_meets_a_skidding_odome
     rows = stream(400, 1.0, 2.0)
     rows[100:300, 4] += 1.0
     # The odometry over-reads by 0.3 rad/s (0.7 from the biased gyro, outside its bound) except at
-    # samples 150-153, where the skid peaks and it reads 2.7 (within 0.3 rad/s of the biased gyro).
+    # samples 150-153 and 160-162, where the skid peaks and it reads 2.7 (within 0.3 rad/s of the biased
+    # gyro, which is compared with the previous sample's replacement: agreement at 151-154, 161-163).
     skid = np.full(400, 0.3)
     skid[:100] = skid[300:] = 0.0
     skid[150:154] = 0.7
+    skid[160:163] = 0.7
     rows[:, 5] += np.cumsum(0.5 * B * skid * T_N / R)
     rows[:, 6] -= np.cumsum(0.5 * B * skid * T_N / R)
     single = SensorHealthParameters(gyro_readmission_samples=1)
     out, codes = check(rows, single)
-    assert not codes[154:300, 4].any()  # re-admitted at 150: the biased gyro is used
+    assert codes[150, 4] == RECOVERING and not codes[151:300, 4].any()  # re-admitted at 151: trusted
     np.testing.assert_allclose(out[160:300, 4], rows[160:300, 4])
+    # Two blocks of 4 and 3 agreeing samples, 7 in all: the block is of consecutive ones.
     out, codes = check(rows)
     assert codes[100, 4] == JUMP and np.all(codes[101:300, 4] == RECOVERING)
-    np.testing.assert_allclose(out[160:300, 4], 2.3, rtol=1e-9)  # the (skidding) odometry's
+    np.testing.assert_allclose(out[101:300, 4], 2.0 + skid[101:300], rtol=1e-9)  # the skidding odometry's
     assert not codes[304:, 4].any()
     for bad in (0, 51, 2.5, True):
         with pytest.raises(ValueError, match=r"gyro_readmission_samples=.*integers in \[1, 50\]"):
