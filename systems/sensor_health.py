@@ -111,7 +111,9 @@ class SensorHealthParameters:
             speed: 4 seeds of each built-in, matched and toleranced, peak at 0.59 of it, on the long
             path at 4 m/s; Tinyphoon's at 0.39).
         consistency_samples: samples of that average, in [2, 50].
-        max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s).
+        max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s),
+            counted from when its reading is finite, unsaturated and moving again (after a longer
+            outage the returning reading is still compared with its replacement first).
         encoder_readmission_samples: an excluded encoder is re-admitted only after a block of this
             many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the prediction from the
             other wheel and the gyro and whose summed difference from it stays within two counts plus
@@ -584,7 +586,8 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             out[c] = ref[c] = raw[c]
             excl[c] = 0.0
             continue
-        excl[c] += 1.0
+        # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
+        excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
             value = omega  # the pair's yaw rate, or the odometry's (above)
         elif c == 4:

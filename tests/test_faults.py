@@ -198,6 +198,19 @@ def test_a_biased_gyro_is_not_readmitted_by_a_sample_that_meets_a_skidding_odome
             SensorHealthParameters(gyro_readmission_samples=bad)
 
 
+def test_after_a_long_outage_the_gyro_is_still_compared_with_its_replacement():
+    """NaN for 1.2 s (longer than max_exclusion_time, 1 s), then the gyro returns 1 rad/s off for 0.6 s:
+    max_exclusion_time counts from its return, so it is not re-admitted on its first sample (as it was
+    when the outage's samples counted) but when it agrees again, after the block of 5."""
+    rows = stream(1500, 1.0, 0.5)
+    rows[100:700, 4] = np.nan
+    rows[700:1000, 4] += 1.0
+    out, codes = check(rows)
+    assert np.all(codes[100:700, 4] == NONFINITE) and np.all(codes[700:1004, 4] == RECOVERING)
+    assert not codes[1004:, 4].any()
+    np.testing.assert_allclose(out[700:1004, 4], 0.5, rtol=1e-9)  # the odometric yaw rate
+
+
 def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     """accel2_t reads +5 m/s^2: the pair's moving average (15 samples) passes 1 + 1 v = 2 m/s^2 after
     about 15 ln(5 / 3) = 8 samples; the kinematic reference (dv/dt = 0) tells accel 2."""
