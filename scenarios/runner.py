@@ -26,7 +26,7 @@ from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios.config import MAX_DURATION, Scenario, ScenarioError, check_duration, with_paper_mode
 from slipnav.scenarios.interrupt import deferred_interrupt
-from slipnav.scenarios.metrics import ESTIMATES, moving_alpha
+from slipnav.scenarios.metrics import ESTIMATES, final_position_error, moving_alpha
 from slipnav.scenarios.model import RobotModel, model_text
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
@@ -642,9 +642,7 @@ def final_position_errors(arrays) -> dict:
     """Distance between each estimate's final position and the true one (None where not estimated)."""
     out = {}
     for label, prefix in ESTIMATES:
-        dx = arrays[f"{prefix}_x"][-1] - arrays["true_x"][-1]
-        dy = arrays[f"{prefix}_y"][-1] - arrays["true_y"][-1]
-        d = math.hypot(dx, dy)
+        d = final_position_error(arrays, prefix)
         out[label] = d if math.isfinite(d) else None
     return out
 

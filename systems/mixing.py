@@ -235,6 +235,7 @@ class MixingParameters:
             "side_slip_from_accelerations",
             "delta_v_running_integral",
             "hold_at_rest",
+            "tyre_peak_identification",
         ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(
@@ -243,7 +244,15 @@ class MixingParameters:
         gate = self.tyre_model_gate_deg
         if not gate > 0.0:  # also rejects NaN; inf: the tyre curve alone
             raise ValueError(f"mixing.tyre_model_gate_deg={gate!r} is out of range: allowed (0, inf] deg")
-        for name in ("tyre_model_gate_steepness", "tyre_model_gate_speed", "free_side_slip_time_constant"):
+        for name in (
+            "tyre_model_gate_steepness",
+            "tyre_model_gate_speed",
+            "free_side_slip_time_constant",
+            "tyre_peak_force_time_constant",
+            "tyre_peak_hold_time",
+            "tyre_peak_identification_time_constant",
+            "tyre_peak_candidate_bound",
+        ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
@@ -267,20 +276,6 @@ class MixingParameters:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf) {unit}")
-        if not isinstance(self.tyre_peak_identification, bool):
-            raise ValueError(
-                f"mixing.tyre_peak_identification={self.tyre_peak_identification!r} is out of range: "
-                "allowed true, false"
-            )
-        for name in (
-            "tyre_peak_force_time_constant",
-            "tyre_peak_hold_time",
-            "tyre_peak_identification_time_constant",
-            "tyre_peak_candidate_bound",
-        ):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
         lo, hi = self.tyre_peak_evidence_slip, self.tyre_peak_full_evidence_slip
         if not (math.isfinite(lo) and lo > 0.0):
             raise ValueError(f"mixing.tyre_peak_evidence_slip={lo!r} is out of range: allowed (0, inf)")
@@ -860,10 +855,11 @@ MIXER_LAYOUT = (
     ("slide_onset_state", 3),
 )
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
-_MIXER_START = {name: sum(size for _, size in MIXER_LAYOUT[:i]) for i, (name, _) in enumerate(MIXER_LAYOUT)}
-_CHECK_STATE = slice(_MIXER_START["tyre_model_check"] + 1, _MIXER_START["slide_onset"])
+MIXER_START = {name: sum(size for _, size in MIXER_LAYOUT[:i]) for i, (name, _) in enumerate(MIXER_LAYOUT)}
+"""The index of each MIXER_LAYOUT entry's first element in the ``mixing`` output."""
+_CHECK_STATE = slice(MIXER_START["tyre_model_check"] + 1, MIXER_START["slide_onset"])
 """The tyre-model check's state [F_k, S_k, a_peak, |a| PT1, held] in the mixing output (after w)."""
-_ONSET_STATE = slice(_MIXER_START["slide_onset_state"], _MIXER_START["slide_onset_state"] + 3)
+_ONSET_STATE = slice(MIXER_START["slide_onset_state"], MIXER_START["slide_onset_state"] + 3)
 
 
 class MixerC2C3(LeafSystem):

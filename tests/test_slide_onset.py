@@ -101,9 +101,9 @@ def test_pair_disagreement_removes_the_centripetal_difference_of_S3():
 
 
 def test_velocity_mixer_runs_the_test_and_takes_v_t_from_the_ekf_while_it_holds():
-    from slipnav.systems.mixing import MIXER_LAYOUT
+    from slipnav.systems.mixing import MIXER_START
 
-    onset_at = sum(size for name, size in MIXER_LAYOUT[: [n for n, _ in MIXER_LAYOUT].index("slide_onset")])
+    onset_at = MIXER_START["slide_onset"]
     mixer = VelocityMixer(P, T_N, 0.0, (0.02, 0.015))
     context = mixer.CreateDefaultContext()
     inertial = [0.99, 0.0, 0.5, -5.0, 0.0]

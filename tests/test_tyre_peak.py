@@ -9,6 +9,7 @@ import re
 import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario, with_keys
+from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
 from slipnav.systems.mixing import MixingParameters, peak_slip, tyre_peak_step
 
@@ -119,10 +120,6 @@ def test_bad_identification_parameters_are_named(key, value, allowed):
         MixingParameters(**{key: value})
 
 
-def final_error(a) -> float:
-    return math.hypot(a["nav_est_x"][-1] - a["true_x"][-1], a["nav_est_y"][-1] - a["true_y"][-1])
-
-
 def test_the_closed_square_identifies_the_floor_and_its_estimate_gains():
     """Square, plain closed loop (the diagram's twin), the plant's friction 0.5, 0.7 (nominal) and 0.9:
     the identified a_peak ends within 5 % of mu g f_w = 3.92, 5.49, 7.06 m/s^2 (seed 1: 3.91, 5.32,
@@ -139,8 +136,8 @@ def test_the_closed_square_identifies_the_floor_and_its_estimate_gains():
     slippery = with_keys(square, {"plant.robot_overrides.tyre_friction": 0.5})
     nominal_curve = with_keys(slippery, {"navigation.mixing.tyre_peak_identification": False})
     for seed in (0, 2):
-        identified = final_error(run_scenario_plain_loop(slippery, seed, steps))
-        fixed = final_error(run_scenario_plain_loop(nominal_curve, seed, steps))
+        identified = final_position_error(run_scenario_plain_loop(slippery, seed, steps), "nav_est")
+        fixed = final_position_error(run_scenario_plain_loop(nominal_curve, seed, steps), "nav_est")
         assert identified < 0.3 * fixed, (seed, identified, fixed)
 
 
