@@ -24,13 +24,30 @@ def final_position_error(a: dict, prefix: str) -> float:
     return math.hypot(a[f"{prefix}_x"][-1] - a["true_x"][-1], a[f"{prefix}_y"][-1] - a["true_y"][-1])
 
 
-def rms_position_error(a: dict, prefix: str) -> float:
+POSE_DELAY_SAMPLES = 2
+"""Rows by which an estimated pose lags the truth of its row (docs/artifacts.md): one sample of the
+sensors' conversion latency and one of S(21), which integrates the previous sample's velocity."""
+
+
+def rms_position_error(a: dict, prefix: str, delay_samples: int = 0) -> float:
     """RMS over every sample of the run (the standstill before the start included, alike for every
     estimate) of the distance between the ``prefix`` estimate and the true position (m): unlike the final
     error, errors made along the way count even when later ones cancel them (the square's four braking
-    slides, a closed path's end)."""
-    error = np.hypot(np.asarray(a[f"{prefix}_x"]) - a["true_x"], np.asarray(a[f"{prefix}_y"]) - a["true_y"])
-    return float(np.sqrt(np.mean(error * error)))
+    slides, a closed path's end).
+
+    Args:
+        delay_samples: compare row k's estimate with row k - delay_samples's truth (the first rows have
+            none and are left out). 0: the same row, which counts the robot's travel during the pipeline's
+            lag (POSE_DELAY_SAMPLES) as error; POSE_DELAY_SAMPLES: the estimation error alone.
+    """
+    if isinstance(delay_samples, bool) or not isinstance(delay_samples, int) or delay_samples < 0:
+        raise ValueError(f"delay_samples={delay_samples!r} is out of range: allowed integers >= 0")
+    n = len(a["true_x"]) - delay_samples
+    if n <= 0:
+        return math.nan
+    dx = np.asarray(a[f"{prefix}_x"])[delay_samples:] - np.asarray(a["true_x"])[:n]
+    dy = np.asarray(a[f"{prefix}_y"])[delay_samples:] - np.asarray(a["true_y"])[:n]
+    return float(np.sqrt(np.mean(dx * dx + dy * dy)))
 
 
 MIN_SIDE_SLIP_UPDATES = 10

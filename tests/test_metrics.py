@@ -61,6 +61,15 @@ def test_position_and_side_slip_errors():
     a.update(est_x=np.array([0, 3.0, 0]), est_y=np.array([0, 4.0, 0]))
     assert final_position_error(a, "est") == 0.0
     assert rms_position_error(a, "est") == pytest.approx(5 / math.sqrt(3))
+    # A robot at 1 m/s sampled every 0.5 m whose estimate lags two rows: 1 m off in the same row, exact
+    # against the truth two rows back (rows 2..4 against 0..2).
+    lagging = {"true_x": np.arange(5) * 0.5, "true_y": np.zeros(5), "est_y": np.zeros(5)}
+    lagging["est_x"] = np.r_[0.0, 0.0, np.arange(3) * 0.5]
+    assert rms_position_error(lagging, "est", delay_samples=2) == 0.0
+    assert rms_position_error(lagging, "est") == pytest.approx(math.sqrt((0 + 0.25 + 1 + 1 + 1) / 5))
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="delay_samples"):
+            rms_position_error(lagging, "est", delay_samples=bad)
     b = synthetic(4)
     b["true_alpha"] = np.radians([0.5, 2.0, -3.0, 4.0])
     b["est_alpha"] = np.radians([0.0, 1.0, -3.0, 4.0])

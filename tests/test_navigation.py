@@ -1024,3 +1024,25 @@ def test_tyre_model_check_on_a_floor_with_less_grip():
     assert np.max(a["tyre_model_weight"]) == 0.0
     for key in ("est_x", "est_y", "est_v_n", "true_x"):
         np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_the_fused_pose_of_a_row_describes_the_robot_two_samples_back():
+    """Timing of a row (docs/artifacts.md): the sensors convert with one sample of latency, and S(21)
+    integrates the previous sample's velocity, so the fused pose a row holds describes the robot two
+    samples back. On the corner its distance from the truth shifted by two samples is a fraction of
+    its distance from the same row's truth, which is mostly the robot's travel in 2 T_N (4.6 mm rms
+    at the corner's speeds); the lag is no estimation error, and at the final standstill it is gone."""
+    a = run_scenario(load_scenario("corner"), seed=0).arrays
+    t = a["t"]
+    moving = np.flatnonzero((t > 0.1) & (np.abs(a["true_v_t"]) > 0.2))
+
+    def position_rms(lag: int) -> float:
+        dx = a["est_x"][moving] - a["true_x"][moving - lag]
+        dy = a["est_y"][moving] - a["true_y"][moving - lag]
+        return float(np.sqrt(np.mean(dx * dx + dy * dy)))
+
+    position = [position_rms(lag) for lag in range(4)]
+    assert int(np.argmin(position)) == 2, position
+    assert position[2] < 0.25 * position[0], position
+    travel = 2.0 * T_N * float(np.sqrt(np.mean(a["true_v_t"][moving] ** 2)))
+    assert position[0] == pytest.approx(math.hypot(travel, position[2]), rel=0.1)
