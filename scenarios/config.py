@@ -509,13 +509,14 @@ INFINITY_ALLOWED = {
     "navigation.mixing.slide_onset_jump",
     "navigation.gyro_bias.averaging_time",
     "navigation.health.stuck_braking_deceleration",
+    "navigation.health.fast_consistency_factor",
     "perturbation_monitor.force_threshold",
     "perturbation_monitor.slide_threshold",
     "perturbation_monitor.slide_demand",
 }
 """Float keys where .inf means something (no tyre curve; no gyro turn rule; no tyre-model check; no
-slide-onset test; a never-forgetting average; a stuck test at any braking; no force test; no slide test; a
-slide test at any demand)."""
+slide-onset test; a never-forgetting average; a stuck test at any braking; no fast pair test; no force
+test; no slide test; a slide test at any demand)."""
 
 
 def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:

@@ -168,6 +168,7 @@ def health_geometry(
         sensors.encoder_step,
         tuple(sensors.accelerometer_position),
         bound,
+        sensors.gyro_noise_std,
         **force,
     )
 

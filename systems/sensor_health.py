@@ -24,7 +24,10 @@ Checks (health codes, 0 = healthy):
 5. ``inconsistent``: the two accelerometers' same axes disagree, in a moving average over
    consistency_samples, by more than accel_consistency + accel_consistency_per_speed |v_o| beyond the
    rotational terms the gyro predicts (S(3)'s sensors at +-(x, y) differ by
-   2 (-omega_dot y - omega^2 x, omega_dot x - omega^2 y), omega_dot from the gyro's difference); the one
+   2 (-omega_dot y - omega^2 x, omega_dot x - omega^2 y), omega_dot from the gyro's difference), or, in
+   a second average over fast_consistency_samples (3) while the gyro is trusted, by
+   fast_consistency_factor (1.6) times that bound plus the noise the gyro's difference puts into the
+   rotational terms (fast_pair_ratio): a 5 m/s^2 step is flagged after 3-4 samples instead of 7-11; the one
    with the larger sum of its change since the pair began to disagree and its distance, in the same
    moving average, from the kinematic reference (d v_o/dt for t, v_o omega for n) is excluded until the
    pair's average falls below half the threshold. With the motor drivers' current readings the t axes'
@@ -74,6 +77,10 @@ HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "re
 """Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
 NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
 NUM_CHANNELS = 7
+FAST_ROTATION_SIGMAS = 5.0
+"""The fast pair test's bound allows this many standard deviations of the noise that the gyro's
+sample-to-sample difference (omega') puts into the fast average's rotational terms, 2 omega' y (t) and
+2 omega' x (n): Kurt3D's accelerometers sit 0.1 m out, five times Tinyphoon's."""
 
 
 @dc.dataclass
@@ -111,6 +118,15 @@ class SensorHealthParameters:
             speed: 4 seeds of each built-in, matched and toleranced, peak at 0.59 of it, on the long
             path at 4 m/s; Tinyphoon's at 0.39).
         consistency_samples: samples of that average, in [2, 50].
+        fast_consistency_samples, fast_consistency_factor: a second, shorter average of the same
+            disagreement (fast_consistency_samples, in [1, consistency_samples]) flags the pair as well
+            when it exceeds fast_consistency_factor times the bound plus FAST_ROTATION_SIGMAS of its
+            rotational terms' noise (fast_pair_ratio; inf: off), while the gyro is trusted. 3 and 1.6:
+            the built-ins' fault-free fast averages (matched, tolerance draws, friction 0.5 and 0.9,
+            mass +25 %, accelerometer scale and misalignment; 3 seeds) peak at 0.60 of the bound with
+            factor 1 on Tinyphoon, 0.90 on Kurt3D's long path at 4 m/s (its commotion), so 1.6 keeps
+            1.8-2.7 x of margin; a 5 m/s^2 bias step is flagged after 3-4 samples instead of 7-11
+            (open corner: a lateral axis's bias, 20 -> 8 ms, 12.2 -> 8.1 x the fault-free error).
         max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s),
             counted from when its reading is finite, unsaturated and moving again (after a longer
             outage the returning reading is still compared with its replacement first).
@@ -154,6 +170,8 @@ class SensorHealthParameters:
     accel_consistency: float = 1.0
     accel_consistency_per_speed: float = 1.0
     consistency_samples: int = 15
+    fast_consistency_samples: int = 3
+    fast_consistency_factor: float = 1.6
     max_exclusion_time: float = 1.0
     pair_offset_time_constant: float = 1.0
     encoder_readmission_samples: int = 10
@@ -189,6 +207,19 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
+        value = self.fast_consistency_samples
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int)
+            or not (1 <= value <= self.consistency_samples)
+        ):
+            raise ValueError(
+                f"fast_consistency_samples={value!r} is out of range: allowed integers in "
+                f"[1, consistency_samples={self.consistency_samples}]"
+            )
+        value = self.fast_consistency_factor
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
+            raise ValueError(f"fast_consistency_factor={value!r} is out of range: allowed (0, inf]")
         value = self.stuck_braking_deceleration
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
             raise ValueError(f"stuck_braking_deceleration={value!r} is out of range: allowed (0, inf] m/s^2")
@@ -211,6 +242,8 @@ class HealthGeometry:
         radius_R, radius_L: nominal (or calibrated) rolling radii (m). track_width: b (m).
         T_N: period (s). encoder_step: rad per count. accelerometer_position: (x, y) of accelerometer 1
         (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
+        gyro_noise_std: the gyro's white noise per sample (rad/s, data sheet): the fast pair test's
+            allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
         mass ... shoe_normal_load: the nominal robot's figures (RobotParameters' names) for the force
             reference of the tangential accelerometers (module docstring, 5.); mass 0: none.
     """
@@ -222,6 +255,7 @@ class HealthGeometry:
     encoder_step: float
     accelerometer_position: tuple
     max_wheel_speed: float
+    gyro_noise_std: float = 0.014
     mass: float = 0.0
     wheel_inertia: float = 0.0
     motor_constant: float = 0.0
@@ -250,13 +284,14 @@ _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E
 # before the pair became suspect (t1, n1, t2, n2), the pair's averaged omega^2, the pair's learned offset
 # a_1 - a_2 beyond the rotational terms (t, n). Last, per encoder (2 each), the re-admission block:
 # its agreeing samples, their summed difference from the prediction and the predicted travel; then the
-# excluded gyro's agreeing samples (its re-admission block).
+# excluded gyro's agreeing samples (its re-admission block); the pair's fast averages (t, n).
 _W = _E + 20
 _RESTORED = _W + 2
 _OFFSET = _W + 13
 _R_COUNT, _R_DIFF, _R_TRAVEL = (slice(_W + 15 + 2 * i, _W + 17 + 2 * i) for i in range(3))
 _G_COUNT = _W + 21
-STATE_SIZE = _W + 22
+_FAST = _W + 22
+STATE_SIZE = _W + 24
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -274,9 +309,10 @@ HealthConstants = collections.namedtuple(
     "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
     "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
     "accel_consistency "
-    "accel_consistency_per_speed consistency_samples max_exclusion_time pair_offset_time_constant "
+    "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
+    "max_exclusion_time pair_offset_time_constant "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
-    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed "
+    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
     "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
     "shoe_viscous_drag shoe_slip_speed shoe_normal_load",
 )
@@ -300,6 +336,7 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
         elif name in (
             "stuck_samples",
             "consistency_samples",
+            "fast_consistency_samples",
             "encoder_readmission_samples",
             "gyro_readmission_samples",
         ):
@@ -557,13 +594,15 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             pair_of = (axis, axis + 2)  # sensor 1's and sensor 2's channel of this axis
             disagreement = raw[axis] - raw[axis + 2] - rot[axis] - rot_dot[axis]
             average[axis] += (disagreement - average[axis]) / p.consistency_samples
+            s[_FAST + axis] += (disagreement - s[_FAST + axis]) / p.fast_consistency_samples
+            fast = fast_pair_ratio(s[_FAST + axis], limit, axis, known, p, g)  # 0: off, or no gyro
             if known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
                 s[_OFFSET + axis] += (disagreement - s[_OFFSET + axis]) * g.T_N / p.pair_offset_time_constant
             if abs(average[axis]) < 0.5 * limit:  # each sensor's level while the pair agrees
                 for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
             held = hold[axis] != 0.0 or hold[axis + 2] != 0.0
-            if abs(average[axis]) > limit and not held:
+            if (abs(average[axis]) > limit or fast > limit) and not held:
                 # Blame the one that moved more from its level before the pair began to disagree plus
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
                 # one encoder count in T_N is 3.8 m/s^2 of Tinyphoon's d v_o/dt, and the wheels slip).
@@ -574,7 +613,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
                 bad = pair_of[0] if score[0] > score[1] else pair_of[1]
                 hold[bad] = 1.0
                 codes[bad] = INCONSISTENT
-            elif abs(average[axis]) < 0.5 * limit and held:
+            elif abs(average[axis]) < 0.5 * limit and fast < 0.5 * limit and held:
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
@@ -598,6 +637,23 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
             value = ref[c]
         out[c] = ref[c] = value if math.isfinite(value) else 0.0
     return s, out, codes
+
+
+@jitable
+def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p, g) -> float:
+    """The fast pair test's average over its bound, in units of the slow test's bound ``limit`` (module
+    docstring, 5.; > limit flags): the bound is fast_consistency_factor x limit plus FAST_ROTATION_SIGMAS
+    of the noise that omega' from the gyro's difference puts into the average's rotational term (the
+    average of a difference over fast_consistency_samples n: sigma g sqrt(1 + g / (2 - g)) / T_N with
+    g = 1/n, times the lever 2 y for t, 2 x for n). 0 while the test is off or the gyro is not
+    trusted (the odometry's omega' is one count's 55 rad/s^2 a sample on Tinyphoon)."""
+    if not known or math.isinf(p.fast_consistency_factor):
+        return 0.0
+    gain = 1.0 / p.fast_consistency_samples
+    omega_dot_std = gain * g.gyro_noise_std / g.T_N * math.sqrt(1.0 + gain / (2.0 - gain))
+    lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
+    bound = p.fast_consistency_factor * limit + FAST_ROTATION_SIGMAS * 2.0 * lever * omega_dot_std
+    return abs(fast_average) / bound * limit
 
 
 @jitable

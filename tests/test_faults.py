@@ -19,8 +19,11 @@ from slipnav.systems.sensor_health import (
     RECOVERING,
     SATURATED,
     STUCK,
+    HealthConstants,
     HealthGeometry,
     SensorHealthParameters,
+    fast_pair_ratio,
+    health_constants,
     health_flags,
     health_initial_state,
     health_step,
@@ -212,13 +215,18 @@ def test_after_a_long_outage_the_gyro_is_still_compared_with_its_replacement():
 
 
 def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
-    """accel2_t reads +5 m/s^2: the pair's moving average (15 samples) passes 1 + 1 v = 2 m/s^2 after
-    about 15 ln(5 / 3) = 8 samples; the kinematic reference (dv/dt = 0) tells accel 2."""
+    """accel2_t reads +5 m/s^2: the pair's fast average (3 samples) passes 1.6 (1 + 1 v) plus the
+    rotational allowance, 5 2 y 2.56 rad/s^2 = 0.38 m/s^2, after 3 ln(5 / 1.42) / ln(3 / 2) -> 4 samples
+    (the 15-sample average alone passes 1 + 1 v = 2 m/s^2 after about 15 ln(5 / 3) = 8); the kinematic
+    reference (dv/dt = 0) tells accel 2."""
     rows = stream(400, 1.0, 0.0)
     rows[100:300, 2] += 5.0
+    slow_only = check(rows, SensorHealthParameters(fast_consistency_factor=math.inf))[1]
+    first_slow = np.flatnonzero(slow_only[:, 2])[0]
+    assert 100 + 6 <= first_slow <= 100 + 10 and not slow_only[:, 0].any()
     out, codes = check(rows)
     flagged = np.flatnonzero(codes[:, 2])
-    assert 100 + 6 <= flagged[0] <= 100 + 10 and codes[flagged[0], 2] == INCONSISTENT
+    assert 100 + 3 <= flagged[0] <= 100 + 5 and codes[flagged[0], 2] == INCONSISTENT
     assert not codes[:, 0].any()  # accel 1 is never blamed
     assert np.all(codes[flagged[0] : 300, 2] == INCONSISTENT)
     # Replaced by accel 1 less the rotational difference a_t1 - a_t2 = -2 (omega^2 x + omega' y) (the
@@ -229,6 +237,33 @@ def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     np.testing.assert_allclose(out[k, 2], expected, rtol=0, atol=0.03)
     np.testing.assert_allclose(np.diff(out[k, 2] - expected), 0.0, atol=1e-12)  # one offset throughout
     assert not codes[330:, 2].any()  # cleared once the average is below half the threshold
+
+
+def test_the_fast_pair_bound_by_hand():
+    """fast_pair_ratio: the bound is 1.6 x the slow test's bound plus 5 sigma of the gyro difference's
+    noise in the rotational term: sigma_omega' = (1/3) 0.014 / 0.002 sqrt(1 + (1/3) / (5/3)) =
+    2.556 rad/s^2, times 2 y = 0.03 m (t) or 2 x = 0.04 m (n). Off without a trusted gyro and at inf."""
+    p = SensorHealthParameters()
+    constants = HealthConstants(*health_constants(p, GEOMETRY))
+    omega_dot_std = 0.014 / 0.002 / 3 * math.sqrt(1.2)
+    limit = 2.6
+    for axis, lever in ((0, 0.015), (1, 0.02)):
+        bound = 1.6 * limit + 5 * 2 * lever * omega_dot_std
+        assert fast_pair_ratio(bound, limit, axis, True, constants, constants) == pytest.approx(limit)
+        assert fast_pair_ratio(-0.5 * bound, limit, axis, True, constants, constants) == pytest.approx(
+            0.5 * limit
+        )
+        assert fast_pair_ratio(bound, limit, axis, False, constants, constants) == 0.0
+    off = HealthConstants(
+        *health_constants(SensorHealthParameters(fast_consistency_factor=math.inf), GEOMETRY)
+    )
+    assert fast_pair_ratio(100.0, limit, 0, True, off, off) == 0.0
+    for bad in (0, 16, True, 2.0):
+        with pytest.raises(ValueError, match=r"fast_consistency_samples=.*\[1, consistency_samples=15\]"):
+            SensorHealthParameters(fast_consistency_samples=bad)
+    for bad in (0.0, -1.0, True):
+        with pytest.raises(ValueError, match=r"fast_consistency_factor=.*\(0, inf\]"):
+            SensorHealthParameters(fast_consistency_factor=bad)
 
 
 def test_a_replaced_accelerometer_axis_keeps_the_pairs_yaw_acceleration_term():
