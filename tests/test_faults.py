@@ -216,9 +216,9 @@ def test_after_a_long_outage_the_gyro_is_still_compared_with_its_replacement():
 
 def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     """accel2_t reads +5 m/s^2: the pair's fast average (3 samples) passes 1.6 (1 + 1 v) plus the
-    rotational allowance, 5 2 y 2.56 rad/s^2 = 0.38 m/s^2, after 3 ln(5 / 1.42) / ln(3 / 2) -> 4 samples
-    (the 15-sample average alone passes 1 + 1 v = 2 m/s^2 after about 15 ln(5 / 3) = 8); the kinematic
-    reference (dv/dt = 0) tells accel 2."""
+    rotational allowance, 5 2 y 2.56 rad/s^2 = 0.38 m/s^2 (3.58 m/s^2), once 1 - (2/3)^k > 0.716, after
+    ln(3.52) / ln(1.5) = 3.1 -> 4 samples (the 15-sample average alone passes 1 + 1 v = 2 m/s^2 after
+    about 15 ln(5 / 3) = 8); the kinematic reference (dv/dt = 0) tells accel 2."""
     rows = stream(400, 1.0, 0.0)
     rows[100:300, 2] += 5.0
     slow_only = check(rows, SensorHealthParameters(fast_consistency_factor=math.inf))[1]
@@ -258,12 +258,29 @@ def test_the_fast_pair_bound_by_hand():
         *health_constants(SensorHealthParameters(fast_consistency_factor=math.inf), GEOMETRY)
     )
     assert fast_pair_ratio(100.0, limit, 0, True, off, off) == 0.0
-    for bad in (0, 16, True, 2.0):
-        with pytest.raises(ValueError, match=r"fast_consistency_samples=.*\[1, consistency_samples=15\]"):
+    for bad in (0, 51, True, 2.0):
+        with pytest.raises(ValueError, match=r"fast_consistency_samples=.*integers in \[1, 50\]"):
             SensorHealthParameters(fast_consistency_samples=bad)
     for bad in (0.0, -1.0, True):
         with pytest.raises(ValueError, match=r"fast_consistency_factor=.*\(0, inf\]"):
             SensorHealthParameters(fast_consistency_factor=bad)
+
+
+def test_a_gyro_readmitted_off_its_replacement_raises_no_accelerometer_flag():
+    """After a gyro outage in a skid (the odometric yaw rate 0.45 rad/s high) the re-admitted gyro's first
+    difference against its replacement is 0.45 / T_N = 225 rad/s^2 of omega', which the pair's rotational
+    term 2 omega' x turns into 9 m/s^2 on the n axes for one sample: the fast test is judged only with the
+    gyro trusted on the previous sample as well, so the healthy accelerometers stay unflagged."""
+    rows = stream(400, 0.5, 3.0)
+    rows[100:150, 4] = np.nan
+    skid = 0.45 * B / R * T_N * np.arange(1, 61)  # the wheels' extra yaw over 100..159
+    rows[100:160, 5] += 0.5 * skid
+    rows[100:160, 6] -= 0.5 * skid
+    rows[160:, 5] += 0.5 * skid[-1]
+    rows[160:, 6] -= 0.5 * skid[-1]
+    out, codes = check(rows, v0=0.5)
+    assert codes[100:150, 4].all() and not codes[200:, 4].any()  # out, then re-admitted
+    assert not codes[:, 0:4].any(), np.flatnonzero(codes[:, 0:4].any(axis=1))
 
 
 def test_a_replaced_accelerometer_axis_keeps_the_pairs_yaw_acceleration_term():
