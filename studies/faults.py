@@ -20,7 +20,8 @@ Targets (issue 18): every fault detected within 0.1 s; no false flags; error rat
 3 sigma. Last line: ``faults detected=<n>/<m> worst_error_ratio=<f>``. With ``--perturbations`` it also
 runs the plant perturbations (PERTURBATIONS) and prints their final errors against both baselines, the
 completion, the perturbation monitor's first flag after the onset and the flags they caused; the
-sensor-fault runs count the perturbation flags they raised (a sensor fault taken for a perturbation).
+sensor-fault runs count the perturbation flags they raised (a sensor fault taken for a perturbation)
+and the runs whose fault flagged another sensor channel (an isolation that blamed the healthy one).
 """
 
 import math
@@ -344,6 +345,12 @@ def print_report(rows: list, clean_rows: list, wall: float, stream) -> None:
         f"{len(rows)} fault runs and {len(clean_rows)} fault-free runs in {wall:.0f} s; false flags in the "
         f"fault-free runs: {false_flags}; worst gyro-bias error after recovery {worst_bias:.2f} sigma "
         "(goals: none, <= 3)",
+        file=stream,
+    )
+    crossed = [f"{r['channel']} {r['kind']}" for r in rows if r.get("other_flags", 0) > 0]
+    print(
+        f"sensor-fault runs that flagged another channel: {len(crossed)}"
+        + (f" ({', '.join(sorted(set(crossed)))})" if crossed else ""),
         file=stream,
     )
     taken = [f"{r['channel']} {r['kind']}" for r in rows if r.get("perturbation_samples", 0) > 0]

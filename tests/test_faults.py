@@ -540,11 +540,15 @@ def test_fault_cases_and_the_report_line():
         }
         for c in cases[:3]
     ]
+    rows[1]["other_flags"] = 4  # a fault on one channel that flagged another (isolation's slip)
     import io
 
     out = io.StringIO()
     print_report(rows, [{"false_flags": 0}], 1.0, out)
-    assert out.getvalue().splitlines()[-1] == "faults detected=3/3 worst_error_ratio=1.500"
+    lines = out.getvalue().splitlines()
+    assert lines[-1] == "faults detected=3/3 worst_error_ratio=1.500"
+    crossed = f"sensor-fault runs that flagged another channel: 1 ({rows[1]['channel']} {rows[1]['kind']})"
+    assert crossed in lines
 
 
 # -- plant perturbations -----------------------------------------------------------------------------
