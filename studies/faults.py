@@ -347,16 +347,14 @@ def print_report(rows: list, clean_rows: list, wall: float, stream) -> None:
         "(goals: none, <= 3)",
         file=stream,
     )
-    crossed = [f"{r['channel']} {r['kind']}" for r in rows if r.get("other_flags", 0) > 0]
-    print(
-        f"sensor-fault runs that flagged another channel: {len(crossed)}"
-        + (f" ({', '.join(sorted(set(crossed)))})" if crossed else ""),
-        file=stream,
-    )
-    taken = [f"{r['channel']} {r['kind']}" for r in rows if r.get("perturbation_samples", 0) > 0]
-    print(
-        f"sensor-fault runs with a perturbation flag: {len(taken)}"
-        + (f" ({', '.join(sorted(set(taken)))})" if taken else ""),
-        file=stream,
-    )
+    for label, key in (
+        ("that flagged another channel", "other_flags"),
+        ("with a perturbation flag", "perturbation_samples"),
+    ):
+        runs = [f"{r['channel']} {r['kind']}" for r in rows if r.get(key, 0) > 0]
+        print(
+            f"sensor-fault runs {label}: {len(runs)}"
+            + (f" ({', '.join(sorted(set(runs)))})" if runs else ""),
+            file=stream,
+        )
     print(f"faults detected={detected}/{len(rows)} worst_error_ratio={worst_ratio:.3f}", file=stream)

@@ -200,7 +200,7 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
-        for name in ("encoder_readmission_samples", "gyro_readmission_samples"):
+        for name in ("fast_consistency_samples", "encoder_readmission_samples", "gyro_readmission_samples"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [1, 50]")
@@ -211,17 +211,10 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
-        value = self.fast_consistency_samples
-        if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
-            raise ValueError(
-                f"fast_consistency_samples={value!r} is out of range: allowed integers in [1, 50]"
-            )
-        value = self.fast_consistency_factor
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
-            raise ValueError(f"fast_consistency_factor={value!r} is out of range: allowed (0, inf]")
-        value = self.stuck_braking_deceleration
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
-            raise ValueError(f"stuck_braking_deceleration={value!r} is out of range: allowed (0, inf] m/s^2")
+        for name, unit in (("fast_consistency_factor", ""), ("stuck_braking_deceleration", " m/s^2")):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
+                raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf]{unit}")
 
 
 def _positive(name: str, value) -> None:
