@@ -11,6 +11,9 @@ a process starts once per sweep, not per run), to an existing cluster (``schedul
 with ``workers=0``, run one after the other in this process (the reference of the tests). Every finished
 run is appended to the results CSV (header first, flushed per row); ``resume`` keeps the rows already
 there (a partial last line, left by a kill, is dropped) and runs only the jobs whose key is missing.
+Each line carries the version of what made it (``run_version``: the package's sources and the contents of
+any file the job names, such as a scenario YAML); a resumed line of another version is run again and
+its line replaced, so a file resumed after an upgrade or an edited scenario never mixes the two.
 
 ``slipnav sweep`` runs the cartesian product of the ``--set`` values (dotted scenario keys, checked as a
 loaded scenario is before any run starts) times seeds 0..N-1, prints per combination the mean (worst)
@@ -24,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import functools
+import hashlib
 import itertools
 import logging
 import math
@@ -60,6 +64,9 @@ takes the GIL from the simulation (corner, one worker: 0.72 -> 0.68 s per run; i
 PLAIN = (str, int, float, bool, type(None))
 KEY = "key"
 """The results file's first column: the job's key."""
+VERSION = "code_version"
+"""The results file's second column: run_version of the job when its line was written."""
+SOURCE_SUFFIXES = (".py", ".yaml")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -69,6 +76,36 @@ KEY = "key"
 def job_key(job: dict) -> str:
     """``name=value;...`` of the job's items in order: the run's identity in the results file."""
     return ";".join(f"{name}={value}" for name, value in job.items())
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """12 hex digits of the sha256 over the installed slipnav sources (every .py and .yaml file of
+    slipnav.systems, .diagrams, .scenarios with its built-in scenarios, and .studies, in path order)."""
+    import importlib
+
+    digest = hashlib.sha256()
+    for name in ("systems", "diagrams", "scenarios", "studies"):
+        for folder in importlib.import_module(f"slipnav.{name}").__path__:
+            root = FilePath(folder)
+            files = sorted(
+                f for f in root.rglob("*") if f.suffix in SOURCE_SUFFIXES and "__pycache__" not in f.parts
+            )
+            for file in files:
+                digest.update(f"{name}/{file.relative_to(root).as_posix()}\0".encode())
+                digest.update(file.read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def run_version(job: dict) -> str:
+    """The version of a run of ``job``: code_fingerprint, and the contents of every file a str value of
+    the job names (a scenario or model YAML), 12 hex digits."""
+    digest = hashlib.sha256(code_fingerprint().encode())
+    for name, value in job.items():
+        if isinstance(value, str) and os.path.isfile(value):
+            digest.update(f"\0{name}\0".encode())
+            digest.update(FilePath(value).read_bytes())
+    return digest.hexdigest()[:12]
 
 
 def _plain(value, where: str):
@@ -103,19 +140,22 @@ def _parse_cell(text: str):
 
 
 class ResultsFile:
-    """The incremental results CSV: header ``key, <the row's columns>`` (the job's first), one line per
-    finished run, appended and flushed as the run finishes.
+    """The incremental results CSV: header ``key, code_version, <the row's columns>`` (the job's first),
+    one line per finished run, appended and flushed as the run finishes.
 
     Args:
         path: the CSV file; its folder is created.
         resume: keep the finished runs of an existing file (``done``) and append; otherwise the file is
-            started anew at the first finished run.
+            started anew at the first finished run. A file without the code_version column (an older
+            release's) is started anew too.
     """
 
     def __init__(self, path, resume: bool = False):
         self.path = FilePath(path)
         self.columns: list[str] | None = None
         self.done: dict[str, dict] = {}
+        self.older_format = 0
+        """Lines of a resumed file without the code_version column (none of them is kept)."""
         self._file = None
         if resume and self.path.is_file():
             self._read()
@@ -140,9 +180,33 @@ class ResultsFile:
         reader = csv.reader(lines)
         header = next(reader)
         self.columns = header
+        if header[1:2] != [VERSION]:
+            self.older_format = len(lines) - 1
+            return
         for cells in reader:
             if len(cells) == len(header):
                 self.done[cells[0]] = dict(zip(header, cells, strict=True))
+
+    def finished(self, key: str, version: str) -> bool:
+        """The run ``key`` has a line written by ``version`` (run_version of its job)."""
+        line = self.done.get(key)
+        return line is not None and line[VERSION] == version
+
+    def discard(self, keys) -> None:
+        """Remove the lines of ``keys`` (runs of another version, to be run again) from the file, which
+        is rewritten whole (a temporary file renamed over it) before any new line is appended."""
+        keys = set(keys) & set(self.done)
+        if not keys:
+            return
+        for key in keys:
+            del self.done[key]
+        temporary = self.path.with_name(self.path.name + ".tmp")
+        with open(temporary, "w", newline="", encoding="utf-8") as f:
+            writer = csv.writer(f)
+            writer.writerow(self.columns)
+            for line in self.done.values():
+                writer.writerow(line[name] for name in self.columns)
+        os.replace(temporary, self.path)
 
     def check_jobs(self, jobs: list) -> None:
         """A resumed file must have the job columns of this sweep (before any run starts)."""
@@ -159,7 +223,7 @@ class ResultsFile:
     def check_columns(self, columns) -> None:
         """A resumed file must have the result columns this study's runs give (before any run starts:
         a release that adds a column cannot append to an older file)."""
-        if self.columns is None or columns is None:
+        if self.columns is None or columns is None or self.older_format:
             return
         missing = [name for name in columns if name not in self.columns]
         if missing:
@@ -173,12 +237,13 @@ class ResultsFile:
         return {
             name: job[name] if name in job else _parse_cell(text)
             for name, text in self.done[key].items()
-            if name != KEY
+            if name not in (KEY, VERSION)
         }
 
-    def append(self, key: str, row: dict) -> None:
-        """Write the finished run's line (the header first, at the first line of a new file)."""
-        columns = [KEY, *row]
+    def append(self, key: str, row: dict, version: str | None = None) -> None:
+        """Write the finished run's line (the header first, at the first line of a new file);
+        ``version``: run_version of its job (default: code_fingerprint)."""
+        columns = [KEY, VERSION, *row]
         if self._file is None:
             if self.columns is None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -191,7 +256,8 @@ class ResultsFile:
             raise RuntimeError(
                 f"{self.path}: the run {key!r} gives the columns {columns}, the file has {self.columns}"
             )
-        csv.writer(self._file).writerow([key] + ["" if value is None else value for value in row.values()])
+        values = ["" if value is None else value for value in row.values()]
+        csv.writer(self._file).writerow([key, version or code_fingerprint(), *values])
         self._file.flush()
 
     def close(self) -> None:
@@ -208,7 +274,7 @@ class Progress:
     """A tqdm bar on a terminal; on anything else (a log file, a pipe) plain lines, one per 10 % of the
     runs and one at the end, since a redrawn bar there is a single growing line."""
 
-    def __init__(self, total: int, done: int, label: str, stream=None):
+    def __init__(self, total: int, done: int, label: str, stream=None, note: str = ""):
         self.stream = stream or sys.stderr
         self.total, self.done, self.label = total, done, label
         self.start = time.perf_counter()
@@ -217,11 +283,14 @@ class Progress:
         if self.terminal:
             from tqdm import tqdm
 
+            if note:
+                print(f"{label}: {note}", file=self.stream, flush=True)
             self._bar = tqdm(
                 total=total, initial=done, desc=label, unit="run", file=self.stream, dynamic_ncols=True
             )
-        elif done:
-            self._line(f"{done} finished runs resumed")
+        elif done or note:
+            resumed = f"{done} finished runs resumed" if done else ""
+            self._line("; ".join(text for text in (resumed, note) if text))
 
     def _line(self, note: str = "") -> None:
         pct = 100.0 * self.done / self.total if self.total else 100.0
@@ -343,17 +412,32 @@ class Engine:
                 _plain(value, f"job {name}")
         if len(set(keys)) < len(keys):
             raise ValueError("two jobs have the same key: every job must name a different run")
+        versions = [run_version(job) for job in jobs]
+        note = ""
         if results is not None:
             results.check_jobs(jobs)
-        done = results.done if results is not None else {}
-        rows = [results.row(key, job) if key in done else None for key, job in zip(keys, jobs, strict=True)]
+            stale = [
+                key
+                for key, version in zip(keys, versions, strict=True)
+                if key in results.done and not results.finished(key, version)
+            ]
+            results.discard(stale)
+            rerun = len(stale) + results.older_format
+            if results.older_format:
+                results.columns = None  # the first finished run starts the file anew
+            if rerun:
+                note = f"{rerun} lines of another code or scenario version run again"
+        rows = [
+            results.row(key, job) if results is not None and results.finished(key, version) else None
+            for key, job, version in zip(keys, jobs, versions, strict=True)
+        ]
         pending = [i for i, row in enumerate(rows) if row is None]
-        progress = Progress(len(jobs), len(jobs) - len(pending), label, stream)
+        progress = Progress(len(jobs), len(jobs) - len(pending), label, stream, note)
 
         def finish(i, result):
             row = {**jobs[i], **{name: _plain(value, name) for name, value in result.items()}}
             if results is not None:
-                results.append(keys[i], row)
+                results.append(keys[i], row, versions[i])
             rows[i] = row
             progress.update()
 
@@ -635,7 +719,7 @@ def sweep(
     try:
         file.check_jobs(jobs)
         with Engine(workers, scheduler) as engine:
-            resumed = sum(job_key(job) in file.done for job in jobs)
+            resumed = sum(file.finished(job_key(job), run_version(job)) for job in jobs)
             rows = engine.map(run_sweep_job, jobs, file, label=f"sweep {name}")
             wall = time.perf_counter() - start
             used = engine.workers

@@ -124,8 +124,8 @@ def test_resume_from_an_older_file_without_the_run_rms_columns_stops_before_any_
     resume says so before a run starts (not after the first run, when appending fails)."""
     old = [c for c in study.RESULT_COLUMNS if not c.endswith("run_rms_pct")]
     row = {"scenario": "corner", "case": "matched", "seed": 0} | {c: 0.1 for c in old[3:]}
-    line = ",".join(["scenario=corner;case=matched;seed=0", *map(str, row.values())])
-    (tmp_path / "robustness.csv").write_text(",".join(["key", *old]) + "\n" + line + "\n")
+    line = ",".join(["scenario=corner;case=matched;seed=0", "0123456789ab", *map(str, row.values())])
+    (tmp_path / "robustness.csv").write_text(",".join(["key", "code_version", *old]) + "\n" + line + "\n")
 
     def no_run(*args, **kwargs):
         raise AssertionError("a run started")

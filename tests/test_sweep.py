@@ -149,3 +149,52 @@ def test_resume_refuses_another_sweeps_file(tmp_path, capsys):
     assert main(argv) == 2
     assert "is not a sweep results file" in capsys.readouterr().err
     assert (tmp_path / "sweep-corner.csv").read_bytes() == b"\xff\xfe not a csv\n"  # left as it was
+
+
+def _squared_seed(job: dict) -> dict:
+    return {"x": job["seed"] ** 2 + 0.5}
+
+
+def _lines(path) -> list[list[str]]:
+    return [line.split(",") for line in path.read_text().splitlines()]
+
+
+def test_resume_runs_again_the_lines_of_another_code_or_scenario_version(tmp_path, monkeypatch):
+    path, scenario = tmp_path / "r.csv", tmp_path / "s.yaml"
+    scenario.write_text("robot: tinyphoon\n")
+    jobs = [{"scenario": str(scenario), "seed": seed} for seed in range(3)]
+
+    def run(resume=True):
+        stream = io.StringIO()
+        rows = engine.run_jobs(_squared_seed, jobs, workers=0, results=path, resume=resume, stream=stream)
+        return [row["x"] for row in rows], stream.getvalue()
+
+    assert run(resume=False)[0] == [0.5, 1.5, 4.5]
+    header, *lines = _lines(path)
+    assert header == ["key", "code_version", "scenario", "seed", "x"]
+    version = engine.run_version(jobs[0])
+    assert [line[1] for line in lines] == [version] * 3 and len(version) == 12
+    # seed 0's line as this version wrote it (its value is read back), seed 1's by another version
+    lines[0][4], lines[1][1], lines[1][4] = "7.0", "0123456789ab", "99.0"
+    path.write_text("\n".join(",".join(cells) for cells in [header, *lines]) + "\n")
+    x, progress = run()
+    assert x == [7.0, 1.5, 4.5]
+    assert "2 finished runs resumed; 1 lines of another code or scenario version run again" in progress
+    assert [line[0] for line in _lines(path)[1:]] == [f"scenario={scenario};seed={s}" for s in (0, 2, 1)]
+    # an edited scenario file: every run again, each key once
+    scenario.write_text("robot: kurt3d\n")
+    assert engine.run_version(jobs[0]) != version
+    x, progress = run()
+    assert x == [0.5, 1.5, 4.5] and "3 lines of another code or scenario version" in progress
+    assert len(_lines(path)) == 4 and {line[1] for line in _lines(path)[1:]} == {engine.run_version(jobs[0])}
+    # another release of the package: the same
+    monkeypatch.setattr(engine, "code_fingerprint", lambda: "upgraded")
+    assert run()[1].count("3 lines of another code") == 1
+    # an older release's file, without the code_version column: started anew
+    path.write_text(
+        "key,scenario,seed,x\n"
+        + "".join(f"scenario={scenario};seed={s},{scenario},{s},9\n" for s in range(3))
+    )
+    x, progress = run()
+    assert x == [0.5, 1.5, 4.5] and "3 lines of another code" in progress
+    assert _lines(path)[0] == header and len(_lines(path)) == 4
