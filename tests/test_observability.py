@@ -50,22 +50,38 @@ def twins():
     return scenario, low_gyro, wide_track
 
 
-def heading_error_deg(a: dict, prefix: str) -> float:
-    return math.degrees(abs(a[f"{prefix}_phi"][-1] - a["true_phi"][-1]))
+@pytest.fixture(scope="module")
+def distance_twins():
+    _, large_radii = twin_run("wheel_radius_R: 0.01, wheel_radius_L: 0.01")
+    _, sensitive = twin_run("gyro_scale: 0.01, accel1_scale: 0.01, accel2_scale: 0.01")
+    return large_radii, sensitive
 
 
-def test_a_low_gyro_and_a_wide_track_give_the_sensors_the_same_data(twins):
-    scenario, a, b = twins
+def end_gap(a: dict, b: dict, prefix: str) -> float:
+    x, y = f"{prefix}_x", f"{prefix}_y"
+    return math.hypot(a[x][-1] - b[x][-1], a[y][-1] - b[y][-1])
+
+
+def assert_same_data(scenario, a: dict, b: dict) -> None:
     sensors = scenario.plant_parameters(0)[1]
     n = min(len(a["t"]), len(b["t"]))
     count = 2.0 * math.pi / sensors.encoder_counts_per_revolution
     for side in ("R", "L"):
         assert np.max(np.abs(a[f"meas_enc_{side}"][:n] - b[f"meas_enc_{side}"][:n])) <= 1.01 * count
     assert np.max(np.abs(a["meas_gyro"][:n] - b["meas_gyro"][:n])) < 0.1 * sensors.gyro_noise_std
-    # the accelerometers see the 1 % of the centripetal acceleration, inside their sensitivity tolerance
+    # the accelerometers differ by 1 % of the centripetal acceleration, inside their sensitivity tolerance
     for axis in ("a_t1", "a_n1", "a_t2", "a_n2"):
         difference = np.max(np.abs(a[f"meas_{axis}"][:n] - b[f"meas_{axis}"][:n]))
         assert difference < TOLERANCE_PRESET.accel1_scale * np.max(np.abs(a[f"meas_{axis}"][:n]))
+
+
+def heading_error_deg(a: dict, prefix: str) -> float:
+    return math.degrees(abs(a[f"{prefix}_phi"][-1] - a["true_phi"][-1]))
+
+
+def test_a_low_gyro_and_a_wide_track_give_the_sensors_the_same_data(twins):
+    scenario, a, b = twins
+    assert_same_data(scenario, a, b)
     # while the robots really turn by angles 1 % apart
     true_difference = math.degrees(a["true_phi"][-1] - b["true_phi"][-1])
     assert true_difference == pytest.approx(-GYRO_SCALE * TURN_DEG, rel=0.05)
@@ -84,3 +100,14 @@ def test_no_estimator_beats_both_baselines_on_both_twins(twins):
     assert heading_error_deg(b, "gyro") < 0.15 * true_difference
     # and in position: the fused estimate ends above odometry-only on the low-gyro twin
     assert final_position_error(a, "est") > 2.0 * final_position_error(a, "odo")
+
+
+def test_large_radii_and_sensitive_inertial_sensors_are_twins_too(twins, distance_twins):
+    scenario = twins[0]
+    large_radii, sensitive = distance_twins
+    assert_same_data(scenario, large_radii, sensitive)
+    gap = end_gap(large_radii, sensitive, "true")
+    assert gap > 0.005 * 5.0  # the large wheels carry the robot 1 % further
+    assert end_gap(large_radii, sensitive, "est") < 0.2 * gap
+    # odometry-only is exact on the sensitive twin, the fusion is not
+    assert final_position_error(sensitive, "est") > 2.0 * final_position_error(sensitive, "odo")
