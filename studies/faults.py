@@ -16,6 +16,12 @@ run reports
   3-30 mm from seed to seed), while an error the fault causes counts in the RMS from then on (a heading
   error as the distance it costs).
 
+Null faults: per scenario and seed, the gyro and accel1_t get a bias step of NULL_FAULT_BIAS for
+FAULT_DURATION at their usual start, far below any noise, so that their final-error ratio is what chance
+alone gives the issue's ratio. Closed loop it is not 1: the path follows the estimate, and a change in
+the last bit of a reading moves it by millimetres (square seed 0: a 1e-9 m/s^2 bias moves the true path
+by 2 mm, a 1e-6 rad/s gyro bias ends 3.6 x the fault-free run's 1.3 mm); open loop it is 1.
+
 Targets (issue 18): every fault detected within 0.1 s; no false flags; error ratio <= 3; bias within
 3 sigma. Last line: ``faults detected=<n>/<m> worst_error_ratio=<f>``. With ``--perturbations`` it also
 runs the plant perturbations (PERTURBATIONS) and prints their final errors against both baselines, the
@@ -48,6 +54,10 @@ SCALE = 1.0
 """Scale change: the reading (an encoder's increments) doubled."""
 SATURATION_FRACTION = 0.5
 """Saturation: clipped at half the channel's largest fault-free reading."""
+NULL_FAULT_CHANNELS = ("gyro", "accel1_t")
+NULL_FAULT_BIAS = 1e-6
+"""The null faults' bias step (rad/s, m/s^2): 1/14000 of the gyro's white noise, 1/62000 of the
+accelerometers'; no check can see it and no estimate should change beyond rounding."""
 MEASURED_KEYS = {
     "accel1_t": "meas_a_t1",
     "accel1_n": "meas_a_n1",
@@ -104,6 +114,17 @@ def fault_cases(a: dict) -> list[dict]:
 NOISE_LEVEL = {"gyro": 3 * 0.014, "accel": 3 * 0.062, "encoder": 0.0}
 """A fault has an effect once it changes a reading by more than three white-noise sigmas (the data
 sheets', systems/sensors.py); an encoder's by any count."""
+
+
+def null_fault_cases(cases: list[dict]) -> list[dict]:
+    """The null faults (module docstring) of one fault-free run's ``cases`` (fault_cases): its bias
+    faults on NULL_FAULT_CHANNELS with the bias NULL_FAULT_BIAS; their onset is NaN (no reading changes
+    by more than the noise)."""
+    return [
+        {**c, "value": NULL_FAULT_BIAS, "onset_s": math.nan, "null": True}
+        for c in cases
+        if c["kind"] == "bias" and c["channel"] in NULL_FAULT_CHANNELS
+    ]
 
 
 def fault_onset(clean: dict, event: FaultEvent) -> float:
@@ -257,24 +278,27 @@ def faults(
     wheel speeds forward, so that a fault cannot change the path and the error ratio is the fault's
     effect on the estimate alone; print the tables and the last line; return the sensor-fault rows."""
     stream = stream or sys.stdout
-    rows, clean_rows, perturbed = [], [], []
+    rows, clean_rows, perturbed, nulls = [], [], [], []
     start = time.perf_counter()
     with session("faults", workers, scheduler, out_dir, resume) as (engine, file):
         for name in names:
             scenario = load_scenario(name)
-            jobs, plant_jobs = [], []
+            jobs, plant_jobs, null_jobs = [], [], []
             for seed in range(seeds):
                 clean = run_scenario(scenario, seed=seed, faults=[], open_loop=open_loop or None).arrays
                 clean_rows.append({"scenario": name, "seed": seed, **clean_figures(clean)})
                 common = {"scenario": name, "seed": seed, **({"open_loop": True} if open_loop else {})}
-                jobs += [{**common, **case} for case in fault_cases(clean)]
+                cases = fault_cases(clean)
+                jobs += [{**common, **case} for case in cases]
+                null_jobs += [{**common, **case} for case in null_fault_cases(cases)]
                 plant_jobs += [{**common, **c} for c in perturbation_cases(scenario, clean)]
             rows += engine.map(run_fault, jobs, file, label=f"faults {name}")
+            nulls += engine.map(run_fault, null_jobs, None, label=f"null faults {name}")
             if perturbations:
                 perturbed += engine.map(run_perturbation, plant_jobs, None, label=f"perturbations {name}")
     if perturbed:
         print_perturbations(perturbed, stream)
-    print_report(rows, clean_rows, time.perf_counter() - start, stream)
+    print_report(rows, clean_rows, time.perf_counter() - start, stream, nulls)
     return rows
 
 
@@ -311,7 +335,21 @@ def clean_figures(a: dict) -> dict:
     }
 
 
-def print_report(rows: list, clean_rows: list, wall: float, stream) -> None:
+def print_null_faults(nulls: list, stream) -> None:
+    """One line on the null faults (null_fault_cases): the final-error ratio chance alone gives."""
+    ratios = [r["error_ratio"] for r in nulls]
+    rms = [r.get("run_rms_ratio", math.nan) for r in nulls]
+    flagged = sum(r["flagged_samples"] + r["other_flags"] + r["perturbation_samples"] > 0 for r in nulls)
+    channels = ", ".join(NULL_FAULT_CHANNELS)
+    print(
+        f"null faults (a {NULL_FAULT_BIAS:g} bias step on {channels}): {len(nulls)} runs, "
+        f"final-error ratio {min(ratios):.2f}-{max(ratios):.2f} ({sum(v > 3.0 for v in ratios)} above 3), "
+        f"RMS ratio {np.nanmin(rms):.2f}-{np.nanmax(rms):.2f}, flagged {flagged}",
+        file=stream,
+    )
+
+
+def print_report(rows: list, clean_rows: list, wall: float, stream, nulls: list = ()) -> None:
     print(
         f"{'scenario':10} {'seed':>4} {'channel':9} {'fault':10} {'latency ms':>10} {'ratio':>6} "
         f"{'bias/sigma':>10} {'fused m':>8} {'odo m':>7} {'gyrodo m':>8} {'RMS ratio':>9}",
@@ -337,6 +375,8 @@ def print_report(rows: list, clean_rows: list, wall: float, stream) -> None:
             f"{sum(x['error_ratio'] > 3.0 for x in rows)})",
             file=stream,
         )
+    if nulls:
+        print_null_faults(nulls, stream)
     false_flags = sum(r["false_flags"] for r in clean_rows)
     detected = sum(bool(r["detected"]) for r in rows)
     worst_ratio = max((r["error_ratio"] for r in rows), default=math.nan)

@@ -9,7 +9,16 @@ import pytest
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml, with_keys
 from slipnav.scenarios.metrics import POSE_DELAY_SAMPLES, final_position_error, rms_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.faults import fault_cases, fault_onset, perturbation_cases, print_report, run_fault
+from slipnav.studies.faults import (
+    NULL_FAULT_BIAS,
+    fault_cases,
+    fault_figures,
+    fault_onset,
+    null_fault_cases,
+    perturbation_cases,
+    print_report,
+    run_fault,
+)
 from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.plant import contact_forces, plant_derivatives, plant_substep, tinyphoon
 from slipnav.systems.sensor_health import (
@@ -549,6 +558,40 @@ def test_fault_cases_and_the_report_line():
     assert lines[-1] == "faults detected=3/3 worst_error_ratio=1.500"
     crossed = f"sensor-fault runs that flagged another channel: 1 ({rows[1]['channel']} {rows[1]['kind']})"
     assert crossed in lines
+
+
+def test_null_faults_change_nothing_a_check_or_the_estimate_could_see():
+    """A 1e-6 bias step for 0.5 s on the gyro: open loop, the estimate moves by rounding only and nothing
+    is flagged, so a null fault's final-error ratio in closed loop is what chance gives the metric; the
+    report prints its range apart from the faults' counts."""
+    scenario = load_scenario("corner")
+    clean = run_scenario(scenario, duration=2.5, open_loop=True).arrays
+    nulls = null_fault_cases(fault_cases(clean))
+    assert sorted(c["channel"] for c in nulls) == ["accel1_t", "gyro"]
+    assert all(
+        c["kind"] == "bias" and c["value"] == NULL_FAULT_BIAS and math.isnan(c["onset_s"]) for c in nulls
+    )
+    case = next(c for c in nulls if c["channel"] == "gyro")
+    event = FaultEvent(case["kind"], case["channel"], case["start"], case["duration"], case["value"])
+    a = run_scenario(scenario, duration=2.5, open_loop=True, faults=[event]).arrays
+    figures = fault_figures(a, event, case["onset_s"], final_position_error(clean, "est"), 1.0)
+    assert figures["flagged_samples"] == figures["other_flags"] == figures["perturbation_samples"] == 0
+    assert not figures["detected"]
+    moved = np.hypot(a["est_x"] - clean["est_x"], a["est_y"] - clean["est_y"])
+    assert np.max(moved) < 1e-5  # a 1e-6 rad/s heading rate for 0.5 s over 1.6 m/s of travel: ~1e-6 m
+    assert figures["error_ratio"] == pytest.approx(1.0, abs=1e-3)
+    import io
+
+    out = io.StringIO()
+    rows = [{**figures, **case, "scenario": "corner", "seed": 0, "error_ratio": 1.2, "bias_error_sigma": 0.5}]
+    nulls_rows = [{**figures, "error_ratio": r, "run_rms_ratio": 1.0} for r in (0.8, 3.6)]
+    print_report(rows, [{"false_flags": 0}], 1.0, out, nulls_rows)
+    lines = out.getvalue().splitlines()
+    assert (
+        "null faults (a 1e-06 bias step on gyro, accel1_t): 2 runs, final-error ratio 0.80-3.60 (1 above 3), "
+        "RMS ratio 1.00-1.00, flagged 0"
+    ) in lines
+    assert lines[-1] == "faults detected=0/1 worst_error_ratio=1.200"  # null faults count in neither
 
 
 # -- plant perturbations -----------------------------------------------------------------------------
