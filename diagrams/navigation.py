@@ -188,6 +188,9 @@ def build_navigation_diagram(
     b.Connect(c1.GetOutputPort("C1"), mixer_block.GetInputPort("C1"))
     b.Connect(c23["C2_C3"], mixer_block.GetInputPort("C2_C3"))
     b.Connect(ekf.GetOutputPort("estimate"), mixer_block.GetInputPort("previous_estimate"))
+    velocity_layout = (("body_velocity", 2), ("rest", 3))
+    estimate = split_port(b, ekf.GetOutputPort("estimate"), velocity_layout, "EKF's v_t, v_n")
+    b.Connect(estimate["body_velocity"], monitor.GetInputPort("body_velocity"))  # the gyro's replacement
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))

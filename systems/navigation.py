@@ -250,7 +250,8 @@ class NavigationLoop:
         mp, T_N = self.params.mixing, self.T_N
         raw = tuple([float(v) for v in (*accelerometers, gyro, *encoders)])
         amps = (float(currents[0]), float(currents[1]))
-        self.health, sample, codes = health_check(self.health, raw, amps, self.health_constants)
+        velocity = (float(self.x[0]), float(self.x[1]))  # x_k-1's body velocity: the gyro's replacement
+        self.health, sample, codes = health_check(self.health, raw, amps, self.health_constants, velocity)
         acc, g = sample[0:4], sample[4]
         self.checked_encoders = (sample[5], sample[6])  # what the perturbation monitor reads
         if self.sensor_calibration is not None:  # SensorCorrection

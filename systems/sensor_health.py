@@ -38,7 +38,10 @@ Checks (health codes, 0 = healthy):
    the distance from it alone decides (a hard braking moves the healthy sensor as much as a bias).
 6. ``recovering``: excluded, waiting to agree again with its redundant estimate.
 
-Replacements: an excluded gyro reads the odometric yaw rate (both encoders healthy), else its last value;
+Replacements: an excluded gyro reads the yaw rate the nominal yaw dynamics give the body from the wheels'
+speeds (yaw_follow_step: the odometric yaw rate lagged by the tyres' slip and held back by the shoes'
+scrub; the plain odometric yaw rate without the nominal robot's figures), both encoders healthy, else
+its last value;
 a saturated one the accelerometer pair's yaw rate (pair_omega_squared, averaged over
 consistency_samples), at least its full scale, with the gyro's sign, unless the odometry and the pair
 both say below the full scale (the gyro reads beyond the robot: the odometry's); an accelerometer axis
@@ -67,7 +70,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.compiled import compiled, jitable
-from slipnav.systems.plant import shoe_drag
+from slipnav.systems.plant import shoe_drag, tyre_force_and_stiffness
 
 NO_CURRENTS = (math.nan, math.nan)
 """The motor current readings when none are read: the tangential accelerometers' reference is the
@@ -238,6 +241,9 @@ class HealthGeometry:
             allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
         mass ... shoe_normal_load: the nominal robot's figures (RobotParameters' names) for the force
             reference of the tangential accelerometers (module docstring, 5.); mass 0: none.
+        yaw_inertia ... slip_speed_floor: the nominal robot's yaw inertia, wheel load and tyre curve
+            (RobotParameters' names) for the excluded gyro's replacement (yaw_follow_step); yaw_inertia 0:
+            the odometric yaw rate itself.
     """
 
     radius_R: float
@@ -258,6 +264,12 @@ class HealthGeometry:
     shoe_viscous_drag: float = 0.0
     shoe_slip_speed: float = 0.01
     shoe_normal_load: float = 0.0
+    yaw_inertia: float = 0.0
+    wheel_normal_load: float = 0.0
+    tyre_friction: float = 0.0
+    tyre_stiffness_factor: float = 0.0
+    tyre_shape_factor: float = 0.0
+    slip_speed_floor: float = 0.3
 
 
 # State layout (flat, for a Drake discrete state): per analog channel (5 each) the reference (last
@@ -306,13 +318,17 @@ HealthConstants = collections.namedtuple(
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
     "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
-    "shoe_viscous_drag shoe_slip_speed shoe_normal_load",
+    "shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load tyre_friction "
+    "tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
 )
 """What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
 is the bound in force)."""
 _GEOMETRY_FIELDS = HealthConstants._fields[HealthConstants._fields.index("radius_R") :]
 FORCE_REFERENCE_FIELDS = HealthConstants._fields[HealthConstants._fields.index("mass") :]
-"""HealthGeometry's figures of the nominal robot for the force reference (RobotParameters' names)."""
+"""HealthGeometry's figures of the nominal robot for the force reference and the yaw dynamics
+(RobotParameters' names)."""
+NO_VELOCITY = (math.nan, math.nan)
+"""health_check's ``velocity`` when the navigation's estimate is not read: the odometric v_t, no v_n."""
 
 
 def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
@@ -339,9 +355,12 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
     return tuple(values)
 
 
-def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry, currents=NO_CURRENTS):
+def health_step(
+    state, raw, p: SensorHealthParameters, g: HealthGeometry, currents=NO_CURRENTS, velocity=NO_VELOCITY
+):
     """Check one sample (module docstring): health_check with ``p`` and ``g``; ``currents``: the motor
-    drivers' readings [i_R, i_L] (A) of the sample.
+    drivers' readings [i_R, i_L] (A) of the sample; ``velocity``: the navigation's body velocity
+    (v_t, v_n) of the previous sample (m/s), for the excluded gyro's replacement.
 
     Returns:
         (next state, accepted sample [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L], health codes (7)).
@@ -351,13 +370,15 @@ def health_step(state, raw, p: SensorHealthParameters, g: HealthGeometry, curren
         tuple([float(v) for v in raw]),
         (float(currents[0]), float(currents[1])),
         health_constants(p, g),
+        (float(velocity[0]), float(velocity[1])),
     )
 
 
 @compiled
-def health_check(state, raw: tuple, currents: tuple, constants: tuple):
-    """health_step with the parameters and the geometry as health_constants' tuple and the sample and
-    the currents as tuples of floats (compiled with numba when available: systems/compiled.py)."""
+def health_check(state, raw: tuple, currents: tuple, constants: tuple, velocity: tuple = NO_VELOCITY):
+    """health_step with the parameters and the geometry as health_constants' tuple and the sample, the
+    currents and the velocity as tuples of floats (compiled with numba when available:
+    systems/compiled.py)."""
     p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
     s = state.copy()
     if not p.enabled:  # NaN/inf only: hold the last valid value
@@ -554,7 +575,13 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
     # moved more and lies farther from the kinematics is excluded. The yaw rate the rotational terms use
     # is the gyro's, else the odometry's, else (saturated) the pair's own.
     px, py = g.accelerometer_position
-    omega = raw[4] if gyro_ok else omega_o
+    # The wheels' yaw rate for an excluded gyro: the body's, through the nominal yaw dynamics
+    # (yaw_follow_step, from the replacement's last value), else the odometric one.
+    omega_wheels = omega_o
+    if not gyro_ok and enc_ok and g.yaw_inertia > 0.0 and math.isfinite(ref[4]):
+        v_t, v_n = (velocity[0], velocity[1]) if math.isfinite(velocity[0] + velocity[1]) else (v_o, 0.0)
+        omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g)
+    omega = raw[4] if gyro_ok else omega_wheels
     full_scale = p.saturation_fraction * p.gyro_range
     pair_finite = (
         math.isfinite(raw[0]) and math.isfinite(raw[1]) and math.isfinite(raw[2]) and math.isfinite(raw[3])
@@ -565,7 +592,7 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
     if codes[4] == SATURATED:
         pair = math.sqrt(max(s[_W + 12], 0.0))
         if enc_ok and abs(omega_o) < full_scale and pair < full_scale:
-            omega = omega_o  # the gyro reads beyond what the robot does (railed, or its scale)
+            omega = omega_wheels  # the gyro reads beyond what the robot does (railed, or its scale)
         else:  # this sample's pair (the averaged one lags a spin's onset)
             this_sample = math.sqrt(max(w2, 0.0)) if math.isfinite(w2) else 0.0
             omega = math.copysign(max(full_scale, this_sample), raw[4])
@@ -628,13 +655,32 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple):
         if c == 4 and codes[4] == SATURATED:
             value = omega  # the pair's yaw rate, or the odometry's (above)
         elif c == 4:
-            value = omega_o if enc_ok else ref[4]
+            value = omega_wheels if enc_ok else ref[4]
         elif codes[c ^ 2] == 0:
             value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * (rot[c % 2] + rot_dot[c % 2] + s[_OFFSET + c % 2])
         else:
             value = ref[c]
         out[c] = ref[c] = value if math.isfinite(value) else 0.0
     return s, out, codes
+
+
+@jitable
+def yaw_follow_step(omega: float, u_R: float, u_L: float, v_t: float, v_n: float, g) -> float:
+    """The excluded gyro's replacement: the body's yaw rate one T_N on, following the wheels through the
+    nominal yaw dynamics I_z omega' = b/2 (F_R - F_L) + the shoes' moment, each tyre's F_x from the
+    believed curve at the wheel's circumferential speed ``u`` against its contact point's v_t +- omega b/2
+    and v_n. Linearly implicit in the tyres' slip stiffness dF/du (stable at any stiffness): near zero
+    slip the body follows the odometric yaw rate with the lag 2 I_z / (b^2 dF/du), 12 ms on Tinyphoon at
+    1.6 m/s, longer as the tyres saturate; the shoes' scrub holds it below. The odometric yaw rate itself
+    leads the body by that lag (over-reads while the turn builds, under-reads as it ends: 3.9 deg over
+    0.5 s of the open corner's turn, 0.7 deg this way). ``g``: HealthConstants (or anything with their
+    track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields)."""
+    half = 0.5 * g.track_width
+    f_R, _, k_R = tyre_force_and_stiffness(v_t + omega * half, v_n, u_R, g.wheel_normal_load, g)
+    f_L, _, k_L = tyre_force_and_stiffness(v_t - omega * half, v_n, u_L, g.wheel_normal_load, g)
+    _, moment = shoe_drag(v_t, v_n, omega, g, 0.0, half * (f_R - f_L))
+    stiffness = g.T_N * half * half * (k_R + k_L) / g.yaw_inertia
+    return omega + g.T_N * (moment / g.yaw_inertia) / (1.0 + stiffness)
 
 
 @jitable
@@ -765,11 +811,14 @@ class SensorHealthMonitor(LeafSystem):
         - gyro
         - encoders
         - motor_currents
+        - body_velocity
         output_ports:
         - step
 
     - inputs: the samples as read; motor_currents (optional): the drivers' current readings [i_R, i_L]
-      (A), the t axes' force reference (unconnected: the odometry's).
+      (A), the t axes' force reference (unconnected: the odometry's); body_velocity (optional): the
+      navigation's (v_t, v_n) of the previous sample (the EKF's state), which the excluded gyro's
+      replacement reads (yaw_follow_step; unconnected: the odometric v_t and no v_n).
     - step (direct feedthrough), in HEALTH_STEP_LAYOUT's order: the next state; the accepted or replaced
       samples accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]; health,
       the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
@@ -796,8 +845,10 @@ class SensorHealthMonitor(LeafSystem):
             for name, size in (("accelerometers", 4), ("gyro", 1), ("encoders", 2))
         ]
         self._currents = self.DeclareVectorInputPort("motor_currents", 2)
+        self._velocity = self.DeclareVectorInputPort("body_velocity", 2)
         self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
-        prereq = {self.xd_ticket(), self._currents.ticket()} | {port.ticket() for port in self._inputs}
+        prereq = {self.xd_ticket(), self._currents.ticket(), self._velocity.ticket()}
+        prereq |= {port.ticket() for port in self._inputs}
         size = sum(n for _, n in HEALTH_STEP_LAYOUT)
         self._step = self.DeclareVectorOutputPort("step", size, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
@@ -807,7 +858,9 @@ class SensorHealthMonitor(LeafSystem):
         state = context.get_discrete_state(self._state).get_value()
         port = self._currents
         currents = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_CURRENTS
-        state, out, codes = health_check(state, raw, currents, self._constants)
+        port = self._velocity
+        velocity = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_VELOCITY
+        state, out, codes = health_check(state, raw, currents, self._constants, velocity)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
         step[STATE_SIZE:] = [*out, *codes, *health_flags(codes, odometry_unusable(state, out))]

@@ -88,8 +88,8 @@ def test_ekf_functions_compiled_equal_python():
 @pytest.mark.parametrize("enabled", [True, False])
 def test_sensor_checks_compiled_equal_python(enabled):
     """A run of samples with noise, a jump, a stuck encoder, NaN and inf, a saturated gyro, a disagreeing
-    accelerometer, motor currents read (the force reference) and missing: every state, output and code
-    equal."""
+    accelerometer, motor currents read (the force reference) and missing, a lost gyro replaced by the
+    yaw dynamics with and without the navigation's velocity: every state, output and code equal."""
     geometry = health_geometry(NavigationParameters(), 0.015, 0.068, T_N, robot=tinyphoon())
     constants = health_constants(SensorHealthParameters(enabled=enabled), geometry)
     rng = np.random.default_rng(3)
@@ -106,11 +106,14 @@ def test_sensor_checks_compiled_equal_python(enabled):
             raw[1], raw[6] = math.nan, math.inf
         if 250 <= k < 300:
             raw[2] += 8.0  # accelerometer 2's t axis disagrees
+        if 320 <= k < 340:
+            raw[4] = math.nan  # the gyro lost: the yaw dynamics replace it, with and without the velocity
         raw = tuple(float(v) for v in raw)
         currents = (math.nan, math.nan) if k < 240 else (0.2 + 0.01 * rng.normal(), 0.2)
+        velocity = (math.nan, math.nan) if k < 330 else (0.5, 0.01 * rng.normal())
         (state_c, out_c, codes_c), (state_p, out_p, codes_p) = (
-            health_check(state_c, raw, currents, constants),
-            compiled.pure(health_check)(state_p, raw, currents, constants),
+            health_check(state_c, raw, currents, constants, velocity),
+            compiled.pure(health_check)(state_p, raw, currents, constants, velocity),
         )
         assert_same((state_c, out_c, codes_c), (state_p, out_p, codes_p))
         assert [type(c) for c in codes_c] == [int] * 7
