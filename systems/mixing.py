@@ -927,6 +927,7 @@ class VelocityMixer(LeafSystem):
         - encoder_fault
         output_ports:
         - mixing
+        - tyre_model_state
 
     - previous_estimate: the EKF state x_k-1 (the previous mixed estimate), for v_n,k-1 and the tyre
       model's previous value in S(17).
@@ -944,6 +945,7 @@ class VelocityMixer(LeafSystem):
       (tyre_peak_step); slide_onset, 1 while the test holds; slide_onset_state, the test's state after
       this sample. One vector, one Python call per sample; the navigation diagram slices it with a
       Demultiplexer (diagrams/split.py).
+    - tyre_model_state: the state [F, S, a_peak, |a| PT1, held] (the sensor checks read a_peak).
 
     Update every T_N: F, S, a_peak with its filter and held value, and the slide-onset test's state
     (state, from SLIDE_ONSET_INITIAL).
@@ -969,6 +971,7 @@ class VelocityMixer(LeafSystem):
             [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
         )
         self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
+        self.DeclareStateOutputPort("tyre_model_state", self._check)
         self._mixing = self.DeclareVectorOutputPort(
             "mixing", sum(size for _, size in MIXER_LAYOUT), self._calc
         )

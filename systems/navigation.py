@@ -169,6 +169,7 @@ def health_geometry(
         tuple(sensors.accelerometer_position),
         bound,
         sensors.gyro_noise_std,
+        params.mixing.tyre_peak_acceleration,
         **force,
     )
 
@@ -251,7 +252,10 @@ class NavigationLoop:
         raw = tuple([float(v) for v in (*accelerometers, gyro, *encoders)])
         amps = (float(currents[0]), float(currents[1]))
         velocity = (float(self.x[0]), float(self.x[1]))  # x_k-1's body velocity: the gyro's replacement
-        self.health, sample, codes = health_check(self.health, raw, amps, self.health_constants, velocity)
+        peak = float(self.tyre_model_state[2])  # the identified tyre peak after x_k-1
+        self.health, sample, codes = health_check(
+            self.health, raw, amps, self.health_constants, velocity, peak
+        )
         acc, g = sample[0:4], sample[4]
         self.checked_encoders = (sample[5], sample[6])  # what the perturbation monitor reads
         if self.sensor_calibration is not None:  # SensorCorrection

@@ -239,6 +239,8 @@ class HealthGeometry:
         (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
         gyro_noise_std: the gyro's white noise per sample (rad/s, data sheet): the fast pair test's
             allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
+        tyre_peak_acceleration: the navigation's nominal tyre peak mu g f_w (m/s^2, mixing's): the
+            identified peak over it scales the replacement's tyre forces (yaw_follow_step's grip).
         mass ... shoe_normal_load: the nominal robot's figures (RobotParameters' names) for the force
             reference of the tangential accelerometers (module docstring, 5.); mass 0: none.
         yaw_inertia ... slip_speed_floor: the nominal robot's yaw inertia, wheel load and tyre curve
@@ -254,6 +256,7 @@ class HealthGeometry:
     accelerometer_position: tuple
     max_wheel_speed: float
     gyro_noise_std: float = 0.014
+    tyre_peak_acceleration: float = math.inf
     mass: float = 0.0
     wheel_inertia: float = 0.0
     motor_constant: float = 0.0
@@ -317,9 +320,9 @@ HealthConstants = collections.namedtuple(
     "max_exclusion_time pair_offset_time_constant "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
-    "mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset shoe_friction "
-    "shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load tyre_friction "
-    "tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
+    "tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset "
+    "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
+    "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
 )
 """What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
 is the bound in force)."""
@@ -356,11 +359,18 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
 
 
 def health_step(
-    state, raw, p: SensorHealthParameters, g: HealthGeometry, currents=NO_CURRENTS, velocity=NO_VELOCITY
+    state,
+    raw,
+    p: SensorHealthParameters,
+    g: HealthGeometry,
+    currents=NO_CURRENTS,
+    velocity=NO_VELOCITY,
+    tyre_peak: float = math.nan,
 ):
     """Check one sample (module docstring): health_check with ``p`` and ``g``; ``currents``: the motor
     drivers' readings [i_R, i_L] (A) of the sample; ``velocity``: the navigation's body velocity
-    (v_t, v_n) of the previous sample (m/s), for the excluded gyro's replacement.
+    (v_t, v_n) of the previous sample (m/s) and ``tyre_peak`` its identified tyre peak (m/s^2; NaN: the
+    nominal), for the excluded gyro's replacement.
 
     Returns:
         (next state, accepted sample [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L], health codes (7)).
@@ -371,11 +381,19 @@ def health_step(
         (float(currents[0]), float(currents[1])),
         health_constants(p, g),
         (float(velocity[0]), float(velocity[1])),
+        float(tyre_peak),
     )
 
 
 @compiled
-def health_check(state, raw: tuple, currents: tuple, constants: tuple, velocity: tuple = NO_VELOCITY):
+def health_check(
+    state,
+    raw: tuple,
+    currents: tuple,
+    constants: tuple,
+    velocity: tuple = NO_VELOCITY,
+    tyre_peak: float = math.nan,
+):
     """health_step with the parameters and the geometry as health_constants' tuple and the sample, the
     currents and the velocity as tuples of floats (compiled with numba when available:
     systems/compiled.py)."""
@@ -580,7 +598,8 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple, velocity:
     omega_wheels = omega_o
     if not gyro_ok and enc_ok and g.yaw_inertia > 0.0 and math.isfinite(ref[4]):
         v_t, v_n = (velocity[0], velocity[1]) if math.isfinite(velocity[0] + velocity[1]) else (v_o, 0.0)
-        omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g)
+        grip = tyre_peak / g.tyre_peak_acceleration  # the identified peak over the nominal (NaN: none)
+        omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g, grip if 0.0 < grip < math.inf else 1.0)
     omega = raw[4] if gyro_ok else omega_wheels
     full_scale = p.saturation_fraction * p.gyro_range
     pair_finite = (
@@ -665,7 +684,9 @@ def health_check(state, raw: tuple, currents: tuple, constants: tuple, velocity:
 
 
 @jitable
-def yaw_follow_step(omega: float, u_R: float, u_L: float, v_t: float, v_n: float, g) -> float:
+def yaw_follow_step(
+    omega: float, u_R: float, u_L: float, v_t: float, v_n: float, g, grip: float = 1.0
+) -> float:
     """The excluded gyro's replacement: the body's yaw rate one T_N on, following the wheels through the
     nominal yaw dynamics I_z omega' = b/2 (F_R - F_L) + the shoes' moment, each tyre's F_x from the
     believed curve at the wheel's circumferential speed ``u`` against its contact point's v_t +- omega b/2
@@ -673,11 +694,14 @@ def yaw_follow_step(omega: float, u_R: float, u_L: float, v_t: float, v_n: float
     slip the body follows the odometric yaw rate with the lag 2 I_z / (b^2 dF/du), 12 ms on Tinyphoon at
     1.6 m/s, longer as the tyres saturate; the shoes' scrub holds it below. The odometric yaw rate itself
     leads the body by that lag (over-reads while the turn builds, under-reads as it ends: 3.9 deg over
-    0.5 s of the open corner's turn, 0.7 deg this way). ``g``: HealthConstants (or anything with their
-    track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields)."""
+    0.5 s of the open corner's turn, 0.2 deg this way). ``g``: HealthConstants (or anything with their
+    track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields); ``grip``: the identified
+    tyre peak over the nominal, which scales the curve's forces and stiffness (both are mu N times a
+    function of the slip)."""
     half = 0.5 * g.track_width
     f_R, _, k_R = tyre_force_and_stiffness(v_t + omega * half, v_n, u_R, g.wheel_normal_load, g)
     f_L, _, k_L = tyre_force_and_stiffness(v_t - omega * half, v_n, u_L, g.wheel_normal_load, g)
+    f_R, f_L, k_R, k_L = grip * f_R, grip * f_L, grip * k_R, grip * k_L
     _, moment = shoe_drag(v_t, v_n, omega, g, 0.0, half * (f_R - f_L))
     stiffness = g.T_N * half * half * (k_R + k_L) / g.yaw_inertia
     return omega + g.T_N * (moment / g.yaw_inertia) / (1.0 + stiffness)
@@ -812,13 +836,16 @@ class SensorHealthMonitor(LeafSystem):
         - encoders
         - motor_currents
         - body_velocity
+        - tyre_peak
         output_ports:
         - step
 
     - inputs: the samples as read; motor_currents (optional): the drivers' current readings [i_R, i_L]
       (A), the t axes' force reference (unconnected: the odometry's); body_velocity (optional): the
       navigation's (v_t, v_n) of the previous sample (the EKF's state), which the excluded gyro's
-      replacement reads (yaw_follow_step; unconnected: the odometric v_t and no v_n).
+      replacement reads (yaw_follow_step; unconnected: the odometric v_t and no v_n); tyre_peak
+      (optional): the navigation's identified tyre peak of the previous sample (the velocity mixer's
+      state; unconnected: the nominal).
     - step (direct feedthrough), in HEALTH_STEP_LAYOUT's order: the next state; the accepted or replaced
       samples accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]; health,
       the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
@@ -846,8 +873,14 @@ class SensorHealthMonitor(LeafSystem):
         ]
         self._currents = self.DeclareVectorInputPort("motor_currents", 2)
         self._velocity = self.DeclareVectorInputPort("body_velocity", 2)
+        self._tyre_peak = self.DeclareVectorInputPort("tyre_peak", 1)
         self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
-        prereq = {self.xd_ticket(), self._currents.ticket(), self._velocity.ticket()}
+        prereq = {
+            self.xd_ticket(),
+            self._currents.ticket(),
+            self._velocity.ticket(),
+            self._tyre_peak.ticket(),
+        }
         prereq |= {port.ticket() for port in self._inputs}
         size = sum(n for _, n in HEALTH_STEP_LAYOUT)
         self._step = self.DeclareVectorOutputPort("step", size, self._calc, prerequisites_of_calc=prereq)
@@ -860,7 +893,9 @@ class SensorHealthMonitor(LeafSystem):
         currents = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_CURRENTS
         port = self._velocity
         velocity = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_VELOCITY
-        state, out, codes = health_check(state, raw, currents, self._constants, velocity)
+        port = self._tyre_peak
+        peak = float(port.Eval(context)[0]) if port.HasValue(context) else math.nan
+        state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
         step[STATE_SIZE:] = [*out, *codes, *health_flags(codes, odometry_unusable(state, out))]

@@ -783,21 +783,24 @@ def yaw_constants(robot) -> HealthConstants:
     return HealthConstants(*health_constants(SensorHealthParameters(), g))
 
 
+@pytest.mark.parametrize("grip", [1.0, 0.5])
 @pytest.mark.parametrize("robot", [tinyphoon(), kurt3d()], ids=["tinyphoon", "kurt3d"])
-def test_the_gyro_replacement_follows_the_wheels_with_the_tyres_lag(robot):
+def test_the_gyro_replacement_follows_the_wheels_with_the_tyres_lag(robot, grip):
     """yaw_follow_step without shoes: a body yawing at 0.02 rad/s on wheels that drive straight (inside the
     tyres' linear range) closes the gap as the implicit Euler step of I_z omega' = (b^2/2) k (omega_o -
     omega) does, k = mu N_w B C / v the tyre's slip stiffness at zero slip: within 1 % of (1 + T_N /
-    tau)^-n, tau = 2 I_z / (b^2 k), and within 5 % of exp(-t / tau) after one tau."""
+    tau)^-n, tau = 2 I_z / (b^2 k), and within 5 % of exp(-t / tau) after one tau. An identified tyre
+    peak half the nominal (grip 0.5) halves k and doubles the lag."""
     bare = dc.replace(robot, shoe_friction=0.0, shoe_viscous_drag=0.0)
     g = yaw_constants(bare)
     v, gap, omega_wheels = 1.6, 0.02, 0.0
-    k = bare.tyre_friction * bare.wheel_normal_load * bare.tyre_stiffness_factor * bare.tyre_shape_factor / v
+    peak = grip * bare.tyre_friction * bare.wheel_normal_load  # mu N_w, scaled by the identified peak
+    k = peak * bare.tyre_stiffness_factor * bare.tyre_shape_factor / v
     tau = 2.0 * bare.yaw_inertia / (bare.track_width**2 * k)
     n = max(1, round(tau / T_N))
     omega = omega_wheels + gap
     for _ in range(n):
-        omega = yaw_follow_step(omega, v, v, v, 0.0, g)
+        omega = yaw_follow_step(omega, v, v, v, 0.0, g, grip)
     left = (omega - omega_wheels) / gap
     assert left == pytest.approx((1.0 + T_N / tau) ** -n, rel=0.01)
     assert left == pytest.approx(math.exp(-n * T_N / tau), rel=0.05 + (T_N / tau) ** 2 * n)
