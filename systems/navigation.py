@@ -24,6 +24,7 @@ Logged values are those the blocks read at t_k: states before step 5, outputs of
 """
 
 import dataclasses as dc
+import math
 
 import numpy as np
 from slipnav.systems.ekf import (
@@ -169,7 +170,7 @@ def health_geometry(
         tuple(sensors.accelerometer_position),
         bound,
         sensors.gyro_noise_std,
-        params.mixing.tyre_peak_acceleration,
+        robot.traction_limit_acceleration if robot is not None else math.inf,
         **force,
     )
 

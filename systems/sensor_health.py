@@ -40,18 +40,17 @@ Checks (health codes, 0 = healthy):
 
 Replacements: an excluded gyro reads the yaw rate the nominal yaw dynamics give the body from the wheels'
 speeds (yaw_follow_step: the odometric yaw rate lagged by the tyres' slip and held back by the shoes'
-scrub; the plain odometric yaw rate without the nominal robot's figures), both encoders healthy, else
-its last value;
-a saturated one the accelerometer pair's yaw rate (pair_omega_squared, averaged over
+scrub; the plain odometric yaw rate without the nominal robot's figures), both encoders healthy, else its
+last value; a saturated one the accelerometer pair's yaw rate (pair_omega_squared, averaged over
 consistency_samples), at least its full scale, with the gyro's sign, unless the odometry and the pair
-both say below the full scale (the gyro reads beyond the robot: the odometry's); an accelerometer axis
-reads the other accelerometer's plus the rotational difference, omega' from the gyro's difference (noisy
-per sample, but what the EKF integrates is exact; without it the pair's mean is omega' x off, v_n x omega
-at the end of a turn), plus the pair's offset learned while both agreed (pair_offset_time_constant: the
-two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise shift the mean by half); an
-encoder advances by v_pred T_N / r (the other wheel and the gyro), else by its last increment. A stuck
-encoder's travel missed before the detection is added then; the first increment after an exclusion (it
-spans the gap) is never used.
+both say below the full scale (the gyro reads beyond the robot: the wheels' yaw rate above); an
+accelerometer axis reads the other accelerometer's plus the rotational difference, omega' from the gyro's
+difference (noisy per sample, but what the EKF integrates is exact; without it the pair's mean is omega'
+x off, v_n x omega at the end of a turn), plus the pair's offset learned while both agreed
+(pair_offset_time_constant: the two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise
+shift the mean by half); an encoder advances by v_pred T_N / r (the other wheel and the gyro), else by
+its last increment. A stuck encoder's travel missed before the detection is added then; the first
+increment after an exclusion (it spans the gap) is never used.
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
 of gyro_readmission_samples in a row), an encoder when
@@ -149,12 +148,12 @@ class SensorHealthParameters:
             predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
         gyro_readmission_samples: an excluded gyro is re-admitted only after this many consecutive
             samples (in [1, 50]; 1: the first within the bound) within gyro_max_step of its replacement.
-            In a skidding turn the odometric yaw rate reads 15-20 % high, and a gyro with a 1 rad/s bias
-            step met it within the bound for a sample (corner, bias from 2.19 s: re-admitted after
-            60 ms and trusted for the rest of the step, 26 deg of heading, 0.47 m). 5 (10 ms): 3 already
-            keeps that gyro out (2.2 deg, as an outage); an outage ending in the skid costs 6.8 -> 7.2 mm
-            with 5, 8.2 with 10 (the honest gyro waits for the skidding odometry). Like every channel it
-            is re-admitted after max_exclusion_time whatever the block says.
+            Measured when the replacement was the odometric yaw rate, which reads 15-20 % high in a
+            skidding turn: a gyro with a 1 rad/s bias step met it within the bound for a sample (corner,
+            bias from 2.19 s: re-admitted after 60 ms and trusted for the rest of the step, 26 deg of
+            heading, 0.47 m). 5 (10 ms): 3 already kept that gyro out (2.2 deg, as an outage); an outage
+            ending in the skid cost 6.8 -> 7.2 mm with 5, 8.2 with 10. Like every channel it is
+            re-admitted after max_exclusion_time whatever the block says.
         pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
             the rotational terms (their bias and misalignment difference), learned while both and the gyro
             are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
@@ -239,8 +238,9 @@ class HealthGeometry:
         (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
         gyro_noise_std: the gyro's white noise per sample (rad/s, data sheet): the fast pair test's
             allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
-        tyre_peak_acceleration: the navigation's nominal tyre peak mu g f_w (m/s^2, mixing's): the
-            identified peak over it scales the replacement's tyre forces (yaw_follow_step's grip).
+        tyre_peak_acceleration: the nominal robot's tyre curve's peak mu g f_w (m/s^2; inf: none): the
+            navigation's identified peak over it scales the replacement's tyre forces (yaw_follow_step's
+            grip), so that a calibrated floor (mixing.tyre_peak_acceleration) counts from the start.
         mass ... shoe_normal_load: the nominal robot's figures (RobotParameters' names) for the force
             reference of the tangential accelerometers (module docstring, 5.); mass 0: none.
         yaw_inertia ... slip_speed_floor: the nominal robot's yaw inertia, wheel load and tyre curve
@@ -572,6 +572,15 @@ def health_check(
     v_o, omega_o = 0.5 * (v_R + v_L), (v_R - v_L) / g.track_width
     enc_ok = codes[5] == 0 and codes[6] == 0
 
+    # The wheels' yaw rate for an excluded gyro: the body's, through the nominal yaw dynamics
+    # (yaw_follow_step, from the replacement's last value), else the odometric one.
+    omega_wheels = omega_o
+    if not gyro_ok and enc_ok and g.yaw_inertia > 0.0 and math.isfinite(ref[4]):
+        v_t, v_n = (velocity[0], velocity[1]) if math.isfinite(velocity[0] + velocity[1]) else (v_o, 0.0)
+        # the identified tyre peak over the nominal curve's (NaN, none: the nominal curve)
+        grip = tyre_peak / g.tyre_peak_acceleration if g.tyre_peak_acceleration > 0.0 else math.nan
+        omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g, grip if 0.0 < grip < math.inf else 1.0)
+
     # The force reference of a_t: what the motors put on the ground (their currents less the wheels'
     # bearing drag and inertia) and the nominal shoe drag, over the nominal mass; unlike d v_o/dt it does
     # not slip. NaN without plausible currents (beyond 1.5 x the driver's limit, or none).
@@ -585,21 +594,14 @@ def health_check(
                 rate_dot = (used[w] - previous_inc[w]) / (g.T_N * g.T_N)
                 torque = g.motor_constant * currents[w] - g.bearing_drag * rate - g.wheel_inertia * rate_dot
                 force += torque / radii[w]
-            force, _ = shoe_drag(v_o, 0.0, raw[4] if gyro_ok else omega_o, g, force, 0.0)
+            force, _ = shoe_drag(v_o, 0.0, raw[4] if gyro_ok else omega_wheels, g, force, 0.0)
             a_force = force / g.mass
 
     # Accelerometer pair: disagreement beyond the rotational terms, a moving average over
     # consistency_samples (hysteresis: flagged above the limit, cleared below half of it); the one that
     # moved more and lies farther from the kinematics is excluded. The yaw rate the rotational terms use
-    # is the gyro's, else the odometry's, else (saturated) the pair's own.
+    # is the gyro's, else the wheels' (omega_wheels), else (saturated) the pair's own.
     px, py = g.accelerometer_position
-    # The wheels' yaw rate for an excluded gyro: the body's, through the nominal yaw dynamics
-    # (yaw_follow_step, from the replacement's last value), else the odometric one.
-    omega_wheels = omega_o
-    if not gyro_ok and enc_ok and g.yaw_inertia > 0.0 and math.isfinite(ref[4]):
-        v_t, v_n = (velocity[0], velocity[1]) if math.isfinite(velocity[0] + velocity[1]) else (v_o, 0.0)
-        grip = tyre_peak / g.tyre_peak_acceleration  # the identified peak over the nominal (NaN: none)
-        omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g, grip if 0.0 < grip < math.inf else 1.0)
     omega = raw[4] if gyro_ok else omega_wheels
     full_scale = p.saturation_fraction * p.gyro_range
     pair_finite = (
@@ -637,7 +639,7 @@ def health_check(
             average[axis] += (disagreement - average[axis]) / p.consistency_samples
             if fast_known:
                 s[_FAST + axis] += (disagreement - s[_FAST + axis]) / p.fast_consistency_samples
-            else:  # the odometry's coarse omega' is not averaged in: restart from the slow average
+            else:  # the replacement's omega' is not averaged in: restart from the slow average
                 s[_FAST + axis] = average[axis]
             fast = fast_pair_ratio(s[_FAST + axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
             if known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
@@ -672,7 +674,7 @@ def health_check(
         # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
         excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
-            value = omega  # the pair's yaw rate, or the odometry's (above)
+            value = omega  # the pair's yaw rate, or the wheels' (above)
         elif c == 4:
             value = omega_wheels if enc_ok else ref[4]
         elif codes[c ^ 2] == 0:
@@ -690,14 +692,16 @@ def yaw_follow_step(
     """The excluded gyro's replacement: the body's yaw rate one T_N on, following the wheels through the
     nominal yaw dynamics I_z omega' = b/2 (F_R - F_L) + the shoes' moment, each tyre's F_x from the
     believed curve at the wheel's circumferential speed ``u`` against its contact point's v_t +- omega b/2
-    and v_n. Linearly implicit in the tyres' slip stiffness dF/du (stable at any stiffness): near zero
-    slip the body follows the odometric yaw rate with the lag 2 I_z / (b^2 dF/du), 12 ms on Tinyphoon at
-    1.6 m/s, longer as the tyres saturate; the shoes' scrub holds it below. The odometric yaw rate itself
-    leads the body by that lag (over-reads while the turn builds, under-reads as it ends: 3.9 deg over
-    0.5 s of the open corner's turn, 0.2 deg this way). ``g``: HealthConstants (or anything with their
-    track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields); ``grip``: the identified
-    tyre peak over the nominal, which scales the curve's forces and stiffness (both are mu N times a
-    function of the slip)."""
+    and v_n.
+    Linearly implicit in the tyres' slip stiffness dF/du (stable for any dF/du >= 0; past the peak, where
+    it turns negative, 1 + T_N (b/2)^2 (k_R + k_L) / I_z stays above 0.99 on both robots): near zero slip
+    the body follows the odometric yaw rate with the lag 2 I_z / (b^2 dF/du), 12 ms on Tinyphoon at 1.6
+    m/s, longer as the tyres saturate; the shoes' scrub holds it below. The odometric yaw rate itself
+    leads the body by that lag (over-reads while the turn builds, under-reads as it ends: 3.9 deg over 0.5
+    s of the open corner's turn, 0.2 deg this way). ``g``: HealthConstants (or anything with their
+    track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields); ``grip``: the identified tyre
+    peak over the nominal, which scales the curve's forces and stiffness (both are mu N times a function
+    of the slip)."""
     half = 0.5 * g.track_width
     f_R, _, k_R = tyre_force_and_stiffness(v_t + omega * half, v_n, u_R, g.wheel_normal_load, g)
     f_L, _, k_L = tyre_force_and_stiffness(v_t - omega * half, v_n, u_L, g.wheel_normal_load, g)
