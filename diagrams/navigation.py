@@ -15,6 +15,7 @@ from slipnav.systems.gyrodometry import Gyrodometry
 from slipnav.systems.mixing import (
     C2C3_STEP_LAYOUT,
     MIXER_LAYOUT,
+    TYRE_MODEL_STATE_LAYOUT,
     MixerC1,
     MixerC2C3,
     VelocityMixer,
@@ -191,8 +192,8 @@ def build_navigation_diagram(
     velocity_layout = (("body_velocity", 2), ("rest", 3))
     estimate = split_port(b, ekf.GetOutputPort("estimate"), velocity_layout, "EKF's v_t, v_n")
     b.Connect(estimate["body_velocity"], monitor.GetInputPort("body_velocity"))  # the gyro's replacement
-    check_layout = (("F_S", 2), ("tyre_peak", 1), ("filter", 2))
-    tyre = split_port(b, mixer_block.GetOutputPort("tyre_model_state"), check_layout, "Identified tyre peak")
+    tyre_state = mixer_block.GetOutputPort("tyre_model_state")
+    tyre = split_port(b, tyre_state, TYRE_MODEL_STATE_LAYOUT, "Identified tyre peak")
     b.Connect(tyre["tyre_peak"], monitor.GetInputPort("tyre_peak"))
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))

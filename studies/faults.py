@@ -121,7 +121,7 @@ def null_fault_cases(cases: list[dict]) -> list[dict]:
     faults on NULL_FAULT_CHANNELS with the bias NULL_FAULT_BIAS; their onset is NaN (no reading changes
     by more than the noise)."""
     return [
-        {**c, "value": NULL_FAULT_BIAS, "onset_s": math.nan, "null": True}
+        {**c, "value": NULL_FAULT_BIAS, "onset_s": math.nan}
         for c in cases
         if c["kind"] == "bias" and c["channel"] in NULL_FAULT_CHANNELS
     ]

@@ -394,9 +394,9 @@ def health_check(
     velocity: tuple = NO_VELOCITY,
     tyre_peak: float = math.nan,
 ):
-    """health_step with the parameters and the geometry as health_constants' tuple and the sample, the
-    currents and the velocity as tuples of floats (compiled with numba when available:
-    systems/compiled.py)."""
+    """health_step with the parameters and the geometry as health_constants' tuple, the sample, the
+    currents and the velocity as tuples of floats and the tyre peak a float (compiled with numba when
+    available: systems/compiled.py)."""
     p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
     s = state.copy()
     if not p.enabled:  # NaN/inf only: hold the last valid value
