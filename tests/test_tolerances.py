@@ -49,7 +49,12 @@ def test_navigation_and_control_read_the_nominal_robot():
     assert nav.GetSubsystemByName("Gyro and odometry calibration")._b == nominal.track_width
     # the force balances (sensor checks, perturbation monitor) weigh the nominal robot, not the heavier plant
     assert plant.mass == pytest.approx(1.25 * nominal.mass)
-    assert nav.GetSubsystemByName("Sensor checks")._g.mass == nominal.mass
+    checks = nav.GetSubsystemByName("Sensor checks")._g
+    assert checks.mass == nominal.mass
+    # the gyro's replacement (yaw dynamics) reads the nominal inertia and tyre, not the slipperier plant's
+    assert (checks.yaw_inertia, checks.tyre_friction) == (nominal.yaw_inertia, nominal.tyre_friction)
+    assert checks.tyre_peak_acceleration == pytest.approx(nominal.traction_limit_acceleration)
+    assert plant.traction_limit_acceleration < 0.75 * checks.tyre_peak_acceleration
     monitor = built.diagram.GetSubsystemByName("Perturbation monitor")
     assert (monitor._robot.mass, monitor._robot.yaw_inertia) == (nominal.mass, nominal.yaw_inertia)
     control_diagram = built.diagram.GetSubsystemByName("control")
