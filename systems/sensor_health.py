@@ -8,7 +8,8 @@ Checks (health codes, 0 = healthy):
 
 1. ``nonfinite``: NaN or inf.
 2. ``saturated``: an analog reading at saturation_fraction of its data-sheet range (gyro 300 deg/s,
-   accelerometers 10 g).
+   accelerometers 10 g), or at a rail below it: the clip_samples-th return to one magnitude within
+   clip_window readings with none larger between (clip_returns; a run of repeats counts once).
 3. ``stuck``: an analog reading exactly repeated stuck_samples times (the sensors' white noise makes a
    repeat practically impossible; a real ADC's quantum is stuck_tolerance); an encoder whose count stands
    still for stuck_samples while the other wheel and the gyro say it turns faster than
@@ -53,7 +54,8 @@ its last increment. A stuck encoder's travel missed before the detection is adde
 increment after an exclusion (it spans the gap) is never used.
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
-of gyro_readmission_samples in a row), an encoder when
+of gyro_readmission_samples in a row whose summed difference is within gyro_readmission_fraction of the
+replacement's, so that a scale error does not come back as a turn slows), an encoder when
 its increments agree with v_pred sample by sample and, summed over a block of
 encoder_readmission_samples, within two counts plus encoder_readmission_fraction of the predicted travel
 (a doubled encoder passes one sample's bound at low speed; with no prediction, one increment agreeing with
@@ -154,6 +156,19 @@ class SensorHealthParameters:
             heading, 0.47 m). 5 (10 ms): 3 already kept that gyro out (2.2 deg, as an outage); an outage
             ending in the skid cost 6.8 -> 7.2 mm with 5, 8.2 with 10. Like every channel it is
             re-admitted after max_exclusion_time whatever the block says.
+        gyro_readmission_fraction: the gyro's block must also agree in sum: its summed difference from
+            the replacement within 3 noise sigmas sqrt(n), two counts of each wheel's heading and this
+            fraction (in [0, 1]) of the replacement's summed magnitude. A gyro's doubled scale passes the
+            sample bound as a turn slows below gyro_max_step (the open corner, seed 1: re-admitted at
+            0.36 rad/s, 0.5 deg of heading, 7.3 mm against 1.5 fault-free; with the block 2.1 mm). In the
+            faults benchmark every other gyro fault (outages ending in the skid too) is re-admitted as
+            with the sample bound alone.
+        clip_samples, clip_window: a reading that returns to its magnitude for the clip_samples-th time
+            (runs of repeats count once) within the last clip_window readings (both in [2, 50]), with no
+            larger one between, sits at a rail: saturated, though below the data-sheet range (an
+            amplifier's or a misconfigured range's clip; the benchmark clips at half the largest reading).
+            Noise never repeats a value; with an ADC quantum (stuck_tolerance) the returns are judged
+            within it, and quantised noise needs a larger clip_samples.
         pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
             the rotational terms (their bias and misalignment difference), learned while both and the gyro
             are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
@@ -183,6 +198,9 @@ class SensorHealthParameters:
     encoder_readmission_samples: int = 10
     encoder_readmission_fraction: float = 0.2
     gyro_readmission_samples: int = 5
+    gyro_readmission_fraction: float = 0.3
+    clip_samples: int = 3
+    clip_window: int = 50
 
     def __post_init__(self):
         for name in (
@@ -198,7 +216,7 @@ class SensorHealthParameters:
             raise ValueError(
                 f"saturation_fraction={self.saturation_fraction!r} is out of range: allowed [0.5, 1]"
             )
-        for name in ("stuck_samples", "consistency_samples"):
+        for name in ("stuck_samples", "consistency_samples", "clip_samples", "clip_window"):  # 50: the ring
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
@@ -206,9 +224,10 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [1, 50]")
-        value = self.encoder_readmission_fraction
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
-            raise ValueError(f"encoder_readmission_fraction={value!r} is out of range: allowed [0, 1]")
+        for name in ("encoder_readmission_fraction", "gyro_readmission_fraction"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
+                raise ValueError(f"{name}={value!r} is out of range: allowed [0, 1]")
         for name in ("stuck_tolerance", "stuck_speed_fraction", "accel_consistency_per_speed"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
@@ -291,20 +310,26 @@ _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E
 # before the pair became suspect (t1, n1, t2, n2), the pair's averaged omega^2, the pair's learned offset
 # a_1 - a_2 beyond the rotational terms (t, n). Last, per encoder (2 each), the re-admission block:
 # its agreeing samples, their summed difference from the prediction and the predicted travel; then the
-# excluded gyro's agreeing samples (its re-admission block); the pair's fast averages (t, n).
+# excluded gyro's agreeing samples (its re-admission block); the pair's fast averages (t, n); the gyro's
+# block: its summed difference from the replacement and the replacement's summed magnitude (rad/s).
 _W = _E + 20
 _RESTORED = _W + 2
 _OFFSET = _W + 13
 _R_COUNT, _R_DIFF, _R_TRAVEL = (slice(_W + 15 + 2 * i, _W + 17 + 2 * i) for i in range(3))
 _G_COUNT = _W + 21
 _FAST = _W + 22
-STATE_SIZE = _W + 24
+_G_DIFF, _G_TRAVEL = _W + 24, _W + 25
+# Per analog channel the last CLIP_WINDOW_MAX readings (a ring, NaN: none), then the ring's position.
+CLIP_WINDOW_MAX = 50
+_RING = _W + 26
+_RING_POS = _RING + 5 * CLIP_WINDOW_MAX
+STATE_SIZE = _RING_POS + 1
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
     """Nothing read yet (the first finite reading is accepted); wheels rolling at ``initial_speed``."""
     s = np.zeros(STATE_SIZE)
-    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12)):
+    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12), slice(_RING, _RING_POS)):
         s[part] = np.nan
     s[_E_INC] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
     s[_W + 3] = initial_speed
@@ -319,6 +344,7 @@ HealthConstants = collections.namedtuple(
     "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
     "max_exclusion_time pair_offset_time_constant "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
+    "gyro_readmission_fraction clip_samples clip_window "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
     "tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset "
     "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
@@ -350,6 +376,8 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
             "fast_consistency_samples",
             "encoder_readmission_samples",
             "gyro_readmission_samples",
+            "clip_samples",
+            "clip_window",
         ):
             value = int(value)
         else:
@@ -408,6 +436,7 @@ def health_check(
             ref[c] = out[c]
         return s, out, codes
     ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
+    ring_pos = int(s[_RING_POS])
     codes = [0] * NUM_CHANNELS
 
     # Analog channels: non-finite, saturated, stuck, jump.
@@ -422,7 +451,8 @@ def health_check(
         same = math.isfinite(last[c]) and abs(x - last[c]) <= p.stuck_tolerance
         repeat[c] = repeat[c] + 1 if same else 0
         last[c] = x
-        if abs(x) >= p.saturation_fraction * ranges[c]:
+        clipped = clip_returns(s, _RING + CLIP_WINDOW_MAX * c, ring_pos, x, p) >= p.clip_samples
+        if abs(x) >= p.saturation_fraction * ranges[c] or clipped:
             codes[c] = SATURATED
         elif repeat[c] >= p.stuck_samples - 1:
             codes[c] = STUCK
@@ -430,15 +460,30 @@ def health_check(
             codes[c] = RECOVERING if excl[c] > 0 else JUMP
         elif hold[c] > 0:
             codes[c] = INCONSISTENT
-    # An excluded gyro comes back only after a block of samples within its bound of the replacement.
+    for c in range(5):  # the ring of readings (clip_returns)
+        s[_RING + CLIP_WINDOW_MAX * c + ring_pos] = raw[c]
+    s[_RING_POS] = (ring_pos + 1) % CLIP_WINDOW_MAX
+
+    # An excluded gyro comes back only after a block of samples within its bound of the replacement whose
+    # summed difference from it (a heading) stays within the noise, two counts of each wheel and
+    # gyro_readmission_fraction of the replacement's own: a scale error does not telescope.
     if codes[4] == 0 and 0.0 < excl[4] < max_excl and math.isfinite(ref[4]):
         s[_G_COUNT] += 1.0
+        s[_G_DIFF] += raw[4] - ref[4]
+        s[_G_TRAVEL] += abs(ref[4])
         if s[_G_COUNT] < p.gyro_readmission_samples:
             codes[4] = RECOVERING
         else:
-            s[_G_COUNT] = 0.0
+            n = s[_G_COUNT]
+            counts = 2.0 * g.encoder_step * (g.radius_R + g.radius_L) / (g.track_width * g.T_N)
+            allowed = (
+                3.0 * g.gyro_noise_std * math.sqrt(n) + counts + p.gyro_readmission_fraction * s[_G_TRAVEL]
+            )
+            if abs(s[_G_DIFF]) > allowed:
+                codes[4] = RECOVERING  # a new block from the next sample
+            s[_G_COUNT], s[_G_DIFF], s[_G_TRAVEL] = 0.0, 0.0, 0.0
     else:
-        s[_G_COUNT] = 0.0
+        s[_G_COUNT], s[_G_DIFF], s[_G_TRAVEL] = 0.0, 0.0, 0.0
     gyro_ok = codes[4] == 0
 
     # Encoders: raw-to-raw increments; implausible, spanning an exclusion, or still while predicted moving.
@@ -611,12 +656,13 @@ def health_check(
     if math.isfinite(w2):  # the pair's omega^2, averaged
         s[_W + 12] += (w2 - s[_W + 12]) / p.consistency_samples
     if codes[4] == SATURATED:
+        railed = abs(raw[4]) >= full_scale  # else clipped below the data sheet's range (a plateau)
         pair = math.sqrt(max(s[_W + 12], 0.0))
-        if enc_ok and abs(omega_o) < full_scale and pair < full_scale:
+        if enc_ok and (not railed or (abs(omega_o) < full_scale and pair < full_scale)):
             omega = omega_wheels  # the gyro reads beyond what the robot does (railed, or its scale)
         else:  # this sample's pair (the averaged one lags a spin's onset)
             this_sample = math.sqrt(max(w2, 0.0)) if math.isfinite(w2) else 0.0
-            omega = math.copysign(max(full_scale, this_sample), raw[4])
+            omega = math.copysign(max(full_scale if railed else abs(raw[4]), this_sample), raw[4])
     omega_dot = (omega - ref[4]) / g.T_N if math.isfinite(ref[4]) else 0.0
     rot = pair_rotational_difference(omega, (px, py))
     # Noisy per sample, but its integral is x omega (exact): the replacements carry it.
@@ -683,6 +729,28 @@ def health_check(
             value = ref[c]
         out[c] = ref[c] = value if math.isfinite(value) else 0.0
     return s, out, codes
+
+
+@jitable
+def clip_returns(s, base: int, position: int, x: float, p) -> int:
+    """How many times reading ``x`` returned to its magnitude within the last clip_window readings (the
+    ring s[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since the last larger one,
+    counting this one and a run of repeats once. A clipped channel returns to its rail again and again,
+    the largest magnitude it reads; noise never repeats a value (within stuck_tolerance)."""
+    tol = p.stuck_tolerance
+    runs, newer_at = 1, True  # this reading is at its own magnitude
+    for j in range(1, p.clip_window):
+        y = s[base + (position - j) % CLIP_WINDOW_MAX]
+        if not math.isfinite(y):
+            newer_at = False
+            continue
+        if abs(y) > abs(x) + tol:
+            break
+        at = abs(abs(y) - abs(x)) <= tol
+        if at and not newer_at:
+            runs += 1
+        newer_at = at
+    return runs
 
 
 @jitable
