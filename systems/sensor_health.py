@@ -42,7 +42,9 @@ Checks (health codes, 0 = healthy):
 Replacements: an excluded gyro reads the yaw rate the nominal yaw dynamics give the body from the wheels'
 speeds (yaw_follow_step: the odometric yaw rate lagged by the tyres' slip and held back by the shoes'
 scrub; the plain odometric yaw rate without the nominal robot's figures), both encoders healthy, else its
-last value; a saturated one the accelerometer pair's yaw rate (pair_omega_squared, averaged over
+last value; a frozen gyro's replacement starts from the wheels' yaw rate run through the repeats it was
+trusted for, and the heading those repeats missed is paid back over the next stuck_samples samples; a
+saturated gyro reads the accelerometer pair's yaw rate (pair_omega_squared, averaged over
 consistency_samples), at least its full scale, with the gyro's sign, unless the odometry and the pair
 both say below the full scale (the gyro reads beyond the robot: the wheels' yaw rate above); an
 accelerometer axis reads the other accelerometer's plus the rotational difference, omega' from the gyro's
@@ -323,13 +325,17 @@ _G_DIFF, _G_TRAVEL = _W + 24, _W + 25
 CLIP_WINDOW_MAX = 50
 _RING = _W + 26
 _RING_POS = _RING + 5 * CLIP_WINDOW_MAX
-STATE_SIZE = _RING_POS + 1
+# A frozen gyro's repeats: the wheels' yaw rate run through them, the heading they missed against it, and
+# the payback still due (rate per sample, samples left).
+_G_SHADOW, _G_OWED, _G_PAY_RATE, _G_PAY_LEFT = (_RING_POS + 1 + i for i in range(4))
+STATE_SIZE = _RING_POS + 5
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
     """Nothing read yet (the first finite reading is accepted); wheels rolling at ``initial_speed``."""
     s = np.zeros(STATE_SIZE)
-    for part in (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12), slice(_RING, _RING_POS)):
+    nan_parts = (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12), slice(_RING, _RING_POS))
+    for part in (*nan_parts, slice(_G_SHADOW, _G_SHADOW + 1)):
         s[part] = np.nan
     s[_E_INC] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
     s[_W + 3] = initial_speed
@@ -620,11 +626,27 @@ def health_check(
     # The wheels' yaw rate for an excluded gyro: the body's, through the nominal yaw dynamics
     # (yaw_follow_step, from the replacement's last value), else the odometric one.
     omega_wheels = omega_o
-    if not gyro_ok and enc_ok and g.yaw_inertia > 0.0 and math.isfinite(ref[4]):
-        v_t, v_n = (velocity[0], velocity[1]) if math.isfinite(velocity[0] + velocity[1]) else (v_o, 0.0)
-        # the identified tyre peak over the nominal curve's (NaN, none: the nominal curve)
-        grip = tyre_peak / g.tyre_peak_acceleration if g.tyre_peak_acceleration > 0.0 else math.nan
-        omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g, grip if 0.0 < grip < math.inf else 1.0)
+    model = enc_ok and g.yaw_inertia > 0.0
+    v_t, v_n = (velocity[0], velocity[1]) if math.isfinite(velocity[0] + velocity[1]) else (v_o, 0.0)
+    # the identified tyre peak over the nominal curve's (NaN, none: the nominal curve)
+    grip = tyre_peak / g.tyre_peak_acceleration if g.tyre_peak_acceleration > 0.0 else math.nan
+    grip = grip if 0.0 < grip < math.inf else 1.0
+    # A frozen gyro is trusted for stuck_samples - 1 repeats: the wheels' yaw rate runs through them
+    # from the last reading that changed, and the heading the repeats missed against it is owed. When
+    # the stuck test flags the gyro, its replacement starts from there and pays the heading back over
+    # stuck_samples samples.
+    shadow = s[_G_SHADOW]
+    if codes[4] == 0 and repeat[4] == 0:
+        s[_G_SHADOW], s[_G_OWED] = raw[4], 0.0
+    elif codes[4] == 0 and math.isfinite(shadow) and enc_ok:
+        s[_G_SHADOW] = yaw_follow_step(shadow, v_R, v_L, v_t, v_n, g, grip) if model else omega_o
+        s[_G_OWED] += s[_G_SHADOW] - raw[4]
+    if codes[4] == STUCK and excl[4] == 0.0 and math.isfinite(shadow) and enc_ok:
+        ref[4] = shadow
+        s[_G_PAY_LEFT] = float(p.stuck_samples)
+        s[_G_PAY_RATE] = s[_G_OWED] / p.stuck_samples
+    if not gyro_ok and model and math.isfinite(ref[4]):
+        omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g, grip)
 
     # The force reference of a_t: what the motors put on the ground (their currents less the wheels'
     # bearing drag and inertia) and the nominal shoe drag, over the nominal mass; unlike d v_o/dt it does
@@ -728,6 +750,9 @@ def health_check(
         else:
             value = ref[c]
         out[c] = ref[c] = value if math.isfinite(value) else 0.0
+        if c == 4 and s[_G_PAY_LEFT] > 0.0:  # a frozen gyro's owed heading (the reference goes without)
+            out[4] += s[_G_PAY_RATE]
+            s[_G_PAY_LEFT] -= 1.0
     return s, out, codes
 
 

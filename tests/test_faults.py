@@ -174,6 +174,32 @@ def test_saturated_and_stuck_gyro_are_flagged_and_excluded():
     assert np.all(codes[150:154, 4] == RECOVERING) and not codes[154:, 4].any()
 
 
+def test_a_frozen_gyros_missed_heading_is_paid_back_when_the_stuck_test_flags_it():
+    """A gyro frozen while the yaw rate grows (10 rad/s^2) is trusted for stuck_samples - 1 = 4 repeats
+    (samples 100-102 and the last true reading 99, flagged at 103). The wheels' yaw rate (here the
+    odometric one: no nominal robot) runs through the repeats; what they missed is paid back over the
+    next 5 samples, so the output's sum over the fault is the true heading change, and the replacement
+    starts from the wheels, not from the frozen reading."""
+    n, v, omega_dot = 200, 1.0, 10.0
+    omega = omega_dot * T_N * np.arange(n)
+    theta_R = np.cumsum((v + 0.5 * B * omega) / R * T_N)
+    theta_L = np.cumsum((v - 0.5 * B * omega) / R * T_N)
+    truth = np.array([accelerometer_truth((0.0, v * w, omega_dot), w, (0.02, 0.015)) for w in omega])
+    rng = np.random.default_rng(4)
+    gyro = omega + 0.014 * rng.standard_normal(n)
+    rows = np.column_stack([truth + 0.06 * rng.standard_normal((n, 4)), gyro, theta_R, theta_L])
+    rows[100:150, 4] = rows[99, 4]
+    out, codes = check(rows, v0=v)
+    assert not codes[:103, 4].any() and np.all(codes[103:150, 4] == STUCK)
+    omega_o = (np.diff(theta_R, prepend=0.0) - np.diff(theta_L, prepend=0.0)) * R / T_N / B
+    owed = np.sum(omega_o[100:103] - rows[99, 4])  # 3 repeats, 0.02-0.06 rad/s behind (and the noise)
+    assert owed == pytest.approx(np.sum(omega[100:103] - rows[99, 4]), rel=1e-9)
+    np.testing.assert_allclose(out[103:108, 4], omega_o[103:108] + owed / 5, rtol=1e-9)
+    np.testing.assert_allclose(out[108:150, 4], omega_o[108:150], rtol=1e-9)
+    # The heading over the fault is the truth's, to rounding (without the payback: owed * T_N short).
+    assert np.sum(out[100:150, 4]) == pytest.approx(np.sum(omega[100:150]), abs=1e-9)
+
+
 def test_gyro_bias_step_is_a_jump_excluded_until_it_ends():
     rows = stream(400, 1.0, 0.5)
     rows[100:250, 4] += 1.0
