@@ -896,19 +896,34 @@ def test_the_gyro_replacement_settles_where_the_plant_stops_turning_faster():
     assert abs(omega_dot) < 1e-6 * abs(at_wheels)
 
 
-def test_a_gyro_lost_in_the_open_corners_slide_costs_little_heading():
-    """slipnav faults --open-loop's worst case before the yaw dynamics replaced the odometric yaw rate:
-    corner seed 1, the gyro NaN for 0.5 s from 2.31 s, in the sliding turn. The odometry under-reads as
-    the turn ends (the body's inertia) and cost 4.4 deg and 63 mm (42 x the fault-free 1.5 mm); the yaw
-    dynamics from the wheels and the navigation's v_t, v_n keep the heading within 0.5 deg and the final
-    error within the issue's 3 x."""
-    scenario = load_scenario("corner")
-    clean = run_scenario(scenario, seed=1, open_loop=True).arrays
+@pytest.fixture(scope="module")
+def open_corner_seed_1():
+    return run_scenario(load_scenario("corner"), seed=1, open_loop=True).arrays
+
+
+@pytest.mark.parametrize(
+    "kind, value, flagged_from, flagged_until",
+    [("nan", 0.0, 2.31, 2.8), ("dropout", 0.0, 2.32, 2.8), ("scale", 1.0, 2.31, 2.7)],
+)
+def test_a_gyro_lost_in_the_open_corners_slide_costs_little_heading(
+    open_corner_seed_1, kind, value, flagged_from, flagged_until
+):
+    """slipnav faults --open-loop's worst cases: corner seed 1, the gyro faulty for 0.5 s from 2.31 s, in
+    the sliding turn.
+    - NaN: the odometry under-reads as the turn ends (the body's inertia) and cost 4.4 deg and 63 mm
+      (42 x the fault-free 1.5 mm); the yaw dynamics from the wheels and the navigation's v_t, v_n keep
+      the heading within 0.5 deg and the final error within the issue's 3 x.
+    - Frozen (dropout): trusted for 3 repeats before the stuck test (8 ms); the repeats' missed heading
+      is paid back and the replacement starts from the wheels' yaw rate run through them (3.5 x before).
+    - x2: flagged at once; the block sum keeps it out as the turn slows below the jump bound (re-admitted
+      at 0.36 rad/s before: 4.9 x)."""
+    clean = open_corner_seed_1
     faulty = run_scenario(
-        scenario, seed=1, open_loop=True, faults=[FaultEvent("nan", "gyro", 2.31, 0.5)]
+        load_scenario("corner"), seed=1, open_loop=True, faults=[FaultEvent(kind, "gyro", 2.31, 0.5, value)]
     ).arrays
-    assert np.all(faulty["health_gyro"][(faulty["t"] > 2.315) & (faulty["t"] < 2.8)] > 0)
-    during = (faulty["t"] > 2.31) & (faulty["t"] < 2.81)
+    t = faulty["t"]
+    assert np.all(faulty["health_gyro"][(t > flagged_from) & (t < flagged_until)] > 0)
+    during = (t > flagged_from) & (t < flagged_until)  # the x2 is back at 0.2 rad/s (0.2 off till 0)
     assert np.max(np.abs(faulty["est_omega"] - faulty["true_omega"])[during]) < 0.15  # rad/s; odometry 0.45
     assert abs(math.degrees(faulty["est_phi"][-1] - faulty["true_phi"][-1])) < 0.5
     assert final_position_error(faulty, "est") <= 3.0 * final_position_error(clean, "est")
