@@ -8,7 +8,8 @@
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [--calibrated] [ENGINE]
-    slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [--open-loop] [ENGINE]
+    slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [--open-loop] [--channels C,..]
+                   [--kinds K,..] [ENGINE]
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
@@ -152,6 +153,8 @@ def _parser() -> argparse.ArgumentParser:
     fau.add_argument(
         "--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds (the same path)"
     )
+    fau.add_argument("--channels", default=None, help="only these channels, comma-separated (default all)")
+    fau.add_argument("--kinds", default=None, help="only these fault classes, comma-separated (default all)")
     _engine_options(fau, "faults")
     rep = sub.add_parser("replay", help="run the navigation alone on a sensor log (CSV)")
     rep.add_argument("log", help="sensor log CSV (README.md: Sensor log), e.g. runs/corner-seed0.sensors.csv")
@@ -322,14 +325,21 @@ def _command(args) -> int:
         reproduce(args.out, quick=args.quick, modes=("default",) if args.quick else ("default", "paper"))
         return 0
     if args.command == "faults":
-        from slipnav.studies.faults import faults
+        from slipnav.studies.faults import faults, select_cases
 
         _check_study(args)
+        channels, kinds = (None if v is None else v.split(",") for v in (args.channels, args.kinds))
+        try:
+            select_cases([], channels, kinds)
+        except ValueError as error:
+            raise ScenarioError(str(error)) from None
         faults(
             args.scenarios,
             args.seeds,
             perturbations=args.perturbations,
             open_loop=args.open_loop,
+            channels=channels,
+            kinds=kinds,
             **_engine(args),
         )
         return 0

@@ -18,6 +18,8 @@ from slipnav.studies.faults import (
     perturbation_cases,
     print_report,
     run_fault,
+    seed_mean_ratios,
+    select_cases,
 )
 from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.navigation import NavigationParameters, health_geometry
@@ -631,6 +633,44 @@ def test_fault_cases_and_the_report_line():
     assert lines[-1] == "faults detected=3/3 worst_error_ratio=1.500"
     crossed = f"sensor-fault runs that flagged another channel: 1 ({rows[1]['channel']} {rows[1]['kind']})"
     assert crossed in lines
+
+
+def test_selected_faults_and_the_over_seeds_ratio(capsys):
+    """``slipnav faults --channels --kinds`` runs only those faults (an unknown name is an error naming the
+    allowed ones, before any run); over two or more seeds the report adds the faulted runs' mean fused
+    error over the fault-free runs' mean per channel and class (by hand: (4 + 10) / (1 + 6) = 2)."""
+    from slipnav.scenarios.cli import main
+
+    cases = fault_cases(run_scenario(load_scenario("corner"), duration=2.0).arrays)
+    chosen = select_cases(cases, ["gyro"], ["nan", "bias"])
+    assert [(c["channel"], c["kind"]) for c in chosen] == [("gyro", "nan"), ("gyro", "bias")]
+    assert select_cases(cases) == cases
+    with pytest.raises(ValueError, match=r"--channels: unknown compass; allowed: accel1_t, accel1_n"):
+        select_cases(cases, ["gyro", "compass"])
+    with pytest.raises(ValueError, match=r"--kinds: unknown smoke; allowed: nan, inf, dropout"):
+        select_cases(cases, None, ["smoke"])
+    assert main(["faults", "corner", "--kinds", "nan,smoke"]) == 2
+    assert "--kinds: unknown smoke" in capsys.readouterr().err
+    figures = {"latency_s": 0.0, "detected": True, "bias_error_sigma": 0.5, "odometry_error_m": 0.1}
+    figures |= {"gyrodometry_error_m": 0.05, "error_ratio": 1.0}
+    rows = [
+        {**figures, "scenario": "corner", "seed": seed, "channel": "gyro", "kind": "nan", "fused_error_m": e}
+        for seed, e in ((0, 0.004), (1, 0.010))
+    ]
+    rows.append({**rows[0], "kind": "bias"})  # one seed only: no mean ratio
+    clean_rows = [
+        {"scenario": "corner", "seed": s, "false_flags": 0, "fused_error_m": e}
+        for s, e in ((0, 0.001), (1, 0.006))
+    ]
+    assert seed_mean_ratios(rows, clean_rows) == [pytest.approx((2.0, "corner", "gyro", "nan", 2))]
+    import io
+
+    out = io.StringIO()
+    print_report(rows, clean_rows, 1.0, out)
+    assert (
+        "over seeds, the faulted runs' mean fused error / the fault-free runs' mean: worst 2.00 (corner gyro "
+        "nan, 2 seeds), 0 of 1 above 3"
+    ) in out.getvalue().splitlines()
 
 
 def test_null_faults_change_nothing_a_check_or_the_estimate_could_see():
