@@ -794,6 +794,22 @@ def test_a_gyro_beyond_its_range_reads_the_pairs_yaw_rate():
     np.testing.assert_allclose(out[100:, 4], 12.0, rtol=0.02)
 
 
+@pytest.mark.parametrize("pair_omega, expected", [(5.5, 4.0), (12.0, 12.0)])
+def test_a_railed_gyro_reads_the_pair_only_when_it_says_far_beyond_the_range(pair_omega, expected):
+    """A doubled gyro (8 rad/s) rails while the wheels turn the body at 4 rad/s. Tinyphoon's pair, on its
+    +-(0.02, 0.015) m lever, reads up to 5.4 rad/s in such a turn, above the 5.2 rad/s full scale: that
+    alone made the pair's reading the replacement (open corner seed 9: 85 mm). It counts only beyond
+    the full scale and PAIR_SPIN_MARGIN (1.5) x the odometric yaw rate: a spin the wheels do not see (12
+    rad/s; a lifted wheel's spin reads the odometry near 0)."""
+    rows = stream(200, 0.5, 4.0)
+    truth = accelerometer_truth((0.0, 0.5 * 4.0, 0.0), pair_omega, (0.02, 0.015))
+    rows[:, 0:4] = truth + 1e-4 * np.random.default_rng(5).standard_normal((200, 4))  # never repeats
+    rows[:, 4] = 8.0
+    out, codes = check(rows, v0=0.5)
+    assert np.all(codes[:, 4] == SATURATED)
+    np.testing.assert_allclose(out[100:, 4], expected, rtol=0.02)
+
+
 def test_perturbation_cases_scale_with_the_robot():
     """Tinyphoon: the wheel pushed with 0.6 x k i_max = 0.6 x 6/280 V s x 1.5 A = 0.0193 N m, the body
     pushed with 5 m/s^2 x 0.4 kg = 2 N; Kurt3D's push 110 N; all 1 s after the controller starts."""
