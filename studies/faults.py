@@ -137,17 +137,17 @@ def seed_mean_ratios(rows: list, clean_rows: list) -> list:
     """Per scenario, channel and fault class over two or more seeds: the faulted runs' mean fused final
     error over the fault-free runs' mean, as (ratio, scenario, channel, kind, seeds); a lucky fault-free
     seed (the open corner's seed 1 ends 1.5 mm off, its seeds 0-9 1.5-9.3 mm) weighs as one of them."""
-    clean = {}
-    for r in clean_rows:
-        clean.setdefault(r["scenario"], {})[r["seed"]] = r["fused_error_m"]
     groups = {}
     for r in rows:
         groups.setdefault((r["scenario"], r["channel"], r["kind"]), []).append(r)
-    out = []
+    out, clean = [], {}
     for (scenario, channel, kind), runs in groups.items():
         seeds = sorted({r["seed"] for r in runs})
         if len(seeds) < 2:
             continue
+        if not clean:
+            for r in clean_rows:
+                clean.setdefault(r["scenario"], {})[r["seed"]] = r["fused_error_m"]
         faulted = np.mean([r["fused_error_m"] for r in runs])
         free = np.mean([clean[scenario][seed] for seed in seeds])
         out.append((faulted / free if free > 0 else math.inf, scenario, channel, kind, len(seeds)))
