@@ -328,7 +328,10 @@ def _command(args) -> int:
         from slipnav.studies.faults import faults, select_cases
 
         _check_study(args)
-        channels, kinds = (None if v is None else v.split(",") for v in (args.channels, args.kinds))
+        channels, kinds = (
+            None if v is None else [n.strip() for n in v.split(",") if n.strip()] or [v]
+            for v in (args.channels, args.kinds)
+        )
         try:
             select_cases([], channels, kinds)
         except ValueError as error:

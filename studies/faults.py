@@ -123,9 +123,17 @@ def select_cases(cases: list[dict], channels=None, kinds=None) -> list[dict]:
         ("channels", channels, SENSOR_CHANNELS),
         ("kinds", kinds, tuple(dict.fromkeys(ANALOG_KINDS + ENCODER_KINDS))),
     ):
-        unknown = [n for n in names or () if n not in allowed]
+        unknown = [repr(n) for n in names or () if n not in allowed]
         if unknown:
             raise ValueError(f"faults --{label}: unknown {', '.join(unknown)}; allowed: {', '.join(allowed)}")
+    pairs = [
+        (c, k) for c in SENSOR_CHANNELS for k in (ENCODER_KINDS if c in ENCODER_CHANNELS else ANALOG_KINDS)
+    ]
+    if not any((channels is None or c in channels) and (kinds is None or k in kinds) for c, k in pairs):
+        raise ValueError(
+            f"faults --channels {','.join(channels or ['(all)'])} --kinds {','.join(kinds or ['(all)'])}: no "
+            f"such fault (encoders: {', '.join(ENCODER_KINDS)}; the others: {', '.join(ANALOG_KINDS)})"
+        )
     return [
         c
         for c in cases
@@ -147,10 +155,11 @@ def seed_mean_ratios(rows: list, clean_rows: list) -> list:
             continue
         if not clean:
             for r in clean_rows:
-                clean.setdefault(r["scenario"], {})[r["seed"]] = r["fused_error_m"]
+                clean.setdefault(r.get("scenario"), {})[r.get("seed")] = r.get("fused_error_m", math.nan)
         faulted = np.mean([r["fused_error_m"] for r in runs])
-        free = np.mean([clean[scenario][seed] for seed in seeds])
-        out.append((faulted / free if free > 0 else math.inf, scenario, channel, kind, len(seeds)))
+        free = np.mean([clean.get(scenario, {}).get(seed, math.nan) for seed in seeds])
+        if math.isfinite(faulted) and math.isfinite(free) and free > 0.0:  # else no figure
+            out.append((faulted / free, scenario, channel, kind, len(seeds)))
     return out
 
 

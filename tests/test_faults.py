@@ -177,11 +177,12 @@ def test_saturated_and_stuck_gyro_are_flagged_and_excluded():
 
 
 def test_a_frozen_gyros_missed_heading_is_paid_back_when_the_stuck_test_flags_it():
-    """A gyro frozen while the yaw rate grows (10 rad/s^2) is trusted for stuck_samples - 1 = 4 repeats
-    (samples 100-102 and the last true reading 99, flagged at 103). The wheels' yaw rate (here the
-    odometric one: no nominal robot) runs through the repeats; what they missed is paid back over the
-    next 5 samples, so the output's sum over the fault is the true heading change, and the replacement
-    starts from the wheels, not from the frozen reading."""
+    """A gyro frozen while the yaw rate grows (10 rad/s^2) is trusted for stuck_samples - 1 = 4 equal
+    readings (the last true one at 99 and the repeats 100-102; flagged at 103). The wheels' yaw rate
+    (here the odometric one: no nominal robot) runs through the repeats; what they missed is paid back
+    over the next 5 samples, so the output's sum over the fault is the true heading change, and the
+    replacement starts from the wheels, not from the frozen reading. A gyro back before the payback ends
+    (here a 3-sample freeze and a re-admission block of 1) still gets all of it, and a later outage none."""
     n, v, omega_dot = 200, 1.0, 10.0
     omega = omega_dot * T_N * np.arange(n)
     theta_R = np.cumsum((v + 0.5 * B * omega) / R * T_N)
@@ -200,6 +201,16 @@ def test_a_frozen_gyros_missed_heading_is_paid_back_when_the_stuck_test_flags_it
     np.testing.assert_allclose(out[108:150, 4], omega_o[108:150], rtol=1e-9)
     # The heading over the fault is the truth's, to rounding (without the payback: owed * T_N short).
     assert np.sum(out[100:150, 4]) == pytest.approx(np.sum(omega[100:150]), abs=1e-9)
+    short = rows.copy()
+    short[100:150, 4] = gyro[100:150]
+    short[100:104, 4] = short[99, 4]  # flagged at 103, the gyro moves again at 104
+    short[160:165, 4] = np.nan  # a later outage
+    out, codes = check(short, SensorHealthParameters(gyro_readmission_samples=1), v0=v)
+    assert codes[103, 4] == STUCK and not codes[104:160, 4].any()
+    owed = np.sum(omega_o[100:103] - short[99, 4])
+    np.testing.assert_allclose(out[104:108, 4], short[104:108, 4] + owed / 5, rtol=1e-9)
+    np.testing.assert_allclose(out[108:160, 4], short[108:160, 4], rtol=1e-12)
+    np.testing.assert_allclose(out[160:165, 4], omega_o[160:165], rtol=1e-9)  # no stale payback
 
 
 def test_gyro_bias_step_is_a_jump_excluded_until_it_ends():
@@ -392,6 +403,8 @@ def test_an_accelerometer_clipped_within_its_noise_is_flagged_at_its_plateau():
         for bad in (1, 51, 2.5):
             with pytest.raises(ValueError, match=rf"{name}=.*integers in \[2, 50\]"):
                 SensorHealthParameters(**{name: bad})
+    out, codes = check(rows, SensorHealthParameters(clip_samples=0))  # off
+    assert not codes.any()
 
 
 def test_a_replaced_accelerometer_axis_carries_the_pairs_learned_offset():
@@ -645,12 +658,16 @@ def test_selected_faults_and_the_over_seeds_ratio(capsys):
     chosen = select_cases(cases, ["gyro"], ["nan", "bias"])
     assert [(c["channel"], c["kind"]) for c in chosen] == [("gyro", "nan"), ("gyro", "bias")]
     assert select_cases(cases) == cases
-    with pytest.raises(ValueError, match=r"--channels: unknown compass; allowed: accel1_t, accel1_n"):
+    with pytest.raises(ValueError, match=r"--channels: unknown 'compass'; allowed: accel1_t, accel1_n"):
         select_cases(cases, ["gyro", "compass"])
-    with pytest.raises(ValueError, match=r"--kinds: unknown smoke; allowed: nan, inf, dropout"):
+    with pytest.raises(ValueError, match=r"--kinds: unknown 'smoke'; allowed: nan, inf, dropout"):
         select_cases(cases, None, ["smoke"])
-    assert main(["faults", "corner", "--kinds", "nan,smoke"]) == 2
-    assert "--kinds: unknown smoke" in capsys.readouterr().err
+    with pytest.raises(ValueError, match=r"--channels gyro --kinds stuck: no such fault \(encoders: nan"):
+        select_cases(cases, ["gyro"], ["stuck"])  # a stuck counter is an encoder's
+    assert main(["faults", "corner", "--kinds", "nan, smoke"]) == 2  # names stripped
+    assert "--kinds: unknown 'smoke'" in capsys.readouterr().err
+    assert main(["faults", "corner", "--channels", ""]) == 2
+    assert "--channels: unknown ''" in capsys.readouterr().err
     figures = {"latency_s": 0.0, "detected": True, "bias_error_sigma": 0.5, "odometry_error_m": 0.1}
     figures |= {"gyrodometry_error_m": 0.05, "error_ratio": 1.0}
     rows = [
@@ -658,6 +675,7 @@ def test_selected_faults_and_the_over_seeds_ratio(capsys):
         for seed, e in ((0, 0.004), (1, 0.010))
     ]
     rows.append({**rows[0], "kind": "bias"})  # one seed only: no mean ratio
+    rows += [{**rows[0], "kind": "spike", "seed": s} for s in (0, 5)]  # no fault-free seed 5: none
     clean_rows = [
         {"scenario": "corner", "seed": s, "false_flags": 0, "fused_error_m": e}
         for s, e in ((0, 0.001), (1, 0.006))
