@@ -858,10 +858,10 @@ MIXER_LAYOUT = (
 MIXER_START = {name: sum(size for _, size in MIXER_LAYOUT[:i]) for i, (name, _) in enumerate(MIXER_LAYOUT)}
 """The index of each MIXER_LAYOUT entry's first element in the ``mixing`` output."""
 _CHECK_STATE = slice(MIXER_START["tyre_model_check"] + 1, MIXER_START["slide_onset"])
+"""The tyre-model check's state [F_k, S_k, a_peak, |a| PT1, held] in the mixing output (after w)."""
 TYRE_MODEL_STATE_LAYOUT = (("free_and_curve_v_n", 2), ("tyre_peak", 1), ("peak_bound", 2))
 """VelocityMixer's ``tyre_model_state`` output, in order: (name, size): F and S, a_peak, the lower
 bound's filter and held value."""
-"""The tyre-model check's state [F_k, S_k, a_peak, |a| PT1, held] in the mixing output (after w)."""
 _ONSET_STATE = slice(MIXER_START["slide_onset_state"], MIXER_START["slide_onset_state"] + 3)
 
 

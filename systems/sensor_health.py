@@ -473,11 +473,11 @@ def health_check(
         same = math.isfinite(last[c]) and abs(x - last[c]) <= p.stuck_tolerance
         repeat[c] = repeat[c] + 1 if same else 0
         last[c] = x
-        clipped = (
+        # At the data-sheet range, or at a rail below it (clip_returns: read only when needed)
+        if abs(x) >= p.saturation_fraction * ranges[c] or (
             p.clip_samples > 0
             and clip_returns(s, _RING + CLIP_WINDOW_MAX * c, ring_pos, x, p) >= p.clip_samples
-        )
-        if abs(x) >= p.saturation_fraction * ranges[c] or clipped:
+        ):
             codes[c] = SATURATED
         elif repeat[c] >= p.stuck_samples - 1:
             codes[c] = STUCK
