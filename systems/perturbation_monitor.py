@@ -20,17 +20,17 @@ wheel stopped by a hand from a robot that was commanded to stop. The commands ca
    (mixing.slide_onset_jump: the wheels slide along the ground) the wheels' yaw rate is not the
    ground's and the test pauses, its PT1 at 0: in the square's braking slides the follower steers the
    sliding wheels apart (1.5 rad/s) while the body does not turn.
-3. ``body``: the lateral acceleration the navigation measures leaves the centripetal v_t omega by more
-   than lateral_threshold + lateral_per_speed |v_t| (PT1; the accelerometers' commotion grows with the
-   speed): a push from the side beyond what the tyres hold. A push the tyres do hold leaves that trace
-   only while the side slip builds up, so ``body`` is also the side slip no tyre explains: the lateral
-   velocity the kinematics integrate, L_k = v_n,k + q_L (L_k-1 + T_N (a_n - v_t omega) - v_n,k) (leaky
-   towards the estimate with slide_time_constant), beyond slide_threshold + slide_per_speed |v_t| while
-   the turn asks little of the tyres: |v_t omega| has stayed below slide_demand (its peak held with
-   slide_demand_hold). Without lateral demand no tyre curve, whatever the floor's grip, lets the body
-   gain side slip; only an outside force does (a slippery floor in a turn does not count; the recovery
-   from a spin-out, where the estimate's own v_n is off by more than the bound, does: Kurt3D at friction
-   0.5).
+3. ``body``: the lateral acceleration the navigation measures leaves the centripetal v_t omega by more than
+   lateral_threshold + lateral_per_speed |v_t| + lateral_fraction |v_t omega| (PT1; the accelerometers'
+   commotion grows with the speed, the tyres' side slip rate with the turn): a push from the side beyond
+   what the tyres hold. A push the tyres do hold leaves that trace only while the side slip builds up, so
+   ``body`` is also the side slip no tyre explains: the lateral velocity the kinematics integrate, L_k =
+   v_n,k + q_L (L_k-1 + T_N (a_n - v_t omega) - v_n,k) (leaky towards the estimate with
+   slide_time_constant), beyond slide_threshold + slide_per_speed |v_t| while the turn asks little of the
+   tyres: |v_t omega| has stayed below slide_demand (its peak held with slide_demand_hold). Without lateral
+   demand no tyre curve, whatever the floor's grip, lets the body gain side slip; only an outside force
+   does (a slippery floor in a turn does not count; the recovery from a spin-out, where the estimate's own
+   v_n is off by more than the bound, does: Kurt3D at friction 0.5).
 
 4. ``force`` (with the motor drivers' current sense): the body's force balance, from the believed
    (nominal) robot alone. A wheel's motor puts (k i - beta w - J w')/r on the ground; the body's mass
@@ -85,8 +85,15 @@ class PerturbationParameters:
         yaw_threshold, yaw_fraction: the body's and the wheels' yaw rates differ by more than this (rad/s,
             1 of the wheels' |omega|). Fault-free: at most 0.43 rad/s (corner) and Kurt3D's skid at 3.4 m/s
             on the circle.
-        lateral_threshold, lateral_per_speed: |a_n - v_t omega| beyond this (m/s^2, m/s^2 per m/s).
-            Fault-free: 1.2 m/s^2 at 1.6 m/s (corner), 3.2 m/s^2 at 4 m/s (long path).
+        lateral_threshold, lateral_per_speed, lateral_fraction: |a_n - v_t omega| beyond
+            lateral_threshold + lateral_per_speed |v_t| + lateral_fraction |v_t omega| (m/s^2, m/s^2 per
+            m/s, 1). a_n - v_t omega is the side slip's rate v_n', which the tyres build and release in
+            proportion to the turn's demand |v_t omega|. Fault-free built-ins (corner and square 10
+            seeds, circle and long path 3; matched and with the tolerance preset; open and closed
+            loop): without the demand's share the open corner reached 0.98 of the bound, and 1.00-1.03
+            on 3 of 10 tolerance-preset robots (seed 0: 2.34 m/s^2 at 1.55 m/s and 3.7 m/s^2 of
+            demand, a false flag); with 0.2, at most 0.89 (corner), 0.58 (long path). The
+            benchmark's sideways pushes are flagged by the slide and force tests first.
         slide_time_constant: leak of the kinematic lateral velocity L towards the estimate (s).
         slide_threshold: |L| beyond slide_threshold + slide_per_speed |v_t| is a side slip no tyre
             explains (m/s); inf: no slide test. Fault-free built-ins (2 seeds): at most 0.75 of the
@@ -115,6 +122,7 @@ class PerturbationParameters:
     yaw_fraction: float = 0.2
     lateral_threshold: float = 1.5
     lateral_per_speed: float = 0.5
+    lateral_fraction: float = 0.2
     slide_time_constant: float = 0.1
     slide_threshold: float = 0.025
     slide_per_speed: float = 0.015
@@ -140,6 +148,7 @@ class PerturbationParameters:
             "speed_fraction",
             "yaw_fraction",
             "lateral_per_speed",
+            "lateral_fraction",
             "slide_per_speed",
             "force_fraction",
         ):
@@ -329,7 +338,11 @@ def perturbation_step(
     centripetal = v_t * omega
     s[_LAT] = a * s[_LAT] + (1.0 - a) * (a_n - centripetal)
     yaw_bound = params.yaw_threshold + params.yaw_fraction * abs(omega_wheels)
-    lateral_bound = params.lateral_threshold + params.lateral_per_speed * abs(v_t)
+    lateral_bound = (
+        params.lateral_threshold
+        + params.lateral_per_speed * abs(v_t)
+        + params.lateral_fraction * abs(centripetal)
+    )
     slide = slide_step(s, v_t, float(estimate[1]), centripetal, a_n, params, T_N)
     conditions = (
         outside[0],

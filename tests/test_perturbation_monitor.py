@@ -120,6 +120,19 @@ def test_body_flag_on_a_lateral_acceleration_beyond_the_centripetal():
     assert not rows.any()
 
 
+@pytest.mark.parametrize("excess, fraction, flagged", [(2.4, 0.2, False), (2.8, 0.2, True), (2.4, 0.0, True)])
+def test_the_lateral_bound_grows_with_the_turns_demand(excess, fraction, flagged):
+    """In a 3 rad/s turn at 1 m/s (demand v_t omega = 3 m/s^2) the bound is 1.5 + 0.5 * 1 + 0.2 * 3 =
+    2.6 m/s^2 of a_n - v_t omega: 2.4 passes, 2.8 is flagged; without the demand's share (0) 2.4 is."""
+    lateral = PerturbationParameters(slide_threshold=math.inf, lateral_fraction=fraction)
+    omega = 3.0
+    wheels = (1.0 + 0.5 * B * omega, 1.0 - 0.5 * B * omega)
+    estimate = (1.0, 0.0, omega, 0.0, 1.0 * omega + excess)
+    rows, _, _ = drive(200, wheels, wheels, estimate, params=lateral)
+    assert not rows[:, :3].any()  # the wheels follow their commands and the turn is theirs
+    assert bool(rows[-1, 3]) == flagged
+
+
 def test_body_flag_on_a_side_slip_no_tyre_explains():
     """The slide test by hand: on a straight (no lateral demand) at 1 m/s, a_n = 1.8 m/s^2 with the
     estimate's v_n at 0 (below the lateral bound 1.5 + 0.5 * 1) integrates to
@@ -192,6 +205,8 @@ def test_system_matches_the_pure_function():
 def test_bad_thresholds_name_the_key():
     with pytest.raises(ValueError, match=r"perturbation_monitor.yaw_threshold=0.0 is out of range"):
         PerturbationParameters(yaw_threshold=0.0)
+    with pytest.raises(ValueError, match=r"perturbation_monitor.lateral_fraction=-0.1 is out of range"):
+        PerturbationParameters(lateral_fraction=-0.1)
     with pytest.raises(ScenarioError, match=r"perturbation_monitor.confirm_samples=0 is out of range"):
         scenario_from_yaml(
             "trajectory: {segments: [!Straight {length: 0.5, v_peak: 0.5}]}\n"
