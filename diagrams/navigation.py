@@ -35,7 +35,7 @@ from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonito
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector
-from slipnav.systems.yaw_calibration import CALIBRATED_LAYOUT, YawRateCalibration
+from slipnav.systems.yaw_calibration import CALIBRATED_LAYOUT, PARAMETERS_LAYOUT, YawRateCalibration
 
 NAVIGATION_OUTPUTS = (
     "pose",
@@ -195,6 +195,10 @@ def build_navigation_diagram(
     tyre_state = mixer_block.GetOutputPort("tyre_model_state")
     tyre = split_port(b, tyre_state, TYRE_MODEL_STATE_LAYOUT, "Identified tyre peak")
     b.Connect(tyre["tyre_peak"], monitor.GetInputPort("tyre_peak"))
+    learned = split_port(
+        b, yaw_calibration.GetOutputPort("parameters"), PARAMETERS_LAYOUT, "Learned gyro bias and D"
+    )
+    b.Connect(learned["estimate"], monitor.GetInputPort("yaw_calibration"))  # the replacements read them
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))

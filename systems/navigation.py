@@ -254,8 +254,9 @@ class NavigationLoop:
         amps = (float(currents[0]), float(currents[1]))
         velocity = (float(self.x[0]), float(self.x[1]))  # x_k-1's body velocity: the gyro's replacement
         peak = float(self.tyre_model_state[2])  # the identified tyre peak after x_k-1
+        learned = (float(self.calibration[0]), float(self.calibration[1]))  # b_g, D before this sample
         self.health, sample, codes = health_check(
-            self.health, raw, amps, self.health_constants, velocity, peak
+            self.health, raw, amps, self.health_constants, velocity, peak, learned
         )
         acc, g = sample[0:4], sample[4]
         self.checked_encoders = (sample[5], sample[6])  # what the perturbation monitor reads

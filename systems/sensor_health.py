@@ -379,6 +379,8 @@ FORCE_REFERENCE_FIELDS = HealthConstants._fields[HealthConstants._fields.index("
 """HealthGeometry's figures of the nominal robot for the force reference and the yaw dynamics
 (RobotParameters' names)."""
 NO_VELOCITY = (math.nan, math.nan)
+NO_YAW_CALIBRATION = (0.0, 0.0)
+"""health_check's ``yaw_calibration`` without a calibration: gyro bias 0, rolling-radius difference 0."""
 """health_check's ``velocity`` when the navigation's estimate is not read: the odometric v_t, no v_n."""
 
 
@@ -416,11 +418,14 @@ def health_step(
     currents=NO_CURRENTS,
     velocity=NO_VELOCITY,
     tyre_peak: float = math.nan,
+    yaw_calibration=NO_YAW_CALIBRATION,
 ):
     """Check one sample (module docstring): health_check with ``p`` and ``g``; ``currents``: the motor
     drivers' readings [i_R, i_L] (A) of the sample; ``velocity``: the navigation's body velocity
     (v_t, v_n) of the previous sample (m/s) and ``tyre_peak`` its identified tyre peak (m/s^2; NaN: the
-    nominal), for the excluded gyro's replacement.
+    nominal), for the excluded gyro's replacement; ``yaw_calibration``: the online calibration's
+    [b_g, D] (systems/yaw_calibration.py) as it stood before the sample, which the replacements of the
+    gyro and an encoder read.
 
     Returns:
         (next state, accepted sample [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L], health codes (7)).
@@ -432,6 +437,7 @@ def health_step(
         health_constants(p, g),
         (float(velocity[0]), float(velocity[1])),
         float(tyre_peak),
+        (float(yaw_calibration[0]), float(yaw_calibration[1])),
     )
 
 
@@ -443,11 +449,13 @@ def health_check(
     constants: tuple,
     velocity: tuple = NO_VELOCITY,
     tyre_peak: float = math.nan,
+    yaw_calibration: tuple = NO_YAW_CALIBRATION,
 ):
     """health_step with the parameters and the geometry as health_constants' tuple, the sample, the
-    currents and the velocity as tuples of floats and the tyre peak a float (compiled with numba when
-    available: systems/compiled.py)."""
+    currents, the velocity and the yaw calibration as tuples of floats and the tyre peak a float
+    (compiled with numba when available: systems/compiled.py)."""
     p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
+    bias, radius_difference = yaw_calibration  # b_g, D: what the replacements add to the nominal figures
     s = state.copy()
     if not p.enabled:  # NaN/inf only: hold the last valid value
         codes = [0 if math.isfinite(v) else NONFINITE for v in raw]
@@ -494,7 +502,7 @@ def health_check(
     # gyro_readmission_fraction of the replacement's own: a scale error does not telescope.
     if codes[4] == 0 and 0.0 < excl[4] < max_excl and math.isfinite(ref[4]):
         s[_G_COUNT] += 1.0
-        s[_G_DIFF] += raw[4] - ref[4]
+        s[_G_DIFF] += raw[4] - bias - ref[4]
         s[_G_TRAVEL] += abs(ref[4])
         if s[_G_COUNT] < p.gyro_readmission_samples:
             codes[4] = RECOVERING
@@ -520,10 +528,12 @@ def health_check(
     previous_out = [e_last[w] + e_out[w] for w in range(2)]  # e_out: the output less the last raw
 
     def predicted_increment(w: int, other_increment: float) -> float:
-        """Wheel w's increment from the other wheel's and the gyro: v_R - v_L = b omega."""
+        """Wheel w's increment from the other wheel's and the gyro: v_R - v_L = b omega - D v_o in the
+        nominal radii (the calibration's omega = omega_o + D v_o / b), v_o taken as the other wheel's."""
         o = 1 - w
-        v_pred = other_increment * radii[o] / g.T_N + (1.0 if w == 0 else -1.0) * g.track_width * raw[4]
-        return v_pred * g.T_N / radii[w]
+        v_other = other_increment * radii[o] / g.T_N
+        turn = g.track_width * (raw[4] - bias) - radius_difference * v_other
+        return (v_other + (1.0 if w == 0 else -1.0) * turn) * g.T_N / radii[w]
 
     missed = [0.0, 0.0]
     inc = [math.nan, math.nan]
@@ -639,7 +649,9 @@ def health_check(
             r_count[w] = r_diff[w] = r_travel[w] = 0.0
     s[_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
-    v_o, omega_o = 0.5 * (v_R + v_L), (v_R - v_L) / g.track_width
+    v_o = 0.5 * (v_R + v_L)
+    v_R, v_L = v_R + 0.5 * radius_difference * v_o, v_L - 0.5 * radius_difference * v_o  # calibrated
+    omega_o = (v_R - v_L) / g.track_width  # omega_o + D v_o / b
     enc_ok = codes[5] == 0 and codes[6] == 0
 
     # The wheels' yaw rate for an excluded gyro: the body's, through the nominal yaw dynamics
@@ -773,6 +785,8 @@ def health_check(
         else:
             value = ref[c]
         out[c] = ref[c] = value if math.isfinite(value) else 0.0
+        if c == 4:  # the body's yaw rate as the gyro would read it: its bias, which the navigation removes
+            out[4] += bias
     if s[_G_PAY_LEFT] > 0.0:  # a frozen gyro's owed heading, re-admitted or not (the reference goes without)
         out[4] += s[_G_PAY_RATE]
         s[_G_PAY_LEFT] -= 1.0
@@ -956,6 +970,7 @@ class SensorHealthMonitor(LeafSystem):
         - motor_currents
         - body_velocity
         - tyre_peak
+        - yaw_calibration
         output_ports:
         - step
 
@@ -964,7 +979,10 @@ class SensorHealthMonitor(LeafSystem):
       navigation's (v_t, v_n) of the previous sample (the EKF's state), which the excluded gyro's
       replacement reads (yaw_follow_step; unconnected: the odometric v_t and no v_n); tyre_peak
       (optional): the navigation's identified tyre peak of the previous sample (the velocity mixer's
-      state; unconnected: the nominal).
+      state; unconnected: the nominal); yaw_calibration (optional): the online calibration's [b_g, D]
+      (the YawRateCalibration's state; unconnected: 0, 0), with which the gyro's replacement reads the
+      calibrated odometric yaw rate omega_o + D v_o / b plus the bias, and an encoder's v_R - v_L = b
+      (gyro - b_g) - D v_o.
     - step (direct feedthrough), in HEALTH_STEP_LAYOUT's order: the next state; the accepted or replaced
       samples accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]; health,
       the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
@@ -993,12 +1011,14 @@ class SensorHealthMonitor(LeafSystem):
         self._currents = self.DeclareVectorInputPort("motor_currents", 2)
         self._velocity = self.DeclareVectorInputPort("body_velocity", 2)
         self._tyre_peak = self.DeclareVectorInputPort("tyre_peak", 1)
+        self._yaw_calibration = self.DeclareVectorInputPort("yaw_calibration", 2)
         self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
         prereq = {
             self.xd_ticket(),
             self._currents.ticket(),
             self._velocity.ticket(),
             self._tyre_peak.ticket(),
+            self._yaw_calibration.ticket(),
         }
         prereq |= {port.ticket() for port in self._inputs}
         size = sum(n for _, n in HEALTH_STEP_LAYOUT)
@@ -1014,7 +1034,9 @@ class SensorHealthMonitor(LeafSystem):
         velocity = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_VELOCITY
         port = self._tyre_peak
         peak = float(port.Eval(context)[0]) if port.HasValue(context) else math.nan
-        state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak)
+        port = self._yaw_calibration
+        calibration = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_YAW_CALIBRATION
+        state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak, calibration)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
         step[STATE_SIZE:] = [*out, *codes, *health_flags(codes, odometry_unusable(state, out))]

@@ -186,6 +186,8 @@ def calibration_parameters(state) -> list:
     return [*state[_THETA], math.sqrt(P[0, 0]), math.sqrt(P[1, 1]), state[_LEARNED], state[_REJECTED]]
 
 
+PARAMETERS_LAYOUT = (("estimate", 2), ("std", 2), ("batches", 2))
+"""YawRateCalibration's ``parameters`` output (calibration_parameters), in order: (name, size)."""
 CALIBRATED_LAYOUT = (("gyro", 1), ("odometry", 4))
 """YawRateCalibration's ``calibrated`` output, in order: (name, size); diagrams/split.py slices it."""
 

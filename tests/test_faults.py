@@ -161,6 +161,71 @@ def test_nan_gyro_is_replaced_by_the_odometric_yaw_rate():
     np.testing.assert_array_equal(out[114:, 4], rows[114:, 4])
 
 
+def unequal_wheels(n, v, omega, e_R, e_L, gyro_bias):
+    """n samples of ``stream``'s robot on wheels whose rolling radii are R (1 + e_R), R (1 + e_L): the
+    encoders count the true ground speeds v +- B omega / 2 over these radii; the gyro reads omega, its
+    noise and ``gyro_bias``."""
+    rows = stream(n, v, omega)
+    k = np.arange(1, n + 1)
+    rows[:, 5] = (v + 0.5 * B * omega) / (R * (1 + e_R)) * T_N * k
+    rows[:, 6] = (v - 0.5 * B * omega) / (R * (1 + e_L)) * T_N * k
+    rows[:, 4] += gyro_bias
+    return rows
+
+
+def checked(rows, calibration):
+    state, outs, codes = health_initial_state(GEOMETRY, 1.0), [], []
+    for row in rows:
+        state, out, code = health_step(
+            state, row, SensorHealthParameters(), GEOMETRY, yaw_calibration=calibration
+        )
+        outs.append(out)
+        codes.append(code)
+    return np.array(outs), np.array(codes)
+
+
+def test_a_lost_gyros_replacement_reads_the_learned_radius_difference_and_bias():
+    """Driving straight at 1.5 m/s on a right wheel 1 % larger than the left (D = e_R - e_L = 0.01), the
+    nominal odometry turns at -D v / b = -0.22 rad/s (yaw_calibration's model). A lost gyro's replacement
+    reads the calibration's [b_g, D]: omega_o + D v_o / b + b_g by hand (the nominal v_o), which is the
+    true 0 rad/s plus the bias to second order in e (|D| e v / b); without it, the 0.22 rad/s."""
+    e_R, e_L, v, bias = 0.005, -0.005, 1.5, 0.003
+    D = e_R - e_L
+    rows = unequal_wheels(200, v, 0.0, e_R, e_L, bias)
+    rows[100:110, 4] = np.nan
+    out, codes = checked(rows, (bias, D))
+    assert np.all(codes[100:110, 4] == NONFINITE)
+    v_R, v_L = (np.diff(rows[99:110, 5:7], axis=0) * R / T_N).T
+    by_hand = (v_R - v_L) / B + D * 0.5 * (v_R + v_L) / B + bias
+    np.testing.assert_allclose(out[100:110, 4], by_hand, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(out[100:110, 4], bias, rtol=0, atol=abs(D) * max(e_R, -e_L) * v / B)
+    uncalibrated, _ = checked(rows, (0.0, 0.0))
+    np.testing.assert_allclose(uncalibrated[100:110, 4], -D * v / B, rtol=0.02)
+
+
+def test_a_lost_encoders_replacement_reads_the_learned_radius_difference_and_bias():
+    """In a 2 rad/s turn on unequal wheels (D = 0.01) the right encoder is lost: it advances by the left
+    wheel's nominal speed v_L plus b (gyro - b_g) - D v_L (v_R - v_L = b omega - D v_o in the nominal
+    radii, v_o taken as v_L), by hand; its travel then stays within the gyro's noise of the truth over
+    the outage; without the calibration it misses D v_L + b b_g, 0.19 mm over these 10 samples."""
+    e_R, e_L, v, omega, bias = 0.005, -0.005, 1.0, 2.0, 0.003
+    D = e_R - e_L
+    clean = unequal_wheels(300, v, omega, e_R, e_L, bias)
+    rows = clean.copy()
+    rows[100:110, 5] = np.nan
+    out, codes = checked(rows, (bias, D))
+    assert np.all(codes[100:110, 5] == NONFINITE)
+    v_L = np.diff(rows[99:110, 6]) * R / T_N
+    by_hand = (v_L + B * (rows[100:110, 4] - bias) - D * v_L) * T_N / R
+    np.testing.assert_allclose(np.diff(out[99:110, 5]), by_hand, rtol=1e-12)
+    noise = 3 * math.sqrt(10) * B * 0.014 * T_N  # the gyro's noise over the outage (m)
+    drift = abs(out[109, 5] - clean[109, 5]) * R
+    assert drift < noise
+    uncalibrated, _ = checked(rows, (0.0, 0.0))
+    missed = (uncalibrated[109, 5] - out[109, 5]) * R
+    assert missed == pytest.approx(np.sum(D * v_L + B * bias) * T_N, rel=1e-9)
+
+
 def test_saturated_and_stuck_gyro_are_flagged_and_excluded():
     rows = stream(200, 1.0, 1.0)
     full_scale = math.radians(300.0)
