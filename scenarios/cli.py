@@ -8,7 +8,7 @@
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [--calibrated] [ENGINE]
-    slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [--open-loop] [--channels C,..]
+    slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [--open-loop] [--tolerances] [--channels C,..]
                    [--kinds K,..] [ENGINE]
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
@@ -152,6 +152,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     fau.add_argument(
         "--open-loop", action="store_true", help="feed-forward the trajectory's wheel speeds (the same path)"
+    )
+    fau.add_argument(
+        "--tolerances",
+        action="store_true",
+        help="draw the simulated robot from the tolerance preset by the seed (the navigation: nominal)",
     )
     fau.add_argument("--channels", default=None, help="only these channels, comma-separated (default all)")
     fau.add_argument("--kinds", default=None, help="only these fault classes, comma-separated (default all)")
@@ -341,6 +346,7 @@ def _command(args) -> int:
             args.seeds,
             perturbations=args.perturbations,
             open_loop=args.open_loop,
+            tolerances=args.tolerances,
             channels=channels,
             kinds=kinds,
             **_engine(args),

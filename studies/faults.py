@@ -211,7 +211,13 @@ def perturbation_samples(a: dict) -> int:
 def run_job(job: dict, event: FaultEvent):
     """The job's scenario and seed with ``event``, open loop when the job says so (--open-loop)."""
     scenario = load_scenario(job["scenario"])
-    return run_scenario(scenario, seed=job["seed"], faults=[event], open_loop=job.get("open_loop") or None)
+    return run_scenario(
+        scenario,
+        seed=job["seed"],
+        faults=[event],
+        open_loop=job.get("open_loop") or None,
+        tolerances=bool(job.get("tolerances")),
+    )
 
 
 def fault_figures(
@@ -315,6 +321,7 @@ def faults(
     *,
     perturbations=False,
     open_loop=False,
+    tolerances=False,
     channels=None,
     kinds=None,
     workers=None,
@@ -325,7 +332,9 @@ def faults(
     """Run the benchmark (module docstring); with ``perturbations`` also the plant perturbations
     (PERTURBATIONS; printed, not kept in faults.csv); ``open_loop``: every run feeds the trajectory's
     wheel speeds forward, so that a fault cannot change the path and the error ratio is the fault's
-    effect on the estimate alone; ``channels``, ``kinds``: only these sensor faults (None: all; the null
+    effect on the estimate alone; ``tolerances``: every run of a seed on the robot drawn from the
+    tolerance preset by that seed (scenarios/tolerances.py; the navigation knows the nominal one);
+    ``channels``, ``kinds``: only these sensor faults (None: all; the null
     faults stay); print the tables and the last line; return the sensor-fault rows."""
     stream = stream or sys.stdout
     select_cases([], channels, kinds)  # unknown names before any run
@@ -336,9 +345,16 @@ def faults(
             scenario = load_scenario(name)
             jobs, plant_jobs, null_jobs = [], [], []
             for seed in range(seeds):
-                clean = run_scenario(scenario, seed=seed, faults=[], open_loop=open_loop or None).arrays
+                clean = run_scenario(
+                    scenario, seed=seed, faults=[], open_loop=open_loop or None, tolerances=tolerances
+                ).arrays
                 clean_rows.append({"scenario": name, "seed": seed, **clean_figures(clean)})
-                common = {"scenario": name, "seed": seed, **({"open_loop": True} if open_loop else {})}
+                common = {
+                    "scenario": name,
+                    "seed": seed,
+                    **({"open_loop": True} if open_loop else {}),
+                    **({"tolerances": True} if tolerances else {}),
+                }
                 cases = fault_cases(clean)
                 jobs += [{**common, **case} for case in select_cases(cases, channels, kinds)]
                 null_jobs += [{**common, **case} for case in null_fault_cases(cases)]
