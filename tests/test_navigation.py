@@ -800,12 +800,16 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
     np.testing.assert_array_equal(inertial_fault, [100, 101, 102, 103, *range(200, 206)])
     # 303: the first increment after the gap spans it and is not used (recovering).
     np.testing.assert_array_equal(encoder_fault, [300, 301, 302, 303])
-    # 300: the left wheel's increment is replaced by v_R - b omega_gyro (systems/sensor_health.py);
-    # 301-303: no wheel is readable, the increments used at 300 are held; 304: the encoders' own again.
+    # 300: the left wheel's increment is replaced by v_R - (b (gyro - b_g) - D v_R), the online
+    # calibration's b_g and D as they stood (systems/sensor_health.py); 301-303: no wheel is readable,
+    # the increments used at 300 are held; 304: the encoders' own again.
     odo_v = logs["odometry"][0]
     r, b = robot.wheel_radius, robot.track_width
     v_R = r * (enc[300, 0] - enc[299, 0]) / T_N
-    assert odo_v[300] == pytest.approx(0.5 * (v_R + v_R - b * gyro[300]), rel=1e-9, abs=1e-15)
+    bias, D = logs["yaw_calibration"][0:2, 300]
+    assert bias != 0.0  # learned at the standstill
+    v_L = v_R - (b * (gyro[300] - bias) - D * v_R)
+    assert odo_v[300] == pytest.approx(0.5 * (v_R + v_L), rel=1e-9, abs=1e-15)
     # Held increments: the same speed up to the rounding of the angle differences ((a + d) - a vs d).
     assert odo_v[301] == pytest.approx(odo_v[300], rel=1e-12)
     assert odo_v[302] == pytest.approx(odo_v[300], rel=1e-12)
