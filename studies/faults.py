@@ -394,12 +394,42 @@ def print_perturbations(rows: list, stream) -> None:
 
 
 def clean_figures(a: dict) -> dict:
-    """A fault-free run's flags (all false) and fused final error."""
+    """A fault-free run's flags (all false) and final errors (fused, odometry-only, Gyrodometry)."""
     return {
         "false_flags": sum(int(np.sum(a[f"health_{c}"] > 0)) for c in SENSOR_CHANNELS)
         + perturbation_samples(a),
         "fused_error_m": final_position_error(a, "est"),
+        "odometry_error_m": final_position_error(a, "odo"),
+        "gyrodometry_error_m": final_position_error(a, "gyro"),
     }
+
+
+def baseline_line(rows: list, clean_rows: list) -> str:
+    """How often the fusion ends closer to the truth than each baseline on the same runs (fault runs and
+    fault-free runs apart), and the scenarios and seeds where a baseline ended closer in a fault-free run.
+    Rows without the figures are skipped."""
+
+    def closer(runs, key):
+        runs = [r for r in runs if math.isfinite(r.get(key, math.nan)) and "fused_error_m" in r]
+        return sum(r["fused_error_m"] < r[key] for r in runs), len(runs)
+
+    parts = []
+    for label, key in (("odometry-only", "odometry_error_m"), ("Gyrodometry", "gyrodometry_error_m")):
+        (n, m), (k, c) = closer(rows, key), closer(clean_rows, key)
+        parts.append(f"below {label}'s in {n}/{m} fault runs and {k}/{c} fault-free runs")
+    beaten = [
+        f"{r['scenario']} seed {r['seed']}"
+        for r in clean_rows
+        if any(
+            r.get(key, math.inf) <= r.get("fused_error_m", math.nan)
+            for key in ("odometry_error_m", "gyrodometry_error_m")
+        )
+    ]
+    return (
+        "baselines on the same runs: the fused final error is "
+        + "; ".join(parts)
+        + (f" (a baseline closer fault-free: {', '.join(beaten)})" if beaten else "")
+    )
 
 
 def print_null_faults(nulls: list, stream) -> None:
@@ -453,6 +483,7 @@ def print_report(rows: list, clean_rows: list, wall: float, stream, nulls: list 
             f"{sum(m[0] > 3.0 for m in means)} of {len(means)} above 3",
             file=stream,
         )
+    print(baseline_line(rows, clean_rows), file=stream)
     false_flags = sum(r["false_flags"] for r in clean_rows)
     detected = sum(bool(r["detected"]) for r in rows)
     worst_ratio = max((r["error_ratio"] for r in rows), default=math.nan)

@@ -775,6 +775,29 @@ def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys):
     assert lines[-1].startswith("faults detected=1/1 ")
 
 
+def test_the_report_counts_the_runs_where_the_fusion_beats_each_baseline():
+    """By hand: of two fault runs the fusion ends below odometry-only in both and below Gyrodometry in
+    one; of two fault-free runs below both baselines in one, and square seed 1's Gyrodometry ends closer."""
+    from slipnav.studies.faults import baseline_line
+
+    run = {"fused_error_m": 0.01, "odometry_error_m": 0.1}
+    rows = [
+        {**run, "gyrodometry_error_m": 0.02},
+        {**run, "gyrodometry_error_m": 0.005},
+        {"fused_error_m": 1.0},
+    ]
+    clean = [
+        {"scenario": "corner", "seed": 0, **run, "gyrodometry_error_m": 0.03},
+        {"scenario": "square", "seed": 1, **run, "gyrodometry_error_m": 0.01},
+        {"scenario": "square", "seed": 2, "false_flags": 0},  # no figures: skipped
+    ]
+    assert baseline_line(rows, clean) == (
+        "baselines on the same runs: the fused final error is below odometry-only's in 2/2 fault runs "
+        "and 2/2 fault-free runs; below Gyrodometry's in 1/2 fault runs and 1/2 fault-free runs (a "
+        "baseline closer fault-free: square seed 1)"
+    )
+
+
 def test_null_faults_change_nothing_a_check_or_the_estimate_could_see():
     """A 1e-6 bias step for 0.5 s on the gyro: open loop, the estimate moves by rounding only and nothing
     is flagged, so a null fault's final-error ratio in closed loop is what chance gives the metric; the
