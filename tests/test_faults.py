@@ -758,7 +758,7 @@ def test_selected_faults_and_the_over_seeds_ratio(capsys):
 
 def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys):
     """``slipnav faults --tolerances``: the open corner on the tolerance preset's seed-0 robot (its right
-    wheel 0.7 % larger than its left, track 1.2 % short), the gyro lost for 0.5 s in the turn. Its
+    wheel 0.7 % larger than its left, track 1.7 % wide), the gyro lost for 0.5 s in the turn. Its
     replacement reads the learned D; with the nominal wheels it cost 72 mm, 13.8 x the fault-free 5.2
     mm, and 3.3 deg of heading. Now within 3 x, better than Gyrodometry and odometry-only on the same
     run, and the fault-free run raises no flag (the lateral test's bound once gave a false body flag)."""
