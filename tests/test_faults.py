@@ -756,7 +756,7 @@ def test_selected_faults_and_the_over_seeds_ratio(capsys):
     ) in out.getvalue().splitlines()
 
 
-def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys):
+def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys, tmp_path):
     """``slipnav faults --tolerances``: the open corner on the tolerance preset's seed-0 robot (its right
     wheel 0.7 % larger than its left, track 1.7 % wide), the gyro lost for 0.5 s in the turn. Its
     replacement reads the learned D; with the nominal wheels it cost 72 mm, 13.8 x the fault-free 5.2
@@ -764,9 +764,9 @@ def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys):
     run, and the fault-free run raises no flag (the lateral test's bound once gave a false body flag)."""
     from slipnav.scenarios.cli import main
 
-    assert (
-        main(["faults", "corner", "--open-loop", "--tolerances", "--channels", "gyro", "--kinds", "nan"]) == 0
-    )
+    options = ["--open-loop", "--tolerances", "--channels", "gyro", "--kinds", "nan", "--workers", "0"]
+    assert main(["faults", "corner", *options, "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "faults.csv").exists()
     lines = capsys.readouterr().out.splitlines()
     row = next(line.split() for line in lines if line.startswith("corner ") and " gyro " in line)
     latency_ms, ratio, fused, odometry, gyrodometry = float(row[4]), *map(float, row[5:6] + row[7:10])
