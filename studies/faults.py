@@ -405,12 +405,15 @@ def clean_figures(a: dict) -> dict:
 
 
 def baseline_line(rows: list, clean_rows: list) -> str:
-    """How often the fusion ends closer to the truth than each baseline on the same runs (fault runs and
-    fault-free runs apart), and the scenarios and seeds where a baseline ended closer in a fault-free run.
-    Rows without the figures are skipped."""
+    """How often the fused final error is below each baseline's on the same runs (fault runs and
+    fault-free runs apart), and the fault-free runs where it is not below both (a tie counts as not
+    below). Rows without finite figures are skipped."""
+
+    def finite(r, key):
+        return math.isfinite(r.get(key, math.nan)) and math.isfinite(r.get("fused_error_m", math.nan))
 
     def closer(runs, key):
-        runs = [r for r in runs if math.isfinite(r.get(key, math.nan)) and "fused_error_m" in r]
+        runs = [r for r in runs if finite(r, key)]
         return sum(r["fused_error_m"] < r[key] for r in runs), len(runs)
 
     parts = []
@@ -421,14 +424,14 @@ def baseline_line(rows: list, clean_rows: list) -> str:
         f"{r['scenario']} seed {r['seed']}"
         for r in clean_rows
         if any(
-            r.get(key, math.inf) <= r.get("fused_error_m", math.nan)
+            finite(r, key) and not r["fused_error_m"] < r[key]
             for key in ("odometry_error_m", "gyrodometry_error_m")
         )
     ]
     return (
         "baselines on the same runs: the fused final error is "
         + "; ".join(parts)
-        + (f" (a baseline closer fault-free: {', '.join(beaten)})" if beaten else "")
+        + (f" (fault-free runs where it is not below both: {', '.join(beaten)})" if beaten else "")
     )
 
 

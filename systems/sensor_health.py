@@ -379,9 +379,9 @@ FORCE_REFERENCE_FIELDS = HealthConstants._fields[HealthConstants._fields.index("
 """HealthGeometry's figures of the nominal robot for the force reference and the yaw dynamics
 (RobotParameters' names)."""
 NO_VELOCITY = (math.nan, math.nan)
+"""health_check's ``velocity`` when the navigation's estimate is not read: the odometric v_t, no v_n."""
 NO_YAW_CALIBRATION = (0.0, 0.0)
 """health_check's ``yaw_calibration`` without a calibration: gyro bias 0, rolling-radius difference 0."""
-"""health_check's ``velocity`` when the navigation's estimate is not read: the odometric v_t, no v_n."""
 
 
 def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:

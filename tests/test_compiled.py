@@ -112,9 +112,10 @@ def test_sensor_checks_compiled_equal_python(enabled):
         currents = (math.nan, math.nan) if k < 240 else (0.2 + 0.01 * rng.normal(), 0.2)
         velocity = (math.nan, math.nan) if k < 330 else (0.5, 0.01 * rng.normal())
         peak = math.nan if k < 325 else 4.0  # the identified tyre peak (m/s^2)
+        learned = (0.0, 0.0) if k < 140 else (0.02, -0.008)  # the online calibration's b_g, D
         (state_c, out_c, codes_c), (state_p, out_p, codes_p) = (
-            health_check(state_c, raw, currents, constants, velocity, peak),
-            compiled.pure(health_check)(state_p, raw, currents, constants, velocity, peak),
+            health_check(state_c, raw, currents, constants, velocity, peak, learned),
+            compiled.pure(health_check)(state_p, raw, currents, constants, velocity, peak, learned),
         )
         assert_same((state_c, out_c, codes_c), (state_p, out_p, codes_p))
         assert [type(c) for c in codes_c] == [int] * 7
