@@ -33,10 +33,12 @@ and the runs whose fault flagged another sensor channel (an isolation that blame
 import math
 import sys
 import time
+from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import POSE_DELAY_SAMPLES, final_position_error, rms_position_error
+from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.sweep import session
 from slipnav.systems.faults import ENCODER_CHANNELS, SENSOR_CHANNELS, FaultEvent, apply_sensor_faults
@@ -365,8 +367,51 @@ def faults(
                 perturbed += engine.map(run_perturbation, plant_jobs, None, label=f"perturbations {name}")
     if perturbed:
         print_perturbations(perturbed, stream)
+    if out_dir is not None and rows:
+        print(f"figure: {plot_faults(rows, FilePath(out_dir) / 'faults.png')}", file=stream)
     print_report(rows, clean_rows, time.perf_counter() - start, stream, nulls)
     return rows
+
+
+def plot_faults(rows: list, path) -> FilePath:
+    """Two panels over the channel x class cases (one column each): the detection latency of every run
+    (ms; a miss drawn at the top, the 0.1 s target dashed) and its fused final error over the fault-free
+    run's (log; filled: final error, hollow: RMS over the run; the 3 x target dashed), one colour per
+    scenario."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = list(dict.fromkeys((r["channel"], r["kind"]) for r in rows))
+    column = {case: i for i, case in enumerate(cases)}
+    names = list(dict.fromkeys(r["scenario"] for r in rows))
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(max(8.0, 0.28 * len(cases) + 2.0), 7.5), sharex=True)
+    worst = max([1000.0 * r["latency_s"] for r in rows if math.isfinite(r["latency_s"])] + [100.0])
+    ceiling = 1.2 * worst
+    for n, name in enumerate(names):
+        mine = [r for r in rows if r["scenario"] == name]
+        x = np.array([column[(r["channel"], r["kind"])] for r in mine]) + 0.15 * (n - (len(names) - 1) / 2)
+        latency = np.array([1000.0 * r["latency_s"] for r in mine])
+        missed = ~np.isfinite(latency)
+        colour = f"C{n}"
+        top.scatter(x[~missed], latency[~missed], s=12, color=colour, label=name)
+        if missed.any():
+            top.scatter(x[missed], np.full(missed.sum(), ceiling), marker="x", color=colour)
+        bottom.scatter(x, [r["error_ratio"] for r in mine], s=12, color=colour, label=f"{name}: final error")
+        rms = [r.get("run_rms_ratio", math.nan) for r in mine]
+        bottom.scatter(x, rms, s=16, facecolors="none", edgecolors=colour, label=f"{name}: RMS over the run")
+    top.axhline(1000.0 * DETECTION_LIMIT, color="k", lw=0.8, ls="--")
+    top.set_ylabel("detection latency (ms; x: missed)")
+    top.set_title("sensor faults: detection and cost (slipnav faults)")
+    top.legend(fontsize=8)
+    bottom.axhline(3.0, color="k", lw=0.8, ls="--")
+    bottom.set_yscale("log")
+    bottom.set_ylabel("fused error / fault-free run's")
+    bottom.set_xticks(range(len(cases)), [f"{c} {k}" for c, k in cases], rotation=90, fontsize=7)
+    bottom.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    return save_figure_atomically(fig, path)
 
 
 def print_perturbations(rows: list, stream) -> None:

@@ -783,12 +783,13 @@ def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys, tmp_path):
 
     options = ["--open-loop", "--tolerances", "--channels", "gyro", "--kinds", "nan", "--workers", "0"]
     assert main(["faults", "corner", *options, "--out", str(tmp_path)]) == 0
-    assert (tmp_path / "faults.csv").exists()
+    assert (tmp_path / "faults.csv").exists() and (tmp_path / "faults.png").stat().st_size > 10_000
     lines = capsys.readouterr().out.splitlines()
     row = next(line.split() for line in lines if line.startswith("corner ") and " gyro " in line)
     latency_ms, ratio, fused, odometry, gyrodometry = float(row[4]), *map(float, row[5:6] + row[7:10])
     assert latency_ms <= 100 and ratio <= 3.0 and fused < min(odometry, gyrodometry)
     assert any("false flags in the fault-free runs: 0;" in line for line in lines)
+    assert f"figure: {tmp_path / 'faults.png'}" in lines  # the last line stays the benchmark's
     assert lines[-1].startswith("faults detected=1/1 ")
 
 
