@@ -42,20 +42,22 @@ Checks (health codes, 0 = healthy):
 Replacements: an excluded gyro reads the yaw rate the nominal yaw dynamics give the body from the wheels'
 speeds (yaw_follow_step: the odometric yaw rate lagged by the tyres' slip and held back by the shoes'
 scrub; the plain odometric yaw rate without the nominal robot's figures), both encoders healthy, else its
-last value; a frozen gyro's replacement starts from the wheels' yaw rate run through the repeats it was
-trusted for, and the heading those repeats missed is paid back over the next stuck_samples samples; a
-saturated gyro reads the accelerometer pair's yaw rate (pair_omega_squared, averaged over
-consistency_samples), at least its full scale, with the gyro's sign, unless the odometry says below the
-full scale and the pair does not say more than both it and PAIR_SPIN_MARGIN times the odometric yaw
-rate (the gyro reads beyond the robot: the wheels' yaw rate above); one clipped at a rail below the range
-reads the wheels' yaw rate, without both encoders the pair's, at least the rail; an
-accelerometer axis reads the other accelerometer's plus the rotational difference, omega' from the gyro's
-difference (noisy per sample, but what the EKF integrates is exact; without it the pair's mean is omega'
-x off, v_n x omega at the end of a turn), plus the pair's offset learned while both agreed
-(pair_offset_time_constant: the two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise
-shift the mean by half); an encoder advances by v_pred T_N / r (the other wheel and the gyro), else by
-its last increment. A stuck encoder's travel missed before the detection is added then; the first
-increment after an exclusion (it spans the gap) is never used.
+last value; the wheels' speeds there are corrected by the online calibration's rolling-radius difference D
+(omega_o + D v_o / b, systems/yaw_calibration.py) and the output carries its gyro bias b_g, which the
+navigation removes, as an excluded encoder's v_R - v_L = b (gyro - b_g) - D v_o does; a frozen gyro's
+replacement starts from the wheels' yaw rate run through the repeats it was trusted for, and the heading
+those repeats missed is paid back over the next stuck_samples samples; a saturated gyro reads the
+accelerometer pair's yaw rate (pair_omega_squared, averaged over consistency_samples), at least its full
+scale, with the gyro's sign, unless the odometry says below the full scale and the pair does not say more
+than both it and PAIR_SPIN_MARGIN times the odometric yaw rate (the gyro reads beyond the robot: the
+wheels' yaw rate above); one clipped at a rail below the range reads the wheels' yaw rate, without both
+encoders the pair's, at least the rail; an accelerometer axis reads the other accelerometer's plus the
+rotational difference, omega' from the gyro's difference (noisy per sample, but what the EKF integrates is
+exact; without it the pair's mean is omega' x off, v_n x omega at the end of a turn), plus the pair's
+offset learned while both agreed (pair_offset_time_constant: the two sensors' bias difference, 0.08 m/s^2
+on the corner, would otherwise shift the mean by half); an encoder advances by v_pred T_N / r (the other
+wheel and the gyro), else by its last increment. A stuck encoder's travel missed before the detection is
+added then; the first increment after an exclusion (it spans the gap) is never used.
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
 of gyro_readmission_samples in a row whose summed difference is within gyro_readmission_fraction of the
