@@ -169,8 +169,11 @@ def health_geometry(
         sensors.encoder_step,
         tuple(sensors.accelerometer_position),
         bound,
-        sensors.gyro_noise_std,
-        robot.traction_limit_acceleration if robot is not None else math.inf,
+        gyro_noise_std=sensors.gyro_noise_std,
+        accel_noise_std=sensors.accel_noise_std,
+        accel_vibration_per_speed=sensors.accel_vibration_per_speed,
+        accel_vibration_time_constant=sensors.accel_vibration_time_constant,
+        tyre_peak_acceleration=robot.traction_limit_acceleration if robot is not None else math.inf,
         **force,
     )
 

@@ -188,6 +188,20 @@ class SensorHealthParameters:
             the rotational terms (their bias and misalignment difference), learned while both and the gyro
             are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
             replacement carries it, so the pair's mean, which the EKF integrates, keeps its level.
+        gain_threshold: the pair's gain test (module docstring, 5.; pair_gain_ratio) flags the pair when
+            its statistic exceeds this (in (0, inf]; inf: off). 4: over the built-ins' fault-free runs
+            (corner and square 6 seeds, long path and circle 2, matched and toleranced, open and closed
+            loop) the statistic peaks at 2.63; a x2 scale on a tangential axis of the open corner, which
+            the averages above miss, is flagged 54 ms after its onset (median; 45 of 48 within 0.1 s).
+        gain_tolerance: the relative gain between the two accelerometers of an axis that the test allows
+            (in [0, 1)): 0.1, the preset's sensitivity tolerances (+-2 % each) and the misalignment's
+            cross-coupling with margin; a x2 scale on one of them is 0.67, a x0.5 one -0.67.
+        gain_samples: the test's sums are over this many samples, the last ones (in [2, 50]).
+        gain_block_samples: the disagreement and the regressors are first averaged over this many
+            samples (exponential, in [1, 50]), which takes the white noise and most of the commotion out.
+        gain_cross_coupling: the other axis's acceleration, times this, counts as noise of the
+            disagreement (in [0, inf)): in a hard braking (the square at 5.5 m/s^2) the lateral axes
+            disagree by about 5 % of a_t on the nominal robot itself.
     """
 
     enabled: bool = True
@@ -216,6 +230,11 @@ class SensorHealthParameters:
     gyro_readmission_fraction: float = 0.3
     clip_samples: int = 3
     clip_window: int = 50
+    gain_threshold: float = 4.0
+    gain_tolerance: float = 0.1
+    gain_samples: int = 40
+    gain_block_samples: int = 5
+    gain_cross_coupling: float = 0.06
 
     def __post_init__(self):
         for name in (
@@ -240,7 +259,18 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
-        for name in ("fast_consistency_samples", "encoder_readmission_samples", "gyro_readmission_samples"):
+        value = self.gain_samples
+        if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= GAIN_WINDOW_MAX):
+            raise ValueError(f"gain_samples={value!r} is out of range: allowed integers in [2, 50]")
+        value = self.gain_tolerance
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value < 1.0):
+            raise ValueError(f"gain_tolerance={value!r} is out of range: allowed [0, 1)")
+        for name in (
+            "fast_consistency_samples",
+            "encoder_readmission_samples",
+            "gyro_readmission_samples",
+            "gain_block_samples",
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [1, 50]")
@@ -248,11 +278,20 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed [0, 1]")
-        for name in ("stuck_tolerance", "stuck_speed_fraction", "accel_consistency_per_speed"):
+        for name in (
+            "stuck_tolerance",
+            "stuck_speed_fraction",
+            "accel_consistency_per_speed",
+            "gain_cross_coupling",
+        ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
-        for name, unit in (("fast_consistency_factor", ""), ("stuck_braking_deceleration", " m/s^2")):
+        for name, unit in (
+            ("fast_consistency_factor", ""),
+            ("stuck_braking_deceleration", " m/s^2"),
+            ("gain_threshold", ""),
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
                 raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf]{unit}")
@@ -277,6 +316,9 @@ class HealthGeometry:
         (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
         gyro_noise_std: the gyro's white noise per sample (rad/s, data sheet): the fast pair test's
             allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
+        accel_noise_std, accel_vibration_per_speed, accel_vibration_time_constant: the accelerometers'
+            white noise and commotion (data sheet and S(3)'s model, systems/sensors.py): the gain test's
+            noise (pair_gain_ratio).
         tyre_peak_acceleration: the nominal robot's tyre curve's peak mu g f_w (m/s^2; inf: none): the
             navigation's identified peak over it scales the replacement's tyre forces (yaw_follow_step's
             grip), so that a calibrated floor (mixing.tyre_peak_acceleration) counts from the start.
@@ -295,6 +337,9 @@ class HealthGeometry:
     accelerometer_position: tuple
     max_wheel_speed: float
     gyro_noise_std: float = 0.014
+    accel_noise_std: float = 0.062
+    accel_vibration_per_speed: float = 0.3
+    accel_vibration_time_constant: float = 0.005
     tyre_peak_acceleration: float = math.inf
     mass: float = 0.0
     wheel_inertia: float = 0.0
@@ -346,7 +391,17 @@ _RING_POS = _RING + 5 * CLIP_WINDOW_MAX
 # A frozen gyro's repeats: the wheels' yaw rate run through them, the heading they missed against it, and
 # the payback still due (rate per sample, samples left).
 _G_SHADOW, _G_OWED, _G_PAY_RATE, _G_PAY_LEFT = (_RING_POS + 1 + i for i in range(4))
-STATE_SIZE = _RING_POS + 5
+# The pair's gain test, per axis (t, n; GAIN_SLOTS each): the block averages of the disagreement, of the
+# pair's mean, of half the rotational difference and of the other axis's mean; the summed products
+# with the two regressors (mean +- half the rotational difference) and their squares; the samples
+# counted, the entries in the window. Then, per axis, its ring position and its ring: the last
+# GAIN_WINDOW_MAX products of each sum and the samples' numbers.
+GAIN_SLOTS = 10
+GAIN_WINDOW_MAX = 50
+_GAIN = _RING_POS + 5
+_GAIN_POS = _GAIN + 2 * GAIN_SLOTS
+_GAIN_RING = _GAIN_POS + 2
+STATE_SIZE = _GAIN_RING + 2 * 5 * GAIN_WINDOW_MAX
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -368,8 +423,10 @@ HealthConstants = collections.namedtuple(
     "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
     "max_exclusion_time pair_offset_time_constant "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
-    "gyro_readmission_fraction clip_samples clip_window "
+    "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
+    "gain_block_samples gain_cross_coupling "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
+    "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant "
     "tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset "
     "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
     "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
@@ -404,6 +461,8 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
             "gyro_readmission_samples",
             "clip_samples",
             "clip_window",
+            "gain_samples",
+            "gain_block_samples",
         ):
             value = int(value)
         else:
@@ -749,11 +808,16 @@ def health_check(
             fast = fast_pair_ratio(s[_FAST + axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
             if known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
                 s[_OFFSET + axis] += (disagreement - s[_OFFSET + axis]) * g.T_N / p.pair_offset_time_constant
+            mean = 0.5 * (raw[axis] + raw[axis + 2])
+            other = 0.5 * (raw[1 - axis] + raw[3 - axis])
+            rotation = rot[axis] + rot_dot[axis]
+            offset_free = disagreement - s[_OFFSET + axis]
+            gain = pair_gain_ratio(s, axis, offset_free, mean, rotation, other, abs(v_o), fast_known, p, g)
             held = hold[axis] != 0.0 or hold[axis + 2] != 0.0
             if abs(average[axis]) < 0.5 * limit and not held:  # each sensor's level while the pair agrees
                 for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
-            if (abs(average[axis]) > limit or fast > limit) and not held:
+            if (abs(average[axis]) > limit or fast > limit or gain > 1.0) and not held:
                 # Blame the one that moved more from its level before the pair began to disagree plus
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
                 # one encoder count in T_N is 3.8 m/s^2 of Tinyphoon's d v_o/dt, and the wheels slip).
@@ -764,7 +828,7 @@ def health_check(
                 bad = pair_of[0] if score[0] > score[1] else pair_of[1]
                 hold[bad] = 1.0
                 codes[bad] = INCONSISTENT
-            elif abs(average[axis]) < 0.5 * limit and fast < 0.5 * limit and held:
+            elif abs(average[axis]) < 0.5 * limit and fast < 0.5 * limit and gain < 0.5 and held:
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
@@ -857,6 +921,98 @@ def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p
     lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
     bound = p.fast_consistency_factor * limit + FAST_ROTATION_SIGMAS * 2.0 * lever * omega_dot_std
     return abs(fast_average) / bound * limit
+
+
+GAIN_CORRELATION = 16.0
+"""The gain test's sums add neighbouring samples whose noise is correlated (the block averages, the
+commotion's 5 ms): the variance of a sum is taken as this many times that of independent samples. Set on
+the built-ins' fault-free runs (SensorHealthParameters.gain_threshold)."""
+
+GAIN_HORIZON = 2
+"""The gain test's evidence is at most this many times gain_samples samples old: a standstill after a
+fault (nothing informative comes in) re-admits the sensor within it (80 samples, 0.16 s)."""
+
+
+@jitable
+def pair_gain_ratio(s, axis: int, disagreement, mean, rotation, other, speed, update: bool, p, g) -> float:
+    """The accelerometer pair's gain test on ``axis`` (0: t, 1: n), its statistic over gain_threshold (> 1
+    flags; 0 while off or not ``update``d). A scale fault on one sensor makes the pair's disagreement
+    (beyond the rotational terms and the learned offset) proportional to its signal, which the averages
+    of the consistency test miss while it stays below their bound (the open corner's tangential axes:
+    1 m/s^2 on average, the bound 2.6 m/s^2 at speed). Updated in place in ``s`` while ``update`` (the
+    gyro's omega' is known): the disagreement and the regressors are averaged over gain_block_samples;
+    the gain beta of the disagreement on each regressor r = mean +- rotation / 2 (sensor 1's or sensor 2's
+    own signal; the mean's noise is uncorrelated with the disagreement's) is the ratio of the sums of
+    d r / var and r^2 / var over the last gain_samples informative samples (a regressor above the
+    noise) within the last GAIN_HORIZON gain_samples samples, var the noise of the averaged
+    disagreement (white and commotion at ``speed`` as the block average leaves them, omega' from the
+    gyro's difference on the lever, the other axis's acceleration times gain_cross_coupling). The
+    statistic is (|beta| - gain_tolerance) over beta's standard deviation sqrt(GAIN_CORRELATION /
+    sum r^2 / var), the larger of the two regressors'."""
+    if math.isinf(p.gain_threshold) or not update:
+        return 0.0
+    base = _GAIN + GAIN_SLOTS * axis
+    b = 1.0 / p.gain_block_samples
+    s[base] += (disagreement - s[base]) * b
+    s[base + 1] += (mean - s[base + 1]) * b
+    s[base + 2] += (0.5 * rotation - s[base + 2]) * b
+    s[base + 3] += (other - s[base + 3]) * b
+    phi = math.exp(-g.T_N / g.accel_vibration_time_constant) * (1.0 - b)
+    white = b / (2.0 - b)  # an exponential average's variance over its input's
+    coloured = white * (1.0 + phi) / (1.0 - phi)  # the same for the commotion (first order)
+    omega_dot_std = b * g.gyro_noise_std / g.T_N * math.sqrt(1.0 + b / (2.0 - b))
+    lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
+    commotion = g.accel_vibration_per_speed * speed
+    variance = (
+        (p.gain_cross_coupling * s[base + 3]) ** 2
+        + 2.0 * g.accel_noise_std**2 * white
+        + 2.0 * commotion**2 * coloured
+        + (2.0 * lever * omega_dot_std) ** 2
+    )
+    # The window holds the last gain_samples informative samples (a regressor above the noise,
+    # r^2 > var) of the last GAIN_HORIZON gain_samples samples: a signal's zero crossing keeps the
+    # evidence, a standstill lets it expire. Each sample's products replace the oldest in the ring and in
+    # the sums (recomputed from the ring whenever it wraps, against rounding).
+    n = p.gain_samples
+    ring = _GAIN_RING + axis * 5 * GAIN_WINDOW_MAX  # 4 products, then the samples' numbers
+    s[base + 8] += 1.0  # this sample's number
+    position, count = int(s[_GAIN_POS + axis]), int(s[base + 9])
+    while count > 0:  # expire the oldest entries
+        oldest = (position - count) % n
+        if s[ring + 4 * GAIN_WINDOW_MAX + oldest] > s[base + 8] - GAIN_HORIZON * n:
+            break
+        for i in range(4):
+            s[base + 4 + i] -= s[ring + i * GAIN_WINDOW_MAX + oldest]
+            s[ring + i * GAIN_WINDOW_MAX + oldest] = 0.0
+        count -= 1
+    if count == 0:
+        for i in range(4):
+            s[base + 4 + i] = 0.0
+    regressors = (s[base + 1] + s[base + 2], s[base + 1] - s[base + 2])
+    if variance > 0.0 and max(regressors[0] ** 2, regressors[1] ** 2) > variance:
+        for k in range(2):
+            r = regressors[k]
+            products = (s[base] * r / variance, r * r / variance)
+            for j in range(2):
+                slot = ring + (2 * k + j) * GAIN_WINDOW_MAX + position
+                s[base + 4 + 2 * k + j] += products[j] - s[slot]
+                s[slot] = products[j]
+                if position == n - 1:
+                    start, total = ring + (2 * k + j) * GAIN_WINDOW_MAX, 0.0
+                    for i in range(n):  # in order (np.sum's pairwise order is not numba's)
+                        total += s[start + i]
+                    s[base + 4 + 2 * k + j] = total
+        s[ring + 4 * GAIN_WINDOW_MAX + position] = s[base + 8]
+        position, count = (position + 1) % n, min(count + 1, n)
+    s[_GAIN_POS + axis], s[base + 9] = float(position), float(count)
+    worst = 0.0
+    for k in range(2):
+        energy = s[base + 5 + 2 * k]
+        if energy > 0.0:
+            beta = s[base + 4 + 2 * k] / energy
+            spread = math.sqrt(GAIN_CORRELATION / energy)
+            worst = max(worst, max(abs(beta) - p.gain_tolerance, 0.0) / spread)
+    return worst / p.gain_threshold
 
 
 @jitable

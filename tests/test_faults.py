@@ -39,6 +39,7 @@ from slipnav.systems.sensor_health import (
     health_flags,
     health_initial_state,
     health_step,
+    pair_gain_ratio,
     pair_omega_squared,
     travel_restored,
     yaw_follow_step,
@@ -373,15 +374,20 @@ def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     """accel2_t reads +5 m/s^2: the pair's fast average (3 samples) passes 1.6 (1 + 1 v) plus the
     rotational allowance, 5 2 y 2.56 rad/s^2 = 0.38 m/s^2 (3.58 m/s^2), once 1 - (2/3)^k > 0.716, after
     ln(3.52) / ln(1.5) = 3.1 -> 4 samples (the 15-sample average alone passes 1 + 1 v = 2 m/s^2 after
-    about 15 ln(5 / 3) = 8); the kinematic reference (dv/dt = 0) tells accel 2."""
+    about 15 ln(5 / 3) = 8); the kinematic reference (dv/dt = 0) tells accel 2. The gain test (on by
+    default) sees the step sooner: the pair's mean carries half of it, so the disagreement is twice
+    its regressor, far beyond the noise of a 1 m/s drive."""
     rows = stream(400, 1.0, 0.0)
     rows[100:300, 2] += 5.0
-    slow_only = check(rows, SensorHealthParameters(fast_consistency_factor=math.inf))[1]
+    no_gain = SensorHealthParameters(gain_threshold=math.inf)
+    slow_only = check(rows, dc.replace(no_gain, fast_consistency_factor=math.inf))[1]
     first_slow = np.flatnonzero(slow_only[:, 2])[0]
     assert 100 + 6 <= first_slow <= 100 + 10 and not slow_only[:, 0].any()
+    fast = np.flatnonzero(check(rows, no_gain)[1][:, 2])
+    assert 100 + 3 <= fast[0] <= 100 + 5
     out, codes = check(rows)
     flagged = np.flatnonzero(codes[:, 2])
-    assert 100 + 3 <= flagged[0] <= 100 + 5 and codes[flagged[0], 2] == INCONSISTENT
+    assert 100 <= flagged[0] <= fast[0] and codes[flagged[0], 2] == INCONSISTENT
     assert not codes[:, 0].any()  # accel 1 is never blamed
     assert np.all(codes[flagged[0] : 300, 2] == INCONSISTENT)
     # Replaced by accel 1 less the rotational difference a_t1 - a_t2 = -2 (omega^2 x + omega' y) (the
@@ -391,7 +397,12 @@ def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     expected = rows[k, 0] + 2 * rows[k, 4] ** 2 * 0.02 + 2 * omega_dot[k] * 0.015
     np.testing.assert_allclose(out[k, 2], expected, rtol=0, atol=0.03)
     np.testing.assert_allclose(np.diff(out[k, 2] - expected), 0.0, atol=1e-12)  # one offset throughout
-    assert not codes[330:, 2].any()  # cleared once the average is below half the threshold
+    # cleared once the averages are below half their thresholds and the gain test's evidence has expired
+    # (GAIN_HORIZON x 40 samples: at a constant 1 m/s nothing after the step is informative), the fast
+    # test alone before 330
+    last = np.flatnonzero(codes[:, 2])[-1]
+    assert 300 + 80 <= last < 300 + 90
+    assert np.flatnonzero(check(rows, no_gain)[1][:, 2])[-1] < 330
 
 
 def test_the_fast_pair_bound_by_hand():
@@ -419,6 +430,94 @@ def test_the_fast_pair_bound_by_hand():
     for bad in (0.0, -1.0, True):
         with pytest.raises(ValueError, match=r"fast_consistency_factor=.*\(0, inf\]"):
             SensorHealthParameters(fast_consistency_factor=bad)
+
+
+def test_the_pair_gain_test_by_hand():
+    """pair_gain_ratio on constant inputs (1 m/s, a t-axis disagreement of 1 m/s^2 on a pair mean of 1.5:
+    sensor 1 doubled on a 1 m/s^2 signal), once its block averages have settled: beta = 1 / 1.5 on both
+    regressors (no rotation). The noise of the 5-sample averages: white 2 0.062^2 g / (2 - g), g = 0.2;
+    commotion 2 (0.3 v)^2 g / (2 - g) (1 + phi) / (1 - phi), phi = e^-0.4 (1 - g); omega' (2 y 0.2 0.014 /
+    0.002 sqrt(1 + g / (2 - g)))^2. Over 40 samples the statistic is (beta - 0.1) / sqrt(16 / (40 r^2 /
+    var)) over 4."""
+    p = SensorHealthParameters()
+    constants = HealthConstants(*health_constants(p, GEOMETRY))
+    state = health_initial_state(GEOMETRY)
+    for _ in range(400):
+        ratio = pair_gain_ratio(state, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, constants, constants)
+    g = 0.2
+    white = g / (2 - g)
+    phi = math.exp(-0.4) * (1 - g)
+    var = (
+        2 * 0.062**2 * white
+        + 2 * 0.3**2 * white * (1 + phi) / (1 - phi)
+        + (2 * 0.015 * g * 0.014 / 0.002 * math.sqrt(1 + white)) ** 2
+    )
+    z = (1 / 1.5 - 0.1) / math.sqrt(16 / (40 * 1.5**2 / var))
+    assert ratio == pytest.approx(z / 4, rel=1e-9)
+    assert 1.2 < ratio < 1.35  # flagged
+    # Not judged without the gyro's omega', nor when off; a gain within the tolerance reads 0.
+    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, False, constants, constants) == 0.0
+    off = HealthConstants(*health_constants(SensorHealthParameters(gain_threshold=math.inf), GEOMETRY))
+    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, off, off) == 0.0
+    state = health_initial_state(GEOMETRY)
+    for _ in range(400):
+        ratio = pair_gain_ratio(state, 1, 0.1, 1.5, 0.0, 0.0, 1.0, True, constants, constants)
+    assert ratio == 0.0  # beta = 0.067 < 0.1
+    for name, bad, allowed in (
+        ("gain_samples", 51, r"integers in \[2, 50\]"),
+        ("gain_samples", 1, r"integers in \[2, 50\]"),
+        ("gain_block_samples", 0, r"integers in \[1, 50\]"),
+        ("gain_tolerance", 1.0, r"\[0, 1\)"),
+        ("gain_threshold", 0.0, r"\(0, inf\]"),
+        ("gain_cross_coupling", -0.1, r"\[0, inf\)"),
+    ):
+        with pytest.raises(ValueError, match=rf"{name}=.*{allowed}"):
+            SensorHealthParameters(**{name: bad})
+
+
+def accelerating_stream(n, seed=0):
+    """n samples of a robot driving straight at v = 1 + 0.25 sin(2 pi t) (a_t up to 1.57 m/s^2), its
+    accelerometers with white noise (0.062 m/s^2) and commotion (0.3 v m/s^2, 5 ms) each, its encoders
+    exact."""
+    rng = np.random.default_rng(seed)
+    t = T_N * np.arange(1, n + 1)
+    v = 1.0 + 0.25 * np.sin(2 * math.pi * t)
+    a_t = 0.25 * 2 * math.pi * np.cos(2 * math.pi * t)
+    travel = t + 0.25 / (2 * math.pi) * (1 - np.cos(2 * math.pi * t))
+    phi = math.exp(-T_N / 0.005)
+    commotion = np.zeros((n, 4))
+    for k in range(1, n):
+        commotion[k] = phi * commotion[k - 1] + math.sqrt(1 - phi * phi) * 0.3 * v[k] * rng.standard_normal(4)
+    acc = np.column_stack([a_t, 0 * t, a_t, 0 * t]) + 0.062 * rng.standard_normal((n, 4)) + commotion
+    gyro = 0.014 * rng.standard_normal(n)
+    return np.column_stack([acc, gyro, travel / R, travel / R])
+
+
+def test_a_doubled_accelerometer_the_averages_miss_is_flagged_by_the_gain_test():
+    """accel1_t doubled for 0.5 s from an acceleration peak (t = 2 s) of accelerating_stream: the
+    disagreement (a_t, up to 1.57 m/s^2) stays inside the averages' bounds (1 + v, fast 1.6 x that), which
+    therefore never flag it; the gain test flags accel1_t (the farther from d v_o / dt) within 0.1 s,
+    keeps it out while doubled, re-admits it within 0.1 s of its end and flags nothing fault-free
+    (10 seeds)."""
+    for seed in range(10):
+        assert not check(accelerating_stream(2000, seed))[1].any(), seed
+    rows = accelerating_stream(2000)
+    rows[1000:1250, 0] *= 2.0
+    no_gain = check(rows, SensorHealthParameters(gain_threshold=math.inf))[1]
+    assert not no_gain.any()
+    out, codes = check(rows)
+    flagged = np.flatnonzero(codes[:, 0])
+    assert 1000 <= flagged[0] <= 1000 + 50 and codes[flagged[0], 0] == INCONSISTENT
+    assert np.all(codes[flagged[0] : 1250, 0] == INCONSISTENT)
+    assert flagged[-1] < 1250 + 50
+    assert not np.delete(codes, 0, axis=1).any()  # accel 2 is never blamed
+    # replaced by accel 2 plus the rotational difference -2 (omega^2 x + omega' y) from the gyro (noise
+    # here) and the pair's learned offset
+    k = slice(flagged[0], 1250)
+    omega_dot = np.diff(rows[:, 4], prepend=np.nan) / T_N
+    expected = rows[k, 2] - 2 * rows[k, 4] ** 2 * 0.02 - 2 * omega_dot[k] * 0.015
+    np.testing.assert_allclose(out[k, 0], expected, rtol=0, atol=0.05)
+    np.testing.assert_allclose(np.diff(out[k, 0] - expected), 0.0, atol=1e-12)  # one offset throughout
 
 
 def test_a_gyro_readmitted_off_its_replacement_raises_no_accelerometer_flag():
