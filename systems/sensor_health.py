@@ -33,7 +33,12 @@ Checks (health codes, 0 = healthy):
    moving average, from the kinematic reference (d v_o/dt for t, v_o omega for n) is excluded until the
    pair's average falls below half the threshold and its fast average below half its own (the fast test
    is not judged without a trusted gyro: a hold may then clear, and the fast test flag the sensor
-   again). With the motor drivers' current readings the t axes'
+   again). A third test, the pair's gain (pair_gain_ratio), regresses the disagreement on each sensor's
+   own signal over the last gain_samples informative samples: a scale fault on one sensor (x2: a gain of
+   0.67 on the pair's mean) flags the pair beyond gain_tolerance once the evidence passes gain_threshold,
+   although the disagreement stays inside the averages' bounds, and clears it when its evidence is gone
+   (below half the threshold, or none informative for GAIN_HORIZON gain_samples samples). With the motor
+   drivers' current readings the t axes'
    reference is the force balance instead, what the motors put on the ground over the nominal mass
    (sum (k i - beta w - J w')/r plus the shoe drag, / m), which does not slip as d v_o/dt does, and
    the distance from it alone decides (a hard braking moves the healthy sensor as much as a bias).
@@ -196,7 +201,7 @@ class SensorHealthParameters:
         gain_tolerance: the relative gain between the two accelerometers of an axis that the test allows
             (in [0, 1)): 0.1, the preset's sensitivity tolerances (+-2 % each) and the misalignment's
             cross-coupling with margin; a x2 scale on one of them is 0.67, a x0.5 one -0.67.
-        gain_samples: the test's sums are over this many samples, the last ones (in [2, 50]).
+        gain_samples: the test's sums are over this many informative samples, the last ones (in [2, 50]).
         gain_block_samples: the disagreement and the regressors are first averaged over this many
             samples (exponential, in [1, 50]), which takes the white noise and most of the commotion out.
         gain_cross_coupling: the other axis's acceleration, times this, counts as noise of the
@@ -822,9 +827,15 @@ def health_check(
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
                 # one encoder count in T_N is 3.8 m/s^2 of Tinyphoon's d v_o/dt, and the wheels slip).
                 # With the force reference (t, currents read) the distance alone: it does not slip,
-                # and the true signal's own change (a hard braking) would blame the healthy one.
-                force_ref = axis == 0 and not math.isnan(a_force)
-                score = [abs(deviation[c]) + (0.0 if force_ref else abs(raw[c] - level[c])) for c in pair_of]
+                # and the true signal's own change (a hard braking) would blame the healthy one. The
+                # distance alone too when only the gain test flags: a scale fault grows with the
+                # signal, and one sample's move from the level is mostly the commotion (the toleranced
+                # closed corner's x2 accel2_n in the slide blamed accel1_n: 12.7 x).
+                gain_only = not (abs(average[axis]) > limit or fast > limit)
+                distance_only = (axis == 0 and not math.isnan(a_force)) or gain_only
+                score = [abs(deviation[c]) for c in pair_of]
+                if not distance_only:
+                    score = [score[i] + abs(raw[pair_of[i]] - level[pair_of[i]]) for i in range(2)]
                 bad = pair_of[0] if score[0] > score[1] else pair_of[1]
                 hold[bad] = 1.0
                 codes[bad] = INCONSISTENT
