@@ -207,6 +207,12 @@ class SensorHealthParameters:
         gain_cross_coupling: the other axis's acceleration, times this, counts as noise of the
             disagreement (in [0, inf)): in a hard braking (the square at 5.5 m/s^2) the lateral axes
             disagree by about 5 % of a_t on the nominal robot itself.
+        gain_offset_allowance: an error of the learned offset between the two sensors (m/s^2, in
+            [0, inf)) that the test allows for: it puts offset / |r| into the gain. 0 (default): the
+            offset is trusted; the built-ins stand still for their first second, where the offset is
+            learned and the test learns nothing (at rest the pair's mean is the sensors' biases: the
+            tolerance preset's corner seed 6 flagged accel2_t there). For a robot that drives off at
+            once, the two sensors' initial biases (0.05 m/s^2 each, data sheet) differ by up to 0.2.
     """
 
     enabled: bool = True
@@ -240,6 +246,7 @@ class SensorHealthParameters:
     gain_samples: int = 40
     gain_block_samples: int = 5
     gain_cross_coupling: float = 0.06
+    gain_offset_allowance: float = 0.0
 
     def __post_init__(self):
         for name in (
@@ -288,6 +295,7 @@ class SensorHealthParameters:
             "stuck_speed_fraction",
             "accel_consistency_per_speed",
             "gain_cross_coupling",
+            "gain_offset_allowance",
         ):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
@@ -397,16 +405,16 @@ _RING_POS = _RING + 5 * CLIP_WINDOW_MAX
 # the payback still due (rate per sample, samples left).
 _G_SHADOW, _G_OWED, _G_PAY_RATE, _G_PAY_LEFT = (_RING_POS + 1 + i for i in range(4))
 # The pair's gain test, per axis (t, n; GAIN_SLOTS each): the block averages of the disagreement, of the
-# pair's mean, of half the rotational difference and of the other axis's mean; the summed products
-# with the two regressors (mean +- half the rotational difference) and their squares; the samples
-# counted, the entries in the window. Then, per axis, its ring position and its ring: the last
-# GAIN_WINDOW_MAX products of each sum and the samples' numbers.
-GAIN_SLOTS = 10
+# pair's mean, of half the rotational difference and of the other axis's mean; the GAIN_SERIES sums
+# (pair_gain_ratio); the samples counted, the entries in the window. Then, per axis, its ring position;
+# then per axis its ring: the last GAIN_WINDOW_MAX products of each sum and the samples' numbers.
+GAIN_SERIES = 6
+GAIN_SLOTS = 4 + GAIN_SERIES + 2
 GAIN_WINDOW_MAX = 50
 _GAIN = _RING_POS + 5
 _GAIN_POS = _GAIN + 2 * GAIN_SLOTS
 _GAIN_RING = _GAIN_POS + 2
-STATE_SIZE = _GAIN_RING + 2 * 5 * GAIN_WINDOW_MAX
+STATE_SIZE = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -429,7 +437,7 @@ HealthConstants = collections.namedtuple(
     "max_exclusion_time pair_offset_time_constant "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
     "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
-    "gain_block_samples gain_cross_coupling "
+    "gain_block_samples gain_cross_coupling gain_offset_allowance "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
     "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant "
     "tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset "
@@ -817,7 +825,10 @@ def health_check(
             other = 0.5 * (raw[1 - axis] + raw[3 - axis])
             rotation = rot[axis] + rot_dot[axis]
             offset_free = disagreement - s[_OFFSET + axis]
-            gain = pair_gain_ratio(s, axis, offset_free, mean, rotation, other, abs(v_o), fast_known, p, g)
+            moving = used[0] != 0.0 or used[1] != 0.0  # the wheels turned
+            gain = pair_gain_ratio(
+                s, axis, offset_free, mean, rotation, other, abs(v_o), moving, fast_known, p, g
+            )
             held = hold[axis] != 0.0 or hold[axis + 2] != 0.0
             if abs(average[axis]) < 0.5 * limit and not held:  # each sensor's level while the pair agrees
                 for c in pair_of:
@@ -945,7 +956,9 @@ fault (nothing informative comes in) re-admits the sensor within it (80 samples,
 
 
 @jitable
-def pair_gain_ratio(s, axis: int, disagreement, mean, rotation, other, speed, update: bool, p, g) -> float:
+def pair_gain_ratio(
+    s, axis: int, disagreement, mean, rotation, other, speed, moving: bool, update: bool, p, g
+) -> float:
     """The accelerometer pair's gain test on ``axis`` (0: t, 1: n), its statistic over gain_threshold (> 1
     flags; 0 while off or not ``update``d). A scale fault on one sensor makes the pair's disagreement
     (beyond the rotational terms and the learned offset) proportional to its signal, which the averages
@@ -954,12 +967,14 @@ def pair_gain_ratio(s, axis: int, disagreement, mean, rotation, other, speed, up
     gyro's omega' is known): the disagreement and the regressors are averaged over gain_block_samples;
     the gain beta of the disagreement on each regressor r = mean +- rotation / 2 (sensor 1's or sensor 2's
     own signal; the mean's noise is uncorrelated with the disagreement's) is the ratio of the sums of
-    d r / var and r^2 / var over the last gain_samples informative samples (a regressor above the
-    noise) within the last GAIN_HORIZON gain_samples samples, var the noise of the averaged
-    disagreement (white and commotion at ``speed`` as the block average leaves them, omega' from the
-    gyro's difference on the lever, the other axis's acceleration times gain_cross_coupling). The
-    statistic is (|beta| - gain_tolerance) over beta's standard deviation sqrt(GAIN_CORRELATION /
-    sum r^2 / var), the larger of the two regressors'."""
+    d r / var and r^2 / var over the last gain_samples informative samples (the wheels turned,
+    ``moving``: at rest the mean is the sensors' biases; and a regressor above the noise) within the last
+    GAIN_HORIZON gain_samples samples, var the noise of the averaged disagreement (white and commotion at
+    ``speed`` as the block average leaves them, omega' from the gyro's difference on the lever, the other
+    axis's acceleration times gain_cross_coupling). The statistic is (|beta| - gain_tolerance -
+    gain_offset_allowance sum |r| / var / sum r^2 / var) over beta's standard deviation
+    sqrt(GAIN_CORRELATION / sum r^2 / var), the larger of the two regressors'; the allowance is what an
+    offset error of the disagreement puts into beta."""
     if math.isinf(p.gain_threshold) or not update:
         return 0.0
     base = _GAIN + GAIN_SLOTS * axis
@@ -980,49 +995,52 @@ def pair_gain_ratio(s, axis: int, disagreement, mean, rotation, other, speed, up
         + 2.0 * commotion**2 * coloured
         + (2.0 * lever * omega_dot_std) ** 2
     )
-    # The window holds the last gain_samples informative samples (a regressor above the noise,
-    # r^2 > var) of the last GAIN_HORIZON gain_samples samples: a signal's zero crossing keeps the
-    # evidence, a standstill lets it expire. Each sample's products replace the oldest in the ring and in
-    # the sums (recomputed from the ring whenever it wraps, against rounding).
+    # The window holds the last gain_samples informative samples of the last GAIN_HORIZON gain_samples
+    # samples: a signal's zero crossing keeps the evidence, a standstill lets it expire. Each sample's
+    # products replace the oldest in the ring and in the sums (recomputed from the ring whenever it
+    # wraps, against rounding). Per regressor k the sums d r / var, r^2 / var, |r| / var.
     n = p.gain_samples
-    ring = _GAIN_RING + axis * 5 * GAIN_WINDOW_MAX  # 4 products, then the samples' numbers
-    s[base + 8] += 1.0  # this sample's number
-    position, count = int(s[_GAIN_POS + axis]), int(s[base + 9])
+    ring = _GAIN_RING + axis * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX  # the products, then sample numbers
+    numbers = ring + GAIN_SERIES * GAIN_WINDOW_MAX
+    s[base + 4 + GAIN_SERIES] += 1.0  # this sample's number
+    position, count = int(s[_GAIN_POS + axis]), int(s[base + 5 + GAIN_SERIES])
     while count > 0:  # expire the oldest entries
         oldest = (position - count) % n
-        if s[ring + 4 * GAIN_WINDOW_MAX + oldest] > s[base + 8] - GAIN_HORIZON * n:
+        if s[numbers + oldest] > s[base + 4 + GAIN_SERIES] - GAIN_HORIZON * n:
             break
-        for i in range(4):
+        for i in range(GAIN_SERIES):
             s[base + 4 + i] -= s[ring + i * GAIN_WINDOW_MAX + oldest]
             s[ring + i * GAIN_WINDOW_MAX + oldest] = 0.0
         count -= 1
     if count == 0:
-        for i in range(4):
+        for i in range(GAIN_SERIES):
             s[base + 4 + i] = 0.0
     regressors = (s[base + 1] + s[base + 2], s[base + 1] - s[base + 2])
-    if variance > 0.0 and max(regressors[0] ** 2, regressors[1] ** 2) > variance:
+    if moving and variance > 0.0 and max(regressors[0] ** 2, regressors[1] ** 2) > variance:
         for k in range(2):
             r = regressors[k]
-            products = (s[base] * r / variance, r * r / variance)
-            for j in range(2):
-                slot = ring + (2 * k + j) * GAIN_WINDOW_MAX + position
-                s[base + 4 + 2 * k + j] += products[j] - s[slot]
+            products = (s[base] * r / variance, r * r / variance, abs(r) / variance)
+            for j in range(3):
+                series = 3 * k + j
+                slot = ring + series * GAIN_WINDOW_MAX + position
+                s[base + 4 + series] += products[j] - s[slot]
                 s[slot] = products[j]
                 if position == n - 1:
-                    start, total = ring + (2 * k + j) * GAIN_WINDOW_MAX, 0.0
+                    start, total = ring + series * GAIN_WINDOW_MAX, 0.0
                     for i in range(n):  # in order (np.sum's pairwise order is not numba's)
                         total += s[start + i]
-                    s[base + 4 + 2 * k + j] = total
-        s[ring + 4 * GAIN_WINDOW_MAX + position] = s[base + 8]
+                    s[base + 4 + series] = total
+        s[numbers + position] = s[base + 4 + GAIN_SERIES]
         position, count = (position + 1) % n, min(count + 1, n)
-    s[_GAIN_POS + axis], s[base + 9] = float(position), float(count)
+    s[_GAIN_POS + axis], s[base + 5 + GAIN_SERIES] = float(position), float(count)
     worst = 0.0
     for k in range(2):
-        energy = s[base + 5 + 2 * k]
+        energy = s[base + 5 + 3 * k]
         if energy > 0.0:
-            beta = s[base + 4 + 2 * k] / energy
+            beta = s[base + 4 + 3 * k] / energy
+            allowance = p.gain_tolerance + p.gain_offset_allowance * s[base + 6 + 3 * k] / energy
             spread = math.sqrt(GAIN_CORRELATION / energy)
-            worst = max(worst, max(abs(beta) - p.gain_tolerance, 0.0) / spread)
+            worst = max(worst, max(abs(beta) - allowance, 0.0) / spread)
     return worst / p.gain_threshold
 
 

@@ -437,13 +437,14 @@ def test_the_pair_gain_test_by_hand():
     sensor 1 doubled on a 1 m/s^2 signal), once its block averages have settled: beta = 1 / 1.5 on both
     regressors (no rotation). The noise of the 5-sample averages: white 2 0.062^2 g / (2 - g), g = 0.2;
     commotion 2 (0.3 v)^2 g / (2 - g) (1 + phi) / (1 - phi), phi = e^-0.4 (1 - g); omega' (2 y 0.2 0.014 /
-    0.002 sqrt(1 + g / (2 - g)))^2. Over 40 samples the statistic is (beta - 0.1) / sqrt(16 / (40 r^2 /
-    var)) over 4."""
+    0.002 sqrt(1 + g / (2 - g)))^2. Over 40 samples the statistic is (beta - 0.1 - 0.1 / r) / sqrt(16 /
+    (40 r^2 / var)) over 4 (the tolerance, and an offset allowance, 0 by default). Nothing is learned
+    while the wheels stand still."""
     p = SensorHealthParameters()
     constants = HealthConstants(*health_constants(p, GEOMETRY))
     state = health_initial_state(GEOMETRY)
     for _ in range(400):
-        ratio = pair_gain_ratio(state, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, constants, constants)
+        ratio = pair_gain_ratio(state, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
     g = 0.2
     white = g / (2 - g)
     phi = math.exp(-0.4) * (1 - g)
@@ -455,14 +456,25 @@ def test_the_pair_gain_test_by_hand():
     z = (1 / 1.5 - 0.1) / math.sqrt(16 / (40 * 1.5**2 / var))
     assert ratio == pytest.approx(z / 4, rel=1e-9)
     assert 1.2 < ratio < 1.35  # flagged
-    # Not judged without the gyro's omega', nor when off; a gain within the tolerance reads 0.
-    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, False, constants, constants) == 0.0
-    off = HealthConstants(*health_constants(SensorHealthParameters(gain_threshold=math.inf), GEOMETRY))
-    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, off, off) == 0.0
+    # with an offset allowance of 0.1 m/s^2 beyond the tolerance: 0.1 sum |r| / sum r^2 = 0.1 / 1.5
+    allowing = HealthConstants(*health_constants(SensorHealthParameters(gain_offset_allowance=0.1), GEOMETRY))
     state = health_initial_state(GEOMETRY)
     for _ in range(400):
-        ratio = pair_gain_ratio(state, 1, 0.1, 1.5, 0.0, 0.0, 1.0, True, constants, constants)
+        ratio = pair_gain_ratio(state, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, allowing, allowing)
+    z = (1 / 1.5 - 0.1 - 0.1 / 1.5) / math.sqrt(16 / (40 * 1.5**2 / var))
+    assert ratio == pytest.approx(z / 4, rel=1e-9)
+    # Not judged without the gyro's omega', nor when off; a gain within the tolerance reads 0.
+    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, False, constants, constants) == 0.0
+    off = HealthConstants(*health_constants(SensorHealthParameters(gain_threshold=math.inf), GEOMETRY))
+    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, off, off) == 0.0
+    state = health_initial_state(GEOMETRY)
+    for _ in range(400):
+        ratio = pair_gain_ratio(state, 1, 0.1, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
     assert ratio == 0.0  # beta = 0.067 < 0.1
+    at_rest = health_initial_state(GEOMETRY)
+    for _ in range(400):
+        ratio = pair_gain_ratio(at_rest, 0, 1.0, 1.5, 0.0, 0.0, 0.0, False, True, constants, constants)
+    assert ratio == 0.0
     for name, bad, allowed in (
         ("gain_samples", 51, r"integers in \[2, 50\]"),
         ("gain_samples", 1, r"integers in \[2, 50\]"),
@@ -470,6 +482,7 @@ def test_the_pair_gain_test_by_hand():
         ("gain_tolerance", 1.0, r"\[0, 1\)"),
         ("gain_threshold", 0.0, r"\(0, inf\]"),
         ("gain_cross_coupling", -0.1, r"\[0, inf\)"),
+        ("gain_offset_allowance", math.nan, r"\[0, inf\)"),
     ):
         with pytest.raises(ValueError, match=rf"{name}=.*{allowed}"):
             SensorHealthParameters(**{name: bad})
@@ -892,7 +905,6 @@ def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys, tmp_path):
     assert lines[-1].startswith("faults detected=1/1 ")
 
 
-
 def test_a_doubled_lateral_accelerometer_in_the_slide_is_blamed_right():
     """The closed corner on the tolerance preset's seed-1 robot, accel2_n doubled for 0.5 s in the slide
     (the benchmark's placement). Only the pair's gain test sees it (the disagreement stays inside the
@@ -908,6 +920,17 @@ def test_a_doubled_lateral_accelerometer_in_the_slide_is_blamed_right():
     assert flagged[0] - fault_onset(clean, event) <= 0.1
     assert not a["health_accel1_n"].any()
     assert final_position_error(a, "est") <= 3 * final_position_error(clean, "est")
+
+
+
+def test_the_gain_test_learns_nothing_at_rest():
+    """The open corner on the tolerance preset's seed-6 robot, fault-free: it stands still for its first
+    second, where the pair's mean is the two sensors' biases and its disagreement their difference (0.18
+    m/s^2, the offset not yet learned). Taken as signal, the gain test flagged accel2_t at 0.16 s (434
+    samples); nothing at rest is informative now, and no channel is flagged."""
+    a = run_scenario(load_scenario("corner"), seed=6, tolerances=True, open_loop=True).arrays
+    for channel in ("accel1_t", "accel1_n", "accel2_t", "accel2_n", "gyro", "encoder_R", "encoder_L"):
+        assert not a[f"health_{channel}"].any(), channel
 
 def test_the_report_counts_the_runs_where_the_fusion_beats_each_baseline():
     """By hand: of two fault runs the fusion ends below odometry-only in both and below Gyrodometry in
