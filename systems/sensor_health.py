@@ -194,10 +194,10 @@ class SensorHealthParameters:
             are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
             replacement carries it, so the pair's mean, which the EKF integrates, keeps its level.
         gain_threshold: the pair's gain test (module docstring, 5.; pair_gain_ratio) flags the pair when
-            its statistic exceeds this (in (0, inf]; inf: off). 4: over the built-ins' fault-free runs
-            (corner and square 6 seeds, long path and circle 2, matched and toleranced, open and closed
-            loop) the statistic peaks at 2.63; a x2 scale on a tangential axis of the open corner, which
-            the averages above miss, is flagged 54 ms after its onset (median; 45 of 48 within 0.1 s).
+            its statistic exceeds this (in (0, inf]; inf: off). 4: over 104 fault-free runs of the
+            built-ins (corner and square 10 seeds, long path and circle 3, matched and toleranced, open
+            and closed loop) the statistic peaks at 2.76; the open corner's x2 scales of a tangential
+            axis, which the averages above miss, are flagged 38-118 ms after their onset.
         gain_tolerance: the relative gain between the two accelerometers of an axis that the test allows
             (in [0, 1)): 0.1, the preset's sensitivity tolerances (+-2 % each) and the misalignment's
             cross-coupling with margin; a x2 scale on one of them is 0.67, a x0.5 one -0.67.
