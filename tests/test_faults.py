@@ -922,7 +922,6 @@ def test_a_doubled_lateral_accelerometer_in_the_slide_is_blamed_right():
     assert final_position_error(a, "est") <= 3 * final_position_error(clean, "est")
 
 
-
 def test_the_gain_test_learns_nothing_at_rest():
     """The open corner on the tolerance preset's seed-6 robot, fault-free: it stands still for its first
     second, where the pair's mean is the two sensors' biases and its disagreement their difference (0.18
@@ -931,6 +930,7 @@ def test_the_gain_test_learns_nothing_at_rest():
     a = run_scenario(load_scenario("corner"), seed=6, tolerances=True, open_loop=True).arrays
     for channel in ("accel1_t", "accel1_n", "accel2_t", "accel2_n", "gyro", "encoder_R", "encoder_L"):
         assert not a[f"health_{channel}"].any(), channel
+
 
 def test_the_report_counts_the_runs_where_the_fusion_beats_each_baseline():
     """By hand: of two fault runs the fusion ends below odometry-only in both and below Gyrodometry in
