@@ -833,7 +833,8 @@ def health_check(
             if abs(average[axis]) < 0.5 * limit and not held:  # each sensor's level while the pair agrees
                 for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
-            if (abs(average[axis]) > limit or fast > limit or gain > 1.0) and not held:
+            averages_flag = abs(average[axis]) > limit or fast > limit
+            if (averages_flag or gain > 1.0) and not held:
                 # Blame the one that moved more from its level before the pair began to disagree plus
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
                 # one encoder count in T_N is 3.8 m/s^2 of Tinyphoon's d v_o/dt, and the wheels slip).
@@ -842,8 +843,7 @@ def health_check(
                 # distance alone too when only the gain test flags: a scale fault grows with the
                 # signal, and one sample's move from the level is mostly the commotion (the toleranced
                 # closed corner's x2 accel2_n in the slide blamed accel1_n: 12.7 x).
-                gain_only = not (abs(average[axis]) > limit or fast > limit)
-                distance_only = (axis == 0 and not math.isnan(a_force)) or gain_only
+                distance_only = (axis == 0 and not math.isnan(a_force)) or not averages_flag
                 score = [abs(deviation[c]) for c in pair_of]
                 if not distance_only:
                     score = [score[i] + abs(raw[pair_of[i]] - level[pair_of[i]]) for i in range(2)]
@@ -929,17 +929,24 @@ def yaw_follow_step(
 
 
 @jitable
+def averaged_omega_dot_std(gain: float, g) -> float:
+    """The noise of omega' from the gyro's sample-to-sample difference after an exponential average with
+    ``gain`` (1/n): sigma g sqrt(1 + g / (2 - g)) / T_N, sigma the gyro's white noise."""
+    return gain * g.gyro_noise_std / g.T_N * math.sqrt(1.0 + gain / (2.0 - gain))
+
+
+@jitable
 def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p, g) -> float:
     """The fast pair test's average over its bound, in units of the slow test's bound ``limit`` (module
     docstring, 5.; > limit flags): the bound is fast_consistency_factor x limit plus FAST_ROTATION_SIGMAS
     of the noise that omega' from the gyro's difference puts into the average's rotational term (the
-    average of a difference over fast_consistency_samples n: sigma g sqrt(1 + g / (2 - g)) / T_N with
-    g = 1/n, times the lever 2 y for t, 2 x for n). 0 while the test is off or the gyro is not
+    average of a difference over fast_consistency_samples n: averaged_omega_dot_std with g = 1/n, times
+    the lever 2 y for t, 2 x for n). 0 while the test is off or the gyro is not
     trusted (the odometry's omega' is one count's 55 rad/s^2 a sample on Tinyphoon)."""
     if not known or math.isinf(p.fast_consistency_factor):
         return 0.0
     gain = 1.0 / p.fast_consistency_samples
-    omega_dot_std = gain * g.gyro_noise_std / g.T_N * math.sqrt(1.0 + gain / (2.0 - gain))
+    omega_dot_std = averaged_omega_dot_std(gain, g)
     lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
     bound = p.fast_consistency_factor * limit + FAST_ROTATION_SIGMAS * 2.0 * lever * omega_dot_std
     return abs(fast_average) / bound * limit
@@ -986,7 +993,7 @@ def pair_gain_ratio(
     phi = math.exp(-g.T_N / g.accel_vibration_time_constant) * (1.0 - b)
     white = b / (2.0 - b)  # an exponential average's variance over its input's
     coloured = white * (1.0 + phi) / (1.0 - phi)  # the same for the commotion (first order)
-    omega_dot_std = b * g.gyro_noise_std / g.T_N * math.sqrt(1.0 + b / (2.0 - b))
+    omega_dot_std = averaged_omega_dot_std(b, g)
     lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
     commotion = g.accel_vibration_per_speed * speed
     variance = (
