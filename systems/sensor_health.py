@@ -968,7 +968,7 @@ def pair_gain_ratio(
 ) -> float:
     """The accelerometer pair's gain test on ``axis`` (0: t, 1: n), its statistic over gain_threshold (> 1
     flags; 0 while off or not ``update``d). A scale fault on one sensor makes the pair's disagreement
-    (beyond the rotational terms and the learned offset) proportional to its signal, which the averages
+    (beyond S(3)'s rotational terms and the learned offset) proportional to its signal, which the averages
     of the consistency test miss while it stays below their bound (the open corner's tangential axes:
     1 m/s^2 on average, the bound 2.6 m/s^2 at speed). Updated in place in ``s`` while ``update`` (the
     gyro's omega' is known): the disagreement and the regressors are averaged over gain_block_samples;
