@@ -173,6 +173,8 @@ def health_geometry(
         accel_noise_std=sensors.accel_noise_std,
         accel_vibration_per_speed=sensors.accel_vibration_per_speed,
         accel_vibration_time_constant=sensors.accel_vibration_time_constant,
+        accel_initial_bias_std=sensors.accel_initial_bias_std,
+        accel_drift_density=sensors.accel_drift_density,
         tyre_peak_acceleration=robot.traction_limit_acceleration if robot is not None else math.inf,
         **force,
     )

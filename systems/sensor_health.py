@@ -36,8 +36,10 @@ Checks (health codes, 0 = healthy):
    again). A third test, the pair's gain (pair_gain_ratio), regresses the disagreement on each sensor's
    own signal over the last gain_samples informative samples: a scale fault on one sensor (x2: a gain of
    0.67 on the pair's mean) flags the pair beyond gain_tolerance once the evidence passes gain_threshold,
-   although the disagreement stays inside the averages' bounds, and clears it when its evidence is gone
-   (below half the threshold, or none informative for GAIN_HORIZON gain_samples samples). With the motor
+   although the disagreement stays inside the averages' bounds, and clears it when that evidence is gone
+   (below half the threshold) and there is evidence of a gain within gain_release
+   (pair_gain_upper_bound), or when no sample is informative for GAIN_HORIZON
+   gain_samples samples (a standstill, where a scale does no harm). With the motor
    drivers' current readings the t axes'
    reference is the force balance instead, what the motors put on the ground over the nominal mass
    (sum (k i - beta w - J w')/r plus the shoe drag, / m), which does not slip as d v_o/dt does, and
@@ -59,8 +61,9 @@ wheels' yaw rate above); one clipped at a rail below the range reads the wheels'
 encoders the pair's, at least the rail; an accelerometer axis reads the other accelerometer's plus the
 rotational difference, omega' from the gyro's difference (noisy per sample, but what the EKF integrates is
 exact; without it the pair's mean is omega' x off, v_n x omega at the end of a turn), plus the pair's
-offset learned while both agreed (pair_offset_time_constant: the two sensors' bias difference, 0.08 m/s^2
-on the corner, would otherwise shift the mean by half); an encoder advances by v_pred T_N / r (the other
+offset learned while both agreed (pair_offset_update, a Kalman filter that weighs each sample by its noise:
+the two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise shift the mean by half); an
+encoder advances by v_pred T_N / r (the other
 wheel and the gyro), else by its last increment. A stuck encoder's travel missed before the detection is
 added then; the first increment after an exclusion (it spans the gap) is never used.
 
@@ -189,10 +192,6 @@ class SensorHealthParameters:
             Noise never repeats a value; with an ADC quantum (stuck_tolerance) the returns are judged
             within it, and quantised noise needs a larger clip_samples (a quantum of the gyro's noise
             sigma: 399 of 1000 healthy samples flagged at 3, 43 at 10, none at 20) or 0 (off).
-        pair_offset_time_constant: PT1 (s) of each axis's offset between the two accelerometers beyond
-            the rotational terms (their bias and misalignment difference), learned while both and the gyro
-            are healthy and the pair agrees within a quarter of the consistency bound; an excluded axis's
-            replacement carries it, so the pair's mean, which the EKF integrates, keeps its level.
         gain_threshold: the pair's gain test (module docstring, 5.; pair_gain_ratio) flags the pair when
             its statistic exceeds this (in (0, inf]; inf: off). 4: over 104 fault-free runs of the
             built-ins (corner and square 10 seeds, long path and circle 3, matched and toleranced, open
@@ -213,6 +212,12 @@ class SensorHealthParameters:
             learned and the test learns nothing (at rest the pair's mean is the sensors' biases: the
             tolerance preset's corner seed 6 flagged accel2_t there). For a robot that drives off at
             once, the two sensors' initial biases (0.05 m/s^2 each, data sheet) differ by up to 0.2.
+        gain_release: a pair the gain test flagged is cleared once its statistic is below half the
+            threshold and |beta| plus GAIN_RELEASE_SIGMAS of its standard deviations below this (in
+            (0, 1]): the evidence of a healthy gain. Cleared on the statistic alone, a doubled sensor
+            came back at a dip of its evidence (beta 0.38 for 0.67, two sigmas low on 40 samples) in
+            the middle of its fault; on the bound alone, a well-measured gain of 0.25 was flagged and
+            cleared on alternate samples (the square's clipped accel2_t: accel1_t blamed).
     """
 
     enabled: bool = True
@@ -234,7 +239,6 @@ class SensorHealthParameters:
     fast_consistency_samples: int = 3
     fast_consistency_factor: float = 1.6
     max_exclusion_time: float = 1.0
-    pair_offset_time_constant: float = 1.0
     encoder_readmission_samples: int = 10
     encoder_readmission_fraction: float = 0.2
     gyro_readmission_samples: int = 5
@@ -247,11 +251,12 @@ class SensorHealthParameters:
     gain_block_samples: int = 5
     gain_cross_coupling: float = 0.06
     gain_offset_allowance: float = 0.0
+    gain_release: float = 0.3
 
     def __post_init__(self):
         for name in (
             "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
-            "max_exclusion_time stuck_min_speed pair_offset_time_constant"
+            "max_exclusion_time stuck_min_speed"
         ).split():
             _positive(name, getattr(self, name))
         if self.max_wheel_speed is not None:
@@ -277,6 +282,9 @@ class SensorHealthParameters:
         value = self.gain_tolerance
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value < 1.0):
             raise ValueError(f"gain_tolerance={value!r} is out of range: allowed [0, 1)")
+        value = self.gain_release
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 < value <= 1.0):
+            raise ValueError(f"gain_release={value!r} is out of range: allowed (0, 1]")
         for name in (
             "fast_consistency_samples",
             "encoder_readmission_samples",
@@ -331,7 +339,9 @@ class HealthGeometry:
             allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
         accel_noise_std, accel_vibration_per_speed, accel_vibration_time_constant: the accelerometers'
             white noise and commotion (data sheet and S(3)'s model, systems/sensors.py): the gain test's
-            noise (pair_gain_ratio).
+            noise (pair_gain_ratio) and the pair offset's (pair_offset_update).
+        accel_initial_bias_std, accel_drift_density: the accelerometers' initial bias and its random
+            walk (data sheet): the pair offset's prior and drift (pair_offset_update).
         tyre_peak_acceleration: the nominal robot's tyre curve's peak mu g f_w (m/s^2; inf: none): the
             navigation's identified peak over it scales the replacement's tyre forces (yaw_follow_step's
             grip), so that a calibrated floor (mixing.tyre_peak_acceleration) counts from the start.
@@ -353,6 +363,8 @@ class HealthGeometry:
     accel_noise_std: float = 0.062
     accel_vibration_per_speed: float = 0.3
     accel_vibration_time_constant: float = 0.005
+    accel_initial_bias_std: float = 0.05
+    accel_drift_density: float = 0.0065
     tyre_peak_acceleration: float = math.inf
     mass: float = 0.0
     wheel_inertia: float = 0.0
@@ -414,7 +426,9 @@ GAIN_WINDOW_MAX = 50
 _GAIN = _RING_POS + 5
 _GAIN_POS = _GAIN + 2 * GAIN_SLOTS
 _GAIN_RING = _GAIN_POS + 2
-STATE_SIZE = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
+# The variance of the pair's learned offset (t, n; pair_offset_update).
+_OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
+STATE_SIZE = _OFFSET_VAR + 2
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -425,6 +439,7 @@ def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.nd
         s[part] = np.nan
     s[_E_INC] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
     s[_W + 3] = initial_speed
+    s[_OFFSET_VAR : _OFFSET_VAR + 2] = 2.0 * g.accel_initial_bias_std**2  # two sensors' biases
     return s
 
 
@@ -434,13 +449,14 @@ HealthConstants = collections.namedtuple(
     "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
     "accel_consistency "
     "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
-    "max_exclusion_time pair_offset_time_constant "
+    "max_exclusion_time "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
     "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
-    "gain_block_samples gain_cross_coupling gain_offset_allowance "
+    "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
-    "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant "
-    "tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit bearing_drag shoe_offset "
+    "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant accel_initial_bias_std "
+    "accel_drift_density tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit "
+    "bearing_drag shoe_offset "
     "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
     "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
 )
@@ -819,10 +835,10 @@ def health_check(
             else:  # the replacement's omega' is not averaged in: restart from the slow average
                 s[_FAST + axis] = average[axis]
             fast = fast_pair_ratio(s[_FAST + axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
-            if known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
-                s[_OFFSET + axis] += (disagreement - s[_OFFSET + axis]) * g.T_N / p.pair_offset_time_constant
             mean = 0.5 * (raw[axis] + raw[axis + 2])
             other = 0.5 * (raw[1 - axis] + raw[3 - axis])
+            learn = known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit
+            pair_offset_update(s, axis, disagreement, abs(v_o), other, learn, p, g)
             rotation = rot[axis] + rot_dot[axis]
             offset_free = disagreement - s[_OFFSET + axis]
             moving = used[0] != 0.0 or used[1] != 0.0  # the wheels turned
@@ -830,6 +846,8 @@ def health_check(
                 s, axis, offset_free, mean, rotation, other, abs(v_o), moving, fast_known, p, g
             )
             held = hold[axis] != 0.0 or hold[axis + 2] != 0.0
+            # released when the evidence of the fault is gone and that of a gain within gain_release is in
+            gain_healthy = gain < 0.5 and pair_gain_upper_bound(s, axis, fast_known, p) < p.gain_release
             if abs(average[axis]) < 0.5 * limit and not held:  # each sensor's level while the pair agrees
                 for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
@@ -850,7 +868,7 @@ def health_check(
                 bad = pair_of[0] if score[0] > score[1] else pair_of[1]
                 hold[bad] = 1.0
                 codes[bad] = INCONSISTENT
-            elif abs(average[axis]) < 0.5 * limit and fast < 0.5 * limit and gain < 0.5 and held:
+            elif abs(average[axis]) < 0.5 * limit and fast < 0.5 * limit and gain_healthy and held:
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
@@ -926,6 +944,30 @@ def yaw_follow_step(
     _, moment = shoe_drag(v_t, v_n, omega, g, 0.0, half * (f_R - f_L))
     stiffness = g.T_N * half * half * (k_R + k_L) / g.yaw_inertia
     return omega + g.T_N * (moment / g.yaw_inertia) / (1.0 + stiffness)
+
+
+@jitable
+def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: float, learn: bool, p, g):
+    """The pair's offset a_1 - a_2 beyond the rotational terms on ``axis`` (the bias difference, drifting
+    by accel_drift_density each): a scalar Kalman filter in s[_OFFSET + axis], its variance in
+    s[_OFFSET_VAR + axis] (from 2 accel_initial_bias_std^2). Each sample it is ``learn``ed from weighs by
+    the disagreement's noise: white, the commotion at ``speed`` (S(3)'s Gauss-Markov process, its
+    correlation counted as (1 + phi)/(1 - phi) samples) and gain_cross_coupling of the ``other`` axis's
+    acceleration (misalignment). At rest the bias difference is learned within 0.01 m/s^2 in 0.1 s; at
+    speed the commotion moves it little (a PT1 of 1 s wandered 0.05 m/s^2 in the corner's slide)."""
+    s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
+    if not learn:
+        return
+    phi = math.exp(-g.T_N / g.accel_vibration_time_constant)
+    commotion = g.accel_vibration_per_speed * speed
+    noise = (
+        2.0 * g.accel_noise_std**2
+        + 2.0 * commotion**2 * (1.0 + phi) / (1.0 - phi)
+        + (p.gain_cross_coupling * other) ** 2
+    )
+    gain = s[_OFFSET_VAR + axis] / (s[_OFFSET_VAR + axis] + noise)
+    s[_OFFSET + axis] += gain * (disagreement - s[_OFFSET + axis])
+    s[_OFFSET_VAR + axis] *= 1.0 - gain
 
 
 @jitable
@@ -1049,6 +1091,29 @@ def pair_gain_ratio(
             spread = math.sqrt(GAIN_CORRELATION / energy)
             worst = max(worst, max(abs(beta) - allowance, 0.0) / spread)
     return worst / p.gain_threshold
+
+
+GAIN_RELEASE_SIGMAS = 1.0
+"""The gain test's upper bound on a gain (pair_gain_upper_bound): this many standard deviations above."""
+
+
+@jitable
+def pair_gain_upper_bound(s, axis: int, update: bool, p) -> float:
+    """The gain test's evidence of health on ``axis`` after pair_gain_ratio's update: the larger regressor's
+    |beta| + GAIN_RELEASE_SIGMAS standard deviations (0: nothing informative in the window, or not
+    ``update``d, or the test off). A pair the gain test flagged is released when this is below
+    gain_release: a flag is cleared by the evidence of a gain within it, not by a window whose evidence
+    of the fault dipped (a doubled sensor's beta of 0.67 read 0.38, 2 sigmas low, on 40 samples)."""
+    if math.isinf(p.gain_threshold) or not update:
+        return 0.0
+    base = _GAIN + GAIN_SLOTS * axis
+    upper = 0.0
+    for k in range(2):
+        energy = s[base + 5 + 3 * k]
+        if energy > 0.0:
+            beta = s[base + 4 + 3 * k] / energy
+            upper = max(upper, abs(beta) + GAIN_RELEASE_SIGMAS * math.sqrt(GAIN_CORRELATION / energy))
+    return upper
 
 
 @jitable
