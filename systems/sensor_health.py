@@ -36,8 +36,8 @@ Checks (health codes, 0 = healthy):
    again). A third test, the pair's gain (pair_gain_ratio), regresses the disagreement on each sensor's
    own signal over the last gain_samples informative samples: a scale fault on one sensor (x2: a gain of
    0.67 on the pair's mean) flags the pair beyond gain_tolerance once the evidence passes gain_threshold,
-   although the disagreement stays inside the averages' bounds, and clears it when that evidence is gone
-   (below half the threshold) and there is evidence of a gain within gain_release
+   although the disagreement stays inside the averages' bounds, and clears a pair it alone flagged when
+   that evidence is gone (below half the threshold) and there is evidence of a gain within gain_release
    (pair_gain_upper_bound), or when no sample is informative for GAIN_HORIZON
    gain_samples samples (a standstill, where a scale does no harm). With the motor
    drivers' current readings the t axes'
@@ -212,12 +212,14 @@ class SensorHealthParameters:
             learned and the test learns nothing (at rest the pair's mean is the sensors' biases: the
             tolerance preset's corner seed 6 flagged accel2_t there). For a robot that drives off at
             once, the two sensors' initial biases (0.05 m/s^2 each, data sheet) differ by up to 0.2.
-        gain_release: a pair the gain test flagged is cleared once its statistic is below half the
-            threshold and |beta| plus GAIN_RELEASE_SIGMAS of its standard deviations below this (in
-            (0, 1]): the evidence of a healthy gain. Cleared on the statistic alone, a doubled sensor
-            came back at a dip of its evidence (beta 0.38 for 0.67, two sigmas low on 40 samples) in
-            the middle of its fault; on the bound alone, a well-measured gain of 0.25 was flagged and
-            cleared on alternate samples (the square's clipped accel2_t: accel1_t blamed).
+        gain_release: a pair the gain test alone flagged is cleared once its statistic is below half
+            the threshold and |beta| plus GAIN_RELEASE_SIGMAS of its standard deviations below this (in
+            (gain_tolerance, 1]): the evidence of a healthy gain. Cleared on the statistic alone, a
+            doubled sensor came back at a dip of its evidence (beta 0.38 for 0.67, two sigmas low on
+            40 samples) in the middle of its fault; on the bound alone, a well-measured gain of 0.25
+            was flagged and cleared on alternate samples (the square's clipped accel2_t: accel1_t
+            blamed). A pair the averages flagged is cleared on their evidence as before (a bias's
+            regression on a weak signal can hold the bound above this for seconds).
     """
 
     enabled: bool = True
@@ -285,6 +287,11 @@ class SensorHealthParameters:
         value = self.gain_release
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 < value <= 1.0):
             raise ValueError(f"gain_release={value!r} is out of range: allowed (0, 1]")
+        if not value > self.gain_tolerance:
+            raise ValueError(
+                f"gain_release={value!r} is out of range: allowed above "
+                f"gain_tolerance={self.gain_tolerance!r} (a gain within the tolerance must clear the pair)"
+            )
         for name in (
             "fast_consistency_samples",
             "encoder_readmission_samples",
@@ -821,6 +828,8 @@ def health_check(
     # The fast test needs the gyro's omega' on this sample: a gyro trusted on the previous one too (the
     # first sample after a re-admission differences the gyro against its replacement, up to 250 rad/s^2).
     fast_known = known and excl[4] == 0.0
+    for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
+        s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -837,8 +846,9 @@ def health_check(
             fast = fast_pair_ratio(s[_FAST + axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
             mean = 0.5 * (raw[axis] + raw[axis + 2])
             other = 0.5 * (raw[1 - axis] + raw[3 - axis])
-            learn = known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit
-            pair_offset_update(s, axis, disagreement, abs(v_o), other, learn, p, g)
+            # learned with the gyro's omega' on this sample (fast_known), both axes healthy and agreeing
+            if fast_known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
+                pair_offset_update(s, axis, disagreement, abs(v_o), other, p, g)
             rotation = rot[axis] + rot_dot[axis]
             offset_free = disagreement - s[_OFFSET + axis]
             moving = used[0] != 0.0 or used[1] != 0.0  # the wheels turned
@@ -846,12 +856,13 @@ def health_check(
                 s, axis, offset_free, mean, rotation, other, abs(v_o), moving, fast_known, p, g
             )
             held = hold[axis] != 0.0 or hold[axis + 2] != 0.0
-            # released when the evidence of the fault is gone and that of a gain within gain_release is in
-            gain_healthy = gain < 0.5 and pair_gain_upper_bound(s, axis, fast_known, p) < p.gain_release
             if abs(average[axis]) < 0.5 * limit and not held:  # each sensor's level while the pair agrees
                 for c in pair_of:
                     level[c] += (raw[c] - level[c]) / p.consistency_samples
             averages_flag = abs(average[axis]) > limit or fast > limit
+            if averages_flag:  # the averages' evidence (a bias) takes over a hold of the gain test's
+                for c in pair_of:
+                    hold[c] = 1.0 if hold[c] == GAIN_HOLD else hold[c]
             if (averages_flag or gain > 1.0) and not held:
                 # Blame the one that moved more from its level before the pair began to disagree plus
                 # the farther from the kinematics (each alone errs: the true signal moves meanwhile;
@@ -866,9 +877,20 @@ def health_check(
                 if not distance_only:
                     score = [score[i] + abs(raw[pair_of[i]] - level[pair_of[i]]) for i in range(2)]
                 bad = pair_of[0] if score[0] > score[1] else pair_of[1]
-                hold[bad] = 1.0
+                hold[bad] = 1.0 if averages_flag else GAIN_HOLD
                 codes[bad] = INCONSISTENT
-            elif abs(average[axis]) < 0.5 * limit and fast < 0.5 * limit and gain_healthy and held:
+            # A hold by the gain test alone (GAIN_HOLD) is released when its evidence of the fault is gone
+            # and that of a gain within gain_release is in; the averages' hold (1) when theirs is gone.
+            elif (
+                held
+                and abs(average[axis]) < 0.5 * limit
+                and fast < 0.5 * limit
+                and gain < 0.5
+                and (
+                    max(hold[axis], hold[axis + 2]) != GAIN_HOLD
+                    or pair_gain_upper_bound(s, axis, fast_known, p) < p.gain_release
+                )
+            ):
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
@@ -947,17 +969,16 @@ def yaw_follow_step(
 
 
 @jitable
-def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: float, learn: bool, p, g):
-    """The pair's offset a_1 - a_2 beyond the rotational terms on ``axis`` (the bias difference, drifting
-    by accel_drift_density each): a scalar Kalman filter in s[_OFFSET + axis], its variance in
-    s[_OFFSET_VAR + axis] (from 2 accel_initial_bias_std^2). Each sample it is ``learn``ed from weighs by
-    the disagreement's noise: white, the commotion at ``speed`` (S(3)'s Gauss-Markov process, its
-    correlation counted as (1 + phi)/(1 - phi) samples) and gain_cross_coupling of the ``other`` axis's
-    acceleration (misalignment). At rest the bias difference is learned within 0.01 m/s^2 in 0.1 s; at
-    speed the commotion moves it little (a PT1 of 1 s wandered 0.05 m/s^2 in the corner's slide)."""
-    s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
-    if not learn:
-        return
+def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: float, p, g):
+    """Learns the pair's offset a_1 - a_2 beyond the rotational terms on ``axis`` (the bias difference)
+    from one sample's ``disagreement``: a scalar Kalman filter in s[_OFFSET + axis], its variance in
+    s[_OFFSET_VAR + axis] (from 2 accel_initial_bias_std^2; health_check adds 2 accel_drift_density^2
+    T_N every sample, the two biases' random walk). The sample weighs by the disagreement's noise: white,
+    the commotion at ``speed`` (S(3)'s Gauss-Markov process, its correlation counted as (1 + phi)/(1 - phi)
+    samples) and gain_cross_coupling of the ``other`` axis's acceleration (misalignment). The omega' noise
+    of the rotational terms (the gyro's difference) is left out: it telescopes over the filter's
+    near-equal weights. At rest the offset's standard deviation falls to 0.01 m/s^2 in 0.15 s; at speed
+    the commotion moves it little (a PT1 of 1 s wandered 0.05 m/s^2 in the corner's slide)."""
     phi = math.exp(-g.T_N / g.accel_vibration_time_constant)
     commotion = g.accel_vibration_per_speed * speed
     noise = (
@@ -965,6 +986,8 @@ def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: f
         + 2.0 * commotion**2 * (1.0 + phi) / (1.0 - phi)
         + (p.gain_cross_coupling * other) ** 2
     )
+    if not s[_OFFSET_VAR + axis] + noise > 0.0:  # a noiseless data sheet and no motion: nothing to weigh
+        return
     gain = s[_OFFSET_VAR + axis] / (s[_OFFSET_VAR + axis] + noise)
     s[_OFFSET + axis] += gain * (disagreement - s[_OFFSET + axis])
     s[_OFFSET_VAR + axis] *= 1.0 - gain
@@ -1093,6 +1116,8 @@ def pair_gain_ratio(
     return worst / p.gain_threshold
 
 
+GAIN_HOLD = 2.0
+"""A pair's hold (the state's inconsistency hold) set by the gain test alone; the averages' is 1."""
 GAIN_RELEASE_SIGMAS = 1.0
 """The gain test's upper bound on a gain (pair_gain_upper_bound): this many standard deviations above."""
 
