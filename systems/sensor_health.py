@@ -894,6 +894,8 @@ def health_check(
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
+    else:  # an axis out of the pair for its own fault: the gain test's window is stale when it returns
+        pair_gain_reset(s)
     s[_W + 3] = v_o
 
     # Analog output: the reading, else its redundant estimate (the reference carried along).
@@ -1114,6 +1116,23 @@ def pair_gain_ratio(
             spread = math.sqrt(GAIN_CORRELATION / energy)
             worst = max(worst, max(abs(beta) - allowance, 0.0) / spread)
     return worst / p.gain_threshold
+
+
+@jitable
+def pair_gain_reset(s):
+    """Empties the gain test's windows and block averages (both axes): while an accelerometer is out for
+    its own fault (NaN, saturated, stuck, jumping) the pair is not judged, and the evidence from before it
+    is stale when it returns. Kept, the window flagged the toleranced closed corner's pair (seed 4) two
+    samples after a frozen accel2_t came back, and blamed accel1_t for 0.43 s."""
+    for axis in range(2):
+        base = _GAIN + GAIN_SLOTS * axis
+        for i in range(GAIN_SLOTS):
+            if i != 4 + GAIN_SERIES:  # the sample counter runs on
+                s[base + i] = 0.0
+        ring = _GAIN_RING + axis * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
+        for i in range(GAIN_SERIES * GAIN_WINDOW_MAX):
+            s[ring + i] = 0.0
+        s[_GAIN_POS + axis] = 0.0
 
 
 GAIN_HOLD = 2.0

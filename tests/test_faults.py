@@ -40,6 +40,7 @@ from slipnav.systems.sensor_health import (
     health_initial_state,
     health_step,
     pair_gain_ratio,
+    pair_gain_reset,
     pair_gain_upper_bound,
     pair_omega_squared,
     travel_restored,
@@ -461,6 +462,13 @@ def test_the_pair_gain_test_by_hand():
     upper = 1 / 1.5 + math.sqrt(16 / (40 * 1.5**2 / var))
     assert pair_gain_upper_bound(state, 0, True, constants) == pytest.approx(upper, rel=1e-9)
     assert pair_gain_upper_bound(state, 0, False, constants) == 0.0  # not judged without omega'
+    # an accelerometer out for its own fault empties the window: the evidence starts again
+    emptied = state.copy()
+    pair_gain_reset(emptied)
+    assert pair_gain_upper_bound(emptied, 0, True, constants) == 0.0
+    kept = pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
+    again = pair_gain_ratio(emptied, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
+    assert kept > 1.0 and again < 0.5
     # with an offset allowance of 0.1 m/s^2 beyond the tolerance: 0.1 sum |r| / sum r^2 = 0.1 / 1.5
     allowing = HealthConstants(*health_constants(SensorHealthParameters(gain_offset_allowance=0.1), GEOMETRY))
     state = health_initial_state(GEOMETRY)
