@@ -1126,6 +1126,9 @@ def pair_gain_reset(s):
     samples after a frozen accel2_t came back, and blamed accel1_t for 0.43 s."""
     for axis in range(2):
         base = _GAIN + GAIN_SLOTS * axis
+        if s[base + 5 + GAIN_SERIES] == 0.0 and s[_GAIN_POS + axis] == 0.0 and s[base] == 0.0:
+            if s[base + 1] == 0.0 and s[base + 2] == 0.0 and s[base + 3] == 0.0:
+                continue  # emptied already (an empty window's ring holds no products): not every sample
         for i in range(GAIN_SLOTS):
             if i != 4 + GAIN_SERIES:  # the sample counter runs on
                 s[base + i] = 0.0
