@@ -504,6 +504,18 @@ def test_the_pair_gain_test_by_hand():
             SensorHealthParameters(**{name: bad})
 
 
+def commotion_at(speed, rng):
+    """Each accelerometer's commotion (S(3)'s model, systems/sensors.py) at the samples' ``speed``: a
+    first-order Gauss-Markov process of 5 ms and 0.3 |v| m/s^2, drawn from ``rng`` sample by sample."""
+    phi = math.exp(-T_N / 0.005)
+    commotion = np.zeros((len(speed), 4))
+    for k in range(1, len(speed)):
+        commotion[k] = phi * commotion[k - 1] + math.sqrt(1 - phi * phi) * 0.3 * speed[
+            k
+        ] * rng.standard_normal(4)
+    return commotion
+
+
 def accelerating_stream(n, seed=0, ripple=0.25):
     """n samples of a robot driving straight at v = 1 + ripple sin(2 pi t) (a_t up to 1.57 m/s^2 with
     the default ripple), its accelerometers with white noise (0.062 m/s^2) and commotion (0.3 v m/s^2,
@@ -513,10 +525,7 @@ def accelerating_stream(n, seed=0, ripple=0.25):
     v = 1.0 + ripple * np.sin(2 * math.pi * t)
     a_t = ripple * 2 * math.pi * np.cos(2 * math.pi * t)
     travel = t + ripple / (2 * math.pi) * (1 - np.cos(2 * math.pi * t))
-    phi = math.exp(-T_N / 0.005)
-    commotion = np.zeros((n, 4))
-    for k in range(1, n):
-        commotion[k] = phi * commotion[k - 1] + math.sqrt(1 - phi * phi) * 0.3 * v[k] * rng.standard_normal(4)
+    commotion = commotion_at(v, rng)
     acc = np.column_stack([a_t, 0 * t, a_t, 0 * t]) + 0.062 * rng.standard_normal((n, 4)) + commotion
     gyro = 0.014 * rng.standard_normal(n)
     return np.column_stack([acc, gyro, travel / R, travel / R])
@@ -679,12 +688,7 @@ def driving_off(seed, n=1500, rest=500, v=1.6, difference=0.1):
     ``difference`` above accel2_n (a bias difference), its gyro noise only, its encoders exact."""
     rng = np.random.default_rng(seed)
     speed = np.clip((np.arange(n) - rest) * T_N * 2.0, 0.0, v)
-    phi = math.exp(-T_N / 0.005)
-    commotion = np.zeros((n, 4))
-    for k in range(1, n):
-        commotion[k] = phi * commotion[k - 1] + math.sqrt(1 - phi * phi) * 0.3 * speed[
-            k
-        ] * rng.standard_normal(4)
+    commotion = commotion_at(speed, rng)
     acc = 0.062 * rng.standard_normal((n, 4)) + commotion
     accelerating = np.where((np.arange(n) > rest) & (speed < v), 2.0, 0.0)
     acc += np.column_stack([accelerating, 0 * speed + difference, accelerating, 0 * speed])
