@@ -79,6 +79,8 @@ def build_navigation_diagram(
     removes it from the checked inertial samples before every block that reads them.
     ``robot``: the nominal robot, whose mass, motors and drags give the sensor checks the force reference
     of the tangential accelerometers from the optional ``motor_currents`` input (None: none).
+    ``external_force`` (optional; unconnected: none): the perturbation monitor's sideways push, which
+    leaves v_n to the lateral kinematics (VelocityMixer); add_perturbation_monitor connects it.
 
     .. pydrake_system::
 
@@ -88,6 +90,7 @@ def build_navigation_diagram(
         - gyro
         - encoders
         - motor_currents
+        - external_force
         output_ports:
         - pose
         - mixed_estimate
@@ -202,6 +205,7 @@ def build_navigation_diagram(
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
+    b.ExportInput(mixer_block.GetInputPort("external_force"), "external_force")
     b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
     b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P
     b.Connect(mixer["body_velocity"], sideslip.GetInputPort("body_velocity"))

@@ -35,6 +35,7 @@ from slipnav.systems.perturbation_monitor import (
     force_model,
     perturbation_initial_state,
     perturbation_step,
+    sideways_push,
 )
 from slipnav.systems.plant import (
     NO_DISTURBANCE,
@@ -186,7 +187,7 @@ def run_plain_loop(
             held = apply_sensor_faults(k * T_N, raw, held, previous, faults, T_N, sensor_params.encoder_step)
             previous = raw
             meas_acc, meas_gyro, meas_enc = held[0:4], held[4], held[5:7]
-        nav_row = nav.step(meas_acc, meas_gyro, meas_enc, meas_current)
+        nav_row = nav.step(meas_acc, meas_gyro, meas_enc, meas_current, sideways_push(monitor))
         t1 = clock()
         spent["navigation"] += t1 - t0
         s = follower[0]

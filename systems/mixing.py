@@ -539,7 +539,13 @@ def slide_onset_step(
 
 
 def mixing_gain(
-    mixed, c1: float, c2: float, p: MixingParameters, at_rest: bool = False, check: float = 0.0
+    mixed,
+    c1: float,
+    c2: float,
+    p: MixingParameters,
+    at_rest: bool = False,
+    check: float = 0.0,
+    external_force: bool = False,
 ) -> np.ndarray:
     """[w_t, w_n]: how much the mixed estimate ``mixed`` (mix's output) took from outside the EKF.
 
@@ -551,8 +557,12 @@ def mixing_gain(
     EKF's own kinematics, no measurement).
     With the wheels at rest (wheels_at_rest) and hold_at_rest mix scales that v_n by 1 - C1 (the wheels'
     v_n = 0 weighs C1): w_n = 1 - (1 - C1)(1 - w_n).
+    While an outside force pushes the body (``external_force``, mix_checked) v_n is the free integral
+    alone: w_n = 0.
     The EKF's covariance takes the mixing as updates with these gains (ekf.ekf_mixing_covariance).
     """
+    if external_force:
+        return np.array([c1, 0.0])
     utilisation = mixing_utilisation(mixed[0], mixed[2], mixed[3], mixed[4], p)
     q_inertial = inertial_relaxation(utilisation, p)
     if check > 0.0:
@@ -705,6 +715,7 @@ def mix_checked(
     T_N: float,
     inertial_fault: bool = False,
     encoder_fault: bool = False,
+    external_force: bool = False,
 ):
     """mix with the tyre-model check: (mixed estimate, w, check state after this sample).
 
@@ -718,7 +729,14 @@ def mix_checked(
     instead of the curve's f. While the tyres' lateral utilisation |^I a_n| / a_peak is below
     free_side_slip_anchor both restart from the mixed v_n (a braking lock uses the tyres to the full,
     but not sideways), and so they do while an inertial channel is excluded (``inertial_fault``: the
-    sensor checks replace it; a replacement is no evidence against the curve, w = 0)."""
+    sensor checks replace it; a replacement is no evidence against the curve, w = 0).
+
+    ``external_force``: an outside force pushes the body sideways (the perturbation monitor's sideways
+    push). The accelerometers then measure the push with the tyres' forces, so neither the steady-turn
+    model nor the curve at the measured forces holds, and a push the tyres hold reads |a_n| ~ 0, where F
+    would be anchored to an estimate that had dropped the side slip the push built up. While it holds
+    (and no inertial channel is excluded) v_n is F alone (w = 1, in both of S(17)'s branches), F is
+    neither anchored nor relaxed, and the tyre peak learns nothing."""
     nominal = p
     identify = check_state is not None and len(check_state) == 5
     if identify:
@@ -745,20 +763,26 @@ def mix_checked(
         )
 
     check = 0.0
+    pushed = external_force and check_state is not None and not inertial_fault
     if check_state is not None and not inertial_fault:
         increment = inertial[1] - previous[1]
         free, curve = (
             check_state[0] + increment,
             side_slip(check_state[1] + increment, check_state[1], target),
         )
-        check = tyre_model_check(free, curve, max(abs(v_t), p.tyre_model_gate_speed), p)
+        check = 1.0 if pushed else tyre_model_check(free, curve, max(abs(v_t), p.tyre_model_gate_speed), p)
         if check > 0.0:
             target = target + check * (free - target)
-    v_n = side_slip(inertial[1], previous[1], target)
+    v_n = free if pushed else side_slip(inertial[1], previous[1], target)
     next_state = None
     if check_state is not None:
         lateral = abs(inertial[4]) / p.tyre_peak_acceleration
-        next_state = (v_n, v_n) if inertial_fault else free_side_slip_step(free, curve, v_n, lateral, p, T_N)
+        if inertial_fault:
+            next_state = (v_n, v_n)
+        elif pushed:  # neither anchored nor relaxed: the kinematics are all there is
+            next_state = (free, curve)
+        else:
+            next_state = free_side_slip_step(free, curve, v_n, lateral, p, T_N)
     if identify:
         peak = tyre_peak_step(
             check_state[2:5],
@@ -767,7 +791,7 @@ def mix_checked(
             next_state[0] if inertial_fault else free,
             inertial[3],
             inertial[4],
-            not (inertial_fault or encoder_fault or at_rest),
+            not (inertial_fault or encoder_fault or at_rest or pushed),
             nominal,
             T_N,
         )
@@ -928,6 +952,7 @@ class VelocityMixer(LeafSystem):
         - inertial_fault
         - accelerometers
         - encoder_fault
+        - external_force
         output_ports:
         - mixing
         - tyre_model_state
@@ -936,6 +961,9 @@ class VelocityMixer(LeafSystem):
       model's previous value in S(17).
     - inertial_fault: 1 while the sensor checks exclude an inertial channel (the check rests, mix_checked).
     - encoder_fault: 1 while they exclude an encoder (the tyre peak learns nothing, tyre_peak_step).
+    - external_force (optional): 1 while the perturbation monitor flags a sideways push on the body
+      (perturbation_monitor.sideways_push): v_n is the free integral of the lateral kinematics
+      (mix_checked); unconnected: 0.
     - accelerometers: the checked (and corrected) [a_t1, a_n1, a_t2, a_n2] the EKF reads: the slide-onset
       test trusts the inertial v_t only while the pair agrees (accelerometer_pair_disagreement, with
       ^I omega).
@@ -970,6 +998,7 @@ class VelocityMixer(LeafSystem):
         self._fault = self.DeclareVectorInputPort("inertial_fault", 1)
         self._acc = self.DeclareVectorInputPort("accelerometers", 4)
         self._enc_fault = self.DeclareVectorInputPort("encoder_fault", 1)
+        self._external = self.DeclareVectorInputPort("external_force", 1)
         self._check = self.DeclareDiscreteState(
             [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
         )
@@ -999,6 +1028,8 @@ class VelocityMixer(LeafSystem):
         )
         c1 = 0.0 if onset else float(self._c1.Eval(context)[0])
         check_state = context.get_discrete_state(self._check).get_value().tolist()
+        fault = self._fault.Eval(context)[0] > 0.5
+        pushed = not fault and self._external.HasValue(context) and self._external.Eval(context)[0] > 0.5
         mixed, check, state = mix_checked(
             odo,
             inertial,
@@ -1009,11 +1040,12 @@ class VelocityMixer(LeafSystem):
             self._p,
             check_state,
             self._T_N,
-            self._fault.Eval(context)[0] > 0.5,
+            fault,
             self._enc_fault.Eval(context)[0] > 0.5,
+            pushed,
         )
         tyre = believed_tyre(self._p, check_state[2])
-        gain = mixing_gain(mixed, c1, c2, tyre, wheels_at_rest(odo), check)
+        gain = mixing_gain(mixed, c1, c2, tyre, wheels_at_rest(odo), check, pushed)
         output.SetFromVector(
             [*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state, 1.0 if onset else 0.0, *onset_state]
         )

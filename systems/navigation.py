@@ -227,6 +227,7 @@ class NavigationLoop:
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
         self.tyre_model_weight = 0.0  # mix_checked's
         self.inertial_fault = self.encoder_fault = False
+        self.pushed = False  # the perturbation monitor's sideways push as the mixer takes it (step)
         self.slide_onset_state, self.slide_onset, self.c1_mixed = SLIDE_ONSET_INITIAL, False, self.c1
         self.k = 0
 
@@ -247,11 +248,15 @@ class NavigationLoop:
             self.T_N,
             self.inertial_fault,
             self.encoder_fault,
+            self.pushed,
         )
         return mixed
 
-    def step(self, accelerometers, gyro: float, encoders, currents=NO_CURRENTS) -> tuple:
-        """Process sample k (``currents``: the motor drivers' readings, for the sensor checks); returns
+    def step(
+        self, accelerometers, gyro: float, encoders, currents=NO_CURRENTS, external_force=False
+    ) -> tuple:
+        """Process sample k (``currents``: the motor drivers' readings, for the sensor checks;
+        ``external_force``: the perturbation monitor's sideways push at t_k, for the mixer); returns
         the values the blocks output at t_k, in LOOP_KEYS order (the covariance P_k-1 is ``self.P``
         before the call)."""
         mp, T_N = self.params.mixing, self.T_N
@@ -270,6 +275,7 @@ class NavigationLoop:
             acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)
         fault_imu = 1.0 if any(codes[0:5]) else 0.0
         self.inertial_fault = fault_imu > 0.5  # the tyre-model check rests (velocity_mix)
+        self.pushed = bool(external_force) and not self.inertial_fault
         odo_next, odo_raw, odometry_held = odometry_step(
             self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
         )
@@ -320,7 +326,9 @@ class NavigationLoop:
         )
         self.x = mixed
         tyre = believed_tyre(mp, tyre_state[2])
-        gain = mixing_gain(mixed, self.c1_mixed, c2, tyre, wheels_at_rest(odo), self.tyre_model_weight)
+        gain = mixing_gain(
+            mixed, self.c1_mixed, c2, tyre, wheels_at_rest(odo), self.tyre_model_weight, self.pushed
+        )
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)

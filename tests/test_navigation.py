@@ -987,6 +987,39 @@ def test_the_free_integral_outweighs_a_tyre_curve_the_body_slides_past():
     assert state == (out[1], out[1])
 
 
+def test_a_sideways_push_leaves_v_n_to_the_kinematics():
+    """While the perturbation monitor flags a sideways push (``external_force``) the accelerometers
+    measure the push as well as the tyres, so neither S(17)'s steady-turn model nor the curve at the
+    measured forces holds: v_n is the free integral of the lateral kinematics alone (w = 1), in both
+    of S(17)'s branches; the integral is neither anchored nor relaxed, even where |a_n| reads nothing
+    (the tyres hold the push: net force 0); the tyre peak learns nothing; mixing_gain's w_n is 0 (no
+    pseudo-measurement). A push on a robot with an excluded inertial channel is not taken (the check
+    rests)."""
+    p = MixingParameters()
+    v_t, omega = 1.6, 0.0
+    odo = [v_t, omega, v_t, v_t]
+    x = np.array([v_t, 0.05, omega, 0.0, 0.0])  # the push has built up 5 cm/s of side slip
+    inertial = [v_t, 0.052, omega, 0.0, 0.0]  # the EKF's kinematics add 2 mm/s; a_n = 0: tyres hold
+    state = (0.09, 0.0, p.tyre_peak_acceleration, 0.0, 0.0)  # F, S, a_peak, its filter and hold
+    for c2 in (1.0, 0.3, 0.0):
+        pushed, w, after = mix_checked(odo, inertial, 1.0, c2, 1.0, x, p, state, 0.002, external_force=True)
+        assert w == 1.0
+        assert pushed[1] == pytest.approx(0.09 + 0.002, abs=1e-15)  # F + the increment
+        assert after[0:2] == (pushed[1], after[1]) and after[0] == pytest.approx(0.092, abs=1e-15)
+        assert after[2] == p.tyre_peak_acceleration and after[3:5] == (0.0, 0.0)  # no learning
+        # Without the flag, at u = 0 both restart from the estimate (the evidence is dropped), which
+        # S(17)'s model branch pulls towards the curve's 0.
+        plain, w, anchored = mix_checked(odo, inertial, 1.0, c2, 1.0, x, p, state, 0.002)
+        assert anchored[0:2] == (plain[1], plain[1]) and plain[1] <= pushed[1] - 0.03 * c2
+    gain = mixing_gain(pushed, 0.8, 0.3, p, False, 1.0, external_force=True)
+    np.testing.assert_array_equal(gain, [0.8, 0.0])
+    assert mixing_gain(pushed, 0.8, 0.3, p, False, 1.0)[1] > 0.0  # S(17)'s model share
+    # An excluded inertial channel: the check rests, the push is not taken.
+    rested, w, after = mix_checked(odo, inertial, 1.0, 0.3, 1.0, x, p, state, 0.002, True, False, True)
+    assert w == 0.0 and after[0:2] == (rested[1], rested[1])
+    np.testing.assert_array_equal(rested, mix(odo, inertial, 1.0, 0.3, 1.0, x, p))
+
+
 def test_tyre_model_check_on_a_floor_with_less_grip():
     """Corner with the plant's tyre friction 0.5 (the navigation's curve is the nominal 0.7's), plain
     closed loop (the diagram's twin): the side-slip RMS error where |alpha| > 1 deg falls from 3.2-3.3 deg

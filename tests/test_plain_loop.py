@@ -38,6 +38,8 @@ SLIDE_ONSET_ON = dc.replace(_SQUARE, mixing=dc.replace(_SQUARE.mixing, slide_ons
         ("circle", 2.0, {"speed_law": "bounded"}, {}),  # Kurt3D, max_speed mode, I(24)
         ("corner", 2.2, {}, {"faults": FAULT_EVENTS}),  # injected, flagged, replaced; the held and
         # lifted wheels spin the robot beyond the gyro's range (saturated, flagged)
+        # a sideways push beyond the tyres' grip: the monitor's flag feeds the mixer (external_force)
+        ("square", 2.3, {}, {"faults": [FaultEvent("body_push", "body_n", 2.0, 0.5, 2.0)]}),
         ("square", 2.0, {}, {"localisation": "odometry"}),  # the follower on odometry-only
         ("circle", 2.0, {}, {"localisation": "gyrodometry"}),
         ("corner", 2.0, {}, {"localisation": "truth"}),  # on the plant's state
