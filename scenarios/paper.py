@@ -124,6 +124,14 @@ DEVIATIONS = (
         lambda s: _nav(s, "mixing", tyre_peak_identification=False),
     ),
     Deviation(
+        "sideways_push",
+        "S(17): while the perturbation monitor flags a sideways push on the body (no turn demand, no wheel "
+        "or yaw flag), v_n is the free integral of the lateral kinematics",
+        "S(17) whatever pushes the body",
+        "perturbation_monitor.push_demand: 0",
+        lambda s: dc.replace(s, perturbation_monitor=dc.replace(s.perturbation_monitor, push_demand=0.0)),
+    ),
+    Deviation(
         "rest_hold",
         "wheels at rest hold the body sideways: S(17)'s v_n scaled by 1 - C1",
         "S(17) at rest as while rolling",
