@@ -385,8 +385,9 @@ def perturbation_step(
 
 def sideways_push(state) -> bool:
     """The monitor's ``state`` (perturbation_step) flags a sideways push on the body: the body test's
-    lateral and slide conditions, confirmed, in an episode without a wheel or yaw flag (the navigation's
-    tyre curve does not explain the side slip: mixing.mix_checked's ``external_force``)."""
+    lateral and slide conditions, confirmed, in an episode that held once below push_demand and raised no
+    wheel or yaw flag (the navigation's tyre curve does not explain the side slip: mixing.mix_checked's
+    ``external_force``)."""
     return state[_SIDE] > 0.5
 
 
@@ -419,9 +420,11 @@ class PerturbationMonitor(LeafSystem):
       a wheel 1 braked, 2 driven; yaw and body 1 when flagged.
     - force_residual: each side's force the motors do not explain per unit mass [e_R, e_L] (m/s^2,
       state; FORCE_CHANNELS).
-    - external_force: 1 while the body test's sideways conditions (lateral, slide) hold confirmed
-      (sideways_push; state), else 0: the navigation's mixer reads it (mixing.mix_checked), one sample
-      later as every flag. A push along the heading does not set it (the lateral tyre curve holds).
+    - external_force: 1 while the monitor flags a sideways push the navigation should take
+      (sideways_push: the body test's lateral and slide conditions, confirmed, in an episode begun
+      without turn demand and without a wheel or yaw flag; state), else 0: the navigation's mixer reads
+      it (mixing.mix_checked), one sample later as every flag. A push along the heading does not set it
+      (the lateral tyre curve holds).
 
     Update every T_N: perturbation_step.
 
