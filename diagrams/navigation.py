@@ -249,30 +249,37 @@ class SensorReplay(LeafSystem):
         - gyro
         - encoders
         - motor_currents
+        - wheel_speed_command
 
     A row k of a run artifact is what the navigation blocks read at t_k, so replaying the ``meas_*`` keys
     through build_navigation_diagram reproduces the run's navigation exactly.
+    ``wheel_speed_command`` is declared only with ``commands`` (for the perturbation monitor).
 
     Args:
         T_N: period of the rows (s). accelerometers (N, 4), gyro (N,), encoders (N, 2); currents (N, 2)
-        the motor drivers' readings (A; None: NaN, no force reference).
+        the motor drivers' readings (A; None: NaN, no force reference); commands (N, 2) the wheel speed
+        commands [v_R, v_L] (m/s; None: no such port).
     """
 
-    def __init__(self, T_N: float, accelerometers, gyro, encoders, currents=None):
+    def __init__(self, T_N: float, accelerometers, gyro, encoders, currents=None, commands=None):
         super().__init__()
         self._T_N = T_N
         gyro = np.asarray(gyro, float).reshape(-1, 1)
         if currents is None:
             currents = np.full((len(gyro), 2), np.nan)
         columns = [np.asarray(accelerometers, float), gyro, np.asarray(encoders, float)]
-        self._rows = np.column_stack([*columns, np.asarray(currents, float)])
-        time_only = {self.time_ticket()}
-        ports = (
+        columns.append(np.asarray(currents, float))
+        ports = [
             ("accelerometers", slice(0, 4)),
             ("gyro", slice(4, 5)),
             ("encoders", slice(5, 7)),
             ("motor_currents", slice(7, 9)),
-        )
+        ]
+        if commands is not None:
+            columns.append(np.asarray(commands, float))
+            ports.append(("wheel_speed_command", slice(9, 11)))
+        self._rows = np.column_stack(columns)
+        time_only = {self.time_ticket()}
         for name, cols in ports:
             self.DeclareVectorOutputPort(
                 name,

@@ -29,10 +29,12 @@ from slipnav.scenarios.runner import (
     _publish,
     check_output_directory,
     collect_navigation,
+    collect_perturbations,
     final_position_errors,
 )
-from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_sensor_log
+from slipnav.scenarios.sensor_log import COMMAND_COLUMNS, SensorLog, SensorLogError, read_sensor_log
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
+from slipnav.systems.perturbation_monitor import perturbation_report
 
 
 @dc.dataclass
@@ -118,6 +120,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         model.calibration,
         log.currents,
         robot,
+        np.column_stack([log.columns[c] for c in COMMAND_COLUMNS]) if log.has_commands else None,
     )
     simulator = Simulator(diagram)
     simulator.Initialize()
@@ -142,6 +145,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
 
     a = {"t": log.t.copy()}
     collect_navigation(a, data)
+    collect_perturbations(a, logs, data)  # with the log's commands
     for i, key in enumerate(("meas_a_t1", "meas_a_n1", "meas_a_t2", "meas_a_n2")):
         a[key] = acc[:, i].copy()
     a["meas_gyro"] = gyro.copy()
@@ -184,6 +188,8 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         "wall_time_s": wall,
         "realtime_factor": float((a["t"][-1] - a["t"][0]) / wall) if wall > 0 else None,
     }
+    if "perturbation" in logs:
+        summary["perturbations"] = perturbation_report(a["t"], a)
     return ReplayResult(name=name, arrays=a, summary=summary)
 
 

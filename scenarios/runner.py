@@ -694,6 +694,16 @@ def collect_arrays(loggers, context, robot: RobotParameters, copy: bool = True) 
     a["ref_x"], a["ref_y"], a["ref_phi"] = ref[0], ref[1], ref[2]
     if "nav_pose" in logs:
         collect_navigation(a, data)
+    collect_perturbations(a, logs, data)
+    if "motor_currents" in logs:
+        currents = data("motor_currents")
+        a["meas_current_R"], a["meas_current_L"] = currents[0], currents[1]
+    return a
+
+
+def collect_perturbations(a: dict, logs, data) -> None:
+    """The perturbation monitor's artifact keys (``perturbation_<channel>``: its flags and force
+    residuals) from its loggers ``perturbation`` and ``force_residual``, where ``logs`` has them."""
     if "perturbation" in logs:
         flags = data("perturbation")
         for i, channel in enumerate(PERTURBATION_CHANNELS):
@@ -702,10 +712,6 @@ def collect_arrays(loggers, context, robot: RobotParameters, copy: bool = True) 
         forces = data("force_residual")
         for i, channel in enumerate(FORCE_CHANNELS):
             a[f"perturbation_{channel}"] = forces[i]
-    if "motor_currents" in logs:
-        currents = data("motor_currents")
-        a["meas_current_R"], a["meas_current_L"] = currents[0], currents[1]
-    return a
 
 
 def collect_navigation(a: dict, data) -> None:

@@ -171,6 +171,7 @@ def test_replaying_a_runs_log_reproduces_its_navigation_bit_for_bit(corner_run, 
     assert set(SERIES_KEYS) | set(SCALAR_KEYS) <= set(replay.files)  # the same artifact keys
     assert np.isnan(replay["ref_x"]).all() and np.isnan(replay["true_slip_R"]).all()  # no plant, no reference
     keys = ["t", "meas_gyro", "meas_enc_L", "true_x", "cmd_R", "meas_current_R", "meas_current_L"]
+    keys += ["perturbation_body", "perturbation_force_R"]  # the monitor, from the log's commands
     for key in COMPARED + keys:
         np.testing.assert_array_equal(replay[key], run[key], err_msg=key)  # currents: the log's cur_R/L
     assert np.isfinite(run["est_x"]).all() and np.ptp(run["est_x"]) > 0.5
@@ -179,6 +180,34 @@ def test_replaying_a_runs_log_reproduces_its_navigation_bit_for_bit(corner_run, 
     assert summary["final_position_error_m"] == ran["final_position_error_m"]
     assert (corner_run / "corner-seed0-tolerances-replay.path.png").is_file()
     assert (corner_run / "corner-seed0-tolerances-replay.error.png").is_file()  # the log has the truth
+
+
+def test_a_run_with_a_sideways_push_replays_bit_for_bit(tmp_path):
+    """With the log's commands the replay runs the perturbation monitor as the run did: its flags, and
+    the sideways push it feeds the mixer (v_n from the lateral kinematics), come out the same; without
+    the commands the replay takes no push and its v_n parts from the run's."""
+    push = FaultEvent("body_push", "body_n", 2.0, 0.5, 2.0)  # 5 m/s^2 x Tinyphoon's mass, to the left
+    result = run_scenario(dc.replace(load_scenario("square"), faults=[push]), duration=2.6)
+    from slipnav.scenarios.runner import write_artifacts
+    from slipnav.scenarios.sensor_log import COMMAND_COLUMNS
+
+    write_artifacts(result, tmp_path, figures=False)
+    path = tmp_path / "square-seed0.sensors.csv"
+    replayed = replay_file(path)
+    assert result.arrays["perturbation_body"].any()
+    for key in COMPARED + ["perturbation_body", "perturbation_yaw", "perturbation_force_L"]:
+        np.testing.assert_array_equal(replayed.arrays[key], result.arrays[key], err_msg=key)
+    assert replayed.summary["perturbations"] == result.summary["perturbations"]
+    lines = path.read_text().splitlines()  # the same log without its command columns
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    names = lines[header].split(",")
+    keep = [i for i, name in enumerate(names) if name not in COMMAND_COLUMNS]
+    lines[header:] = [",".join(line.split(",")[i] for i in keep) for line in lines[header:]]
+    path.write_text("\n".join(lines) + "\n")
+    blind = replay_file(path)
+    assert "perturbations" not in blind.summary
+    np.testing.assert_array_equal(blind.arrays["est_v_n"][:1000], result.arrays["est_v_n"][:1000])
+    assert np.max(np.abs(blind.arrays["est_v_n"] - result.arrays["est_v_n"])) > 0.05
 
 
 def test_replay_of_a_kurt3d_run_with_its_own_navigation_tuning(tmp_path):
