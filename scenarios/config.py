@@ -513,10 +513,11 @@ INFINITY_ALLOWED = {
     "perturbation_monitor.force_threshold",
     "perturbation_monitor.slide_threshold",
     "perturbation_monitor.slide_demand",
+    "perturbation_monitor.push_demand",
 }
 """Float keys where .inf means something (no tyre curve; no gyro turn rule; no tyre-model check; no
 slide-onset test; a never-forgetting average; a stuck test at any braking; no fast pair test; no force
-test; no slide test; a slide test at any demand)."""
+test; no slide test; a slide test at any demand; a sideways push taken at any demand)."""
 
 
 def check_duration(scenario: Scenario, duration, where: str = "--duration") -> float:

@@ -421,10 +421,11 @@ class PerturbationMonitor(LeafSystem):
     - force_residual: each side's force the motors do not explain per unit mass [e_R, e_L] (m/s^2,
       state; FORCE_CHANNELS).
     - external_force: 1 while the monitor flags a sideways push the navigation should take
-      (sideways_push: the body test's lateral and slide conditions, confirmed, in an episode begun
-      without turn demand and without a wheel or yaw flag; state), else 0: the navigation's mixer reads
-      it (mixing.mix_checked), one sample later as every flag. A push along the heading does not set it
-      (the lateral tyre curve holds).
+      (sideways_push: the body test's lateral and slide conditions, confirmed, in an episode that held
+      once while the held turn demand was below push_demand and raised no wheel or yaw flag, the sample
+      before it included; state), else 0: the navigation's mixer reads it (mixing.mix_checked), one
+      sample later as every flag. A push along the heading does not set it (the lateral tyre curve
+      holds).
 
     Update every T_N: perturbation_step.
 
