@@ -32,7 +32,7 @@ from slipnav.scenarios.runner import (
     collect_perturbations,
     final_position_errors,
 )
-from slipnav.scenarios.sensor_log import COMMAND_COLUMNS, SensorLog, SensorLogError, read_sensor_log
+from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_sensor_log
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
 from slipnav.systems.perturbation_monitor import perturbation_report
 
@@ -120,7 +120,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         model.calibration,
         log.currents,
         robot,
-        np.column_stack([log.columns[c] for c in COMMAND_COLUMNS]) if log.has_commands else None,
+        log.commands,
     )
     simulator = Simulator(diagram)
     simulator.Initialize()

@@ -137,6 +137,13 @@ class SensorLog:
         return all(c in self.columns for c in COMMAND_COLUMNS)
 
     @property
+    def commands(self) -> np.ndarray | None:
+        """(N, 2) wheel speed commands cmd_R, cmd_L (m/s), or None when the log has none."""
+        if not self.has_commands:
+            return None
+        return np.column_stack([self.columns[c] for c in COMMAND_COLUMNS])
+
+    @property
     def currents(self) -> np.ndarray | None:
         """(N, 2) motor current readings cur_R, cur_L (A), or None when the log has none."""
         if not all(c in self.columns for c in CURRENT_COLUMNS):
