@@ -538,6 +538,13 @@ def slide_onset_step(
     return (count, age if count else 0, odo_v_t), count > 0
 
 
+def push_taken(external_force: bool, inertial_fault: bool) -> bool:
+    """Does S(17) take the perturbation monitor's sideways push (``external_force``) this sample? Not
+    while an inertial channel is excluded: the sensor checks replace it, and a replacement carries no
+    kinematics of its own (mix_checked; mixing_gain's w_n follows)."""
+    return bool(external_force) and not inertial_fault
+
+
 def mixing_gain(
     mixed,
     c1: float,
@@ -763,7 +770,7 @@ def mix_checked(
         )
 
     check = 0.0
-    pushed = external_force and check_state is not None and not inertial_fault
+    pushed = check_state is not None and push_taken(external_force, inertial_fault)
     if check_state is not None and not inertial_fault:
         increment = inertial[1] - previous[1]
         free, curve = (
@@ -1029,7 +1036,7 @@ class VelocityMixer(LeafSystem):
         c1 = 0.0 if onset else float(self._c1.Eval(context)[0])
         check_state = context.get_discrete_state(self._check).get_value().tolist()
         fault = self._fault.Eval(context)[0] > 0.5
-        pushed = not fault and self._external.HasValue(context) and self._external.Eval(context)[0] > 0.5
+        pushed = push_taken(self._external.HasValue(context) and self._external.Eval(context)[0] > 0.5, fault)
         mixed, check, state = mix_checked(
             odo,
             inertial,

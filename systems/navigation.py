@@ -49,6 +49,7 @@ from slipnav.systems.mixing import (
     mixing_c2,
     mixing_c3,
     mixing_gain,
+    push_taken,
     slide_onset_step,
     wheels_at_rest,
 )
@@ -275,7 +276,7 @@ class NavigationLoop:
             acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)
         fault_imu = 1.0 if any(codes[0:5]) else 0.0
         self.inertial_fault = fault_imu > 0.5  # the tyre-model check rests (velocity_mix)
-        self.pushed = bool(external_force) and not self.inertial_fault
+        self.pushed = push_taken(external_force, self.inertial_fault)
         odo_next, odo_raw, odometry_held = odometry_step(
             self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
         )
