@@ -173,6 +173,7 @@ def build_navigation_diagram(
     )
     odo = calibrated["odometry"]  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
+    b.Connect(check["v_n_payback"], ekf.GetInputPort("v_n_payback"))
     b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
     b.Connect(raw_odo, yaw_calibration.GetInputPort("odometry"))
     b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))

@@ -65,6 +65,7 @@ from slipnav.systems.sensor_health import (
     health_check,
     health_constants,
     health_initial_state,
+    navigation_v_n_payback,
     odometry_unusable,
     slip_detector_blind,
 )
@@ -288,6 +289,7 @@ class NavigationLoop:
         x = self.x
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
+        inertial[1] += navigation_v_n_payback(self.health)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
         det_next, _ = slip_detector_step(

@@ -65,7 +65,13 @@ offset learned while both agreed (pair_offset_update, a Kalman filter that weigh
 the two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise shift the mean by half); an
 encoder advances by v_pred T_N / r (the other
 wheel and the gyro), else by its last increment. A stuck encoder's travel missed before the detection is
-added then; the first increment after an exclusion (it spans the gap) is never used.
+added then; the first increment after an exclusion (it spans the gap) is never used. A lateral
+accelerometer the pair blames was read until then: what it put in beyond its replacement since the pair
+began to disagree (the disagreement summed from where the pair's two-sided CUSUM, drift half the pair's
+bound, last stood at zero: Page's change-point estimate) is handed to the navigation on the blaming
+sample, half of it (S(3)'s mean) times T_N taken out of the EKF's v_n (navigation_v_n_payback). The
+tangential axes' is not: the odometry (C1) has already taken most of it out of v_t, and a take-back there
+counted it twice (the open square's tangential biases, 3.8 -> 7.0 and 4.5 -> 11.0 mm).
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
 of gyro_readmission_samples in a row whose summed difference is within gyro_readmission_fraction of the
@@ -435,7 +441,12 @@ _GAIN_POS = _GAIN + 2 * GAIN_SLOTS
 _GAIN_RING = _GAIN_POS + 2
 # The variance of the pair's learned offset (t, n; pair_offset_update).
 _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
-STATE_SIZE = _OFFSET_VAR + 2
+# The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and, per side, the disagreement
+# summed since that side last stood at zero (pair_cusum_step); then this sample's v_n payback (m/s).
+_CUSUM = _OFFSET_VAR + 2
+_CUSUM_SUM = _CUSUM + 2
+_V_N_PAYBACK = _CUSUM_SUM + 2
+STATE_SIZE = _V_N_PAYBACK + 1
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -830,6 +841,8 @@ def health_check(
     fast_known = known and excl[4] == 0.0
     for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
         s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
+    # What a lateral sensor excluded on this sample put in since the pair began to disagree
+    owed = pair_cusum_owed(s)
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -894,16 +907,29 @@ def health_check(
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
+            if axis == 1 and (hold[1] != 0.0 or hold[3] != 0.0):
+                pair_cusum_reset(s)
+            elif axis == 1:
+                pair_cusum_step(s, offset_free, 0.5 * limit)
     else:  # an axis out of the pair for its own fault: the gain test's window is stale when it returns
         pair_gain_reset(s)
+        pair_cusum_reset(s)
     s[_W + 3] = v_o
 
     # Analog output: the reading, else its redundant estimate (the reference carried along).
+    s[_V_N_PAYBACK] = 0.0
     for c in range(5):
         if codes[c] == 0:
             out[c] = ref[c] = raw[c]
             excl[c] = 0.0
             continue
+        if (c == 1 or c == 3) and codes[c] == INCONSISTENT and excl[c] == 0.0 and codes[c ^ 2] == 0:
+            # Blamed by the pair, trusted until now: half (S(3)'s mean) of what it put in beyond its
+            # replacement since the pair began to disagree (sensor 1 reads the disagreement above
+            # sensor 2's replacement) is in the navigation's v_n; it is taken out (navigation_v_n_payback)
+            put_in = owed if c == 1 else -owed
+            s[_V_N_PAYBACK] = -0.5 * put_in * g.T_N
+            pair_cusum_reset(s)
         # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
         excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
@@ -921,6 +947,51 @@ def health_check(
         out[4] += s[_G_PAY_RATE]
         s[_G_PAY_LEFT] -= 1.0
     return s, out, codes
+
+
+@jitable
+def pair_cusum_step(s, disagreement: float, drift: float):
+    """Page's two-sided CUSUM of the lateral pair's offset-free ``disagreement`` (m/s^2) less ``drift``
+    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down) and
+    the disagreement summed since that side last stood at zero, where the change began (Page 1954), in
+    s[_CUSUM_SUM + side]. A non-finite sample restarts both."""
+    if not math.isfinite(disagreement):
+        pair_cusum_reset(s)
+        return
+    for side in range(2):
+        statistic = s[_CUSUM + side] + (disagreement if side == 0 else -disagreement) - drift
+        if statistic > 0.0:
+            s[_CUSUM + side] = statistic
+            s[_CUSUM_SUM + side] += disagreement
+        else:
+            s[_CUSUM + side] = 0.0
+            s[_CUSUM_SUM + side] = 0.0
+
+
+@jitable
+def pair_cusum_reset(s):
+    """Both sides of the lateral pair's CUSUM at zero (pair_cusum_step)."""
+    for i in range(2):
+        s[_CUSUM + i] = 0.0
+        s[_CUSUM_SUM + i] = 0.0
+
+
+@jitable
+def pair_cusum_owed(s) -> float:
+    """The lateral disagreement summed since the pair began to disagree: the sum of the CUSUM's side
+    that stands higher (0 when neither is above zero). Sensor 1 put in this much (m/s^2 x samples)
+    beyond its replacement from sensor 2, sensor 2 its negative."""
+    up, down = s[_CUSUM], s[_CUSUM + 1]
+    if up <= 0.0 and down <= 0.0:
+        return 0.0
+    return s[_CUSUM_SUM] if up >= down else s[_CUSUM_SUM + 1]
+
+
+def navigation_v_n_payback(state) -> float:
+    """The v_n (m/s) the navigation takes out after this sample (health_check's state ``state``): half
+    of what a lateral accelerometer blamed by the pair on this sample put in since the pair began to
+    disagree (S(3)'s mean), before the check caught it; 0 on every other sample."""
+    return float(state[_V_N_PAYBACK])
 
 
 @jitable
@@ -1219,6 +1290,7 @@ HEALTH_STEP_LAYOUT = (
     ("inertial_fault", 1),
     ("encoder_fault", 1),
     ("sensor_fault", 1),
+    ("v_n_payback", 1),
 )
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
@@ -1296,6 +1368,7 @@ class SensorHealthMonitor(LeafSystem):
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
+      v_n_payback (m/s): what the EKF takes out of its v_n after this sample (navigation_v_n_payback).
       One vector, so that one Python call per sample computes them all; the navigation diagram slices
       it with a Demultiplexer (diagrams/split.py).
 
@@ -1345,7 +1418,8 @@ class SensorHealthMonitor(LeafSystem):
         state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak, calibration)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
-        step[STATE_SIZE:] = [*out, *codes, *health_flags(codes, odometry_unusable(state, out))]
+        flags = health_flags(codes, odometry_unusable(state, out))
+        step[STATE_SIZE:] = [*out, *codes, *flags, navigation_v_n_payback(state)]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

@@ -39,6 +39,7 @@ from slipnav.systems.sensor_health import (
     health_flags,
     health_initial_state,
     health_step,
+    navigation_v_n_payback,
     pair_gain_ratio,
     pair_gain_reset,
     pair_gain_upper_bound,
@@ -405,6 +406,46 @@ def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     last = np.flatnonzero(codes[:, 2])[-1]
     assert 300 + 80 <= last < 300 + 90
     assert np.flatnonzero(check(rows, no_gain)[1][:, 2])[-1] < 330
+
+
+def paybacks(rows, v0):
+    """check's codes and navigation_v_n_payback after every sample."""
+    params, state = SensorHealthParameters(), health_initial_state(GEOMETRY, v0)
+    codes, taken = [], []
+    for row in rows:
+        state, _, code = health_step(state, row, params, GEOMETRY)
+        codes.append(code)
+        taken.append(navigation_v_n_payback(state))
+    return np.array(codes), np.array(taken)
+
+
+@pytest.mark.parametrize("sensor, bias", [(2, 5.0), (1, -5.0), (2, 3.0)])
+def test_what_a_lateral_accelerometer_put_in_before_its_exclusion_is_taken_out_of_v_n(sensor, bias):
+    """A lateral accelerometer biased in a turn (2 m/s, 3 rad/s) is blamed by the pair after a few
+    samples; until then the navigation read it, and S(3)'s mean put half of its excess over the healthy
+    sensor's replacement (the other one less S(3)'s rotational difference -2 omega^2 y + 2 omega' x)
+    into v_n. On the blaming sample the checks hand the navigation that much back, -T_N / 2 times the
+    excess summed from the fault's onset (the pair's CUSUM finds it), once; a channel caught by its own
+    check (NaN) and a fault-free drive give none."""
+    v, omega, onset = 2.0, 3.0, 300
+    rows = stream(600, v, omega, seed=3)
+    column = 2 * sensor - 1  # a_n1 or a_n2
+    rows[onset:500, column] += bias
+    codes, taken = paybacks(rows, v)
+    blamed = np.flatnonzero(codes[:, column])[0]
+    assert codes[blamed, column] == INCONSISTENT and onset < blamed <= onset + 50  # 13, 13, 29
+    omega_dot = np.diff(rows[:, 4], prepend=np.nan) / T_N
+    rotational = -2 * rows[:, 4] ** 2 * 0.015 + 2 * omega_dot * 0.02  # a_n1 - a_n2
+    replacement = rows[:, 3] + rotational if sensor == 1 else rows[:, 1] - rotational
+    excess = np.sum(rows[onset:blamed, column] - replacement[onset:blamed])
+    assert abs(excess - bias * (blamed - onset)) < 0.2 * abs(bias) * (blamed - onset)  # the bias, + noise
+    assert taken[blamed] == pytest.approx(-0.5 * T_N * excess, abs=0.5 * T_N * 1.5)  # +- 1.5 m/s^2 samples
+    assert np.count_nonzero(taken) == 1
+    clean_codes, clean_taken = paybacks(stream(600, v, omega, seed=3), v)
+    assert not clean_codes.any() and not clean_taken.any()
+    lost = stream(600, v, omega, seed=3)
+    lost[onset:500, column] = np.nan
+    assert not paybacks(lost, v)[1].any()
 
 
 def test_the_fast_pair_bound_by_hand():
@@ -1369,6 +1410,28 @@ def test_a_gyro_lost_in_the_open_corners_slide_costs_little_heading(
     assert np.max(np.abs(faulty["est_omega"] - faulty["true_omega"])[during]) < 0.15  # rad/s; odometry 0.45
     assert abs(math.degrees(faulty["est_phi"][-1] - faulty["true_phi"][-1])) < 0.5
     assert final_position_error(faulty, "est") <= 3.0 * final_position_error(clean, "est")
+
+
+def test_a_lateral_bias_in_the_open_corners_slide_leaves_v_n_as_an_outage_does():
+    """slipnav faults --open-loop's corner seed 1: accel2_n reads +5 m/s^2 from 2.418 s, in the slide
+    (a_n about 5 m/s^2), and the pair blames it after 5 samples. Those 5 samples had put 25 mm/s into
+    v_n, which the slide's S(17) (C2 = 0) kept: v_n ran 18 mm/s beside the run where the same channel is
+    lost (NaN: nothing biased got in) over the next 40 ms, and the fused pose ended 12.9 mm off (8.6 x
+    the fault-free 1.5 mm; the NaN run 6.3). Taking it back on the blaming sample leaves v_n within
+    3 mm/s of the outage's (9.1 mm, 6.1 x)."""
+    corner = load_scenario("corner")
+
+    def faulty(kind, value):
+        event = FaultEvent(kind, "accel2_n", 2.418, 0.5, value)
+        return run_scenario(corner, seed=1, open_loop=True, faults=[event]).arrays
+
+    biased, lost = faulty("bias", 5.0), faulty("nan", 0.0)
+    t = biased["t"]
+    blamed = t[np.flatnonzero(biased["health_accel2_n"])[0]]
+    assert biased["health_accel2_n"][t == blamed][0] == INCONSISTENT and 2.42 < blamed < 2.44
+    after = (t >= blamed + 0.004) & (t <= blamed + 0.04)
+    assert np.mean(np.abs(biased["est_v_n"] - lost["est_v_n"])[after]) < 0.004  # m/s; 0.018 before
+    assert final_position_error(biased, "est") < 1.6 * final_position_error(lost, "est")  # 2.05 before
 
 
 def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
