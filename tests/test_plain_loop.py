@@ -146,6 +146,12 @@ def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes, see
             "health_encoder_L": {0, 4, 6},
             "health_accel2_n": {0, 5},
         }
+    pushes = [e for e in changes.get("faults", ()) if e.kind == "body_push" and e.channel == "body_n"]
+    if pushes and pushes == list(changes["faults"]):  # the lone push beyond the grip: taken (F alone, w = 1)
+        during = (a["t"] >= pushes[0].start) & (a["t"] < pushes[0].start + pushes[0].duration)
+        taken = (a["tyre_model_weight"] == 1.0) & (a["est_v_n"] == a["free_v_n"])
+        assert np.count_nonzero(taken[during]) > 0.5 * np.count_nonzero(during)  # 134 of 150
+        assert not taken[~during].any()
     return a
 
 
