@@ -1007,6 +1007,9 @@ def test_a_sideways_push_leaves_v_n_to_the_kinematics():
         assert pushed[1] == pytest.approx(0.09 + 0.002, abs=1e-15)  # F + the increment
         assert after[0:2] == (pushed[1], after[1]) and after[0] == pytest.approx(0.092, abs=1e-15)
         assert after[2] == p.tyre_peak_acceleration and after[3:5] == (0.0, 0.0)  # no learning
+        # S goes on as S(17) run on its own from S = 0 (carried by the increment, not anchored to v_n)
+        from_s = mix(odo, [v_t, 0.002, omega, 0.0, 0.0], 1.0, c2, 1.0, [v_t, 0.0, omega, 0.0, 0.0], p)
+        assert after[1] == pytest.approx(from_s[1], abs=1e-15) and after[1] != pushed[1]
         # Without the flag, at u = 0 both restart from the estimate (the evidence is dropped), which
         # S(17)'s model branch pulls towards the curve's 0.
         plain, w, anchored = mix_checked(odo, inertial, 1.0, c2, 1.0, x, p, state, 0.002)
