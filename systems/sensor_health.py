@@ -69,9 +69,13 @@ added then; the first increment after an exclusion (it spans the gap) is never u
 accelerometer the pair blames was read until then: what it put in beyond its replacement since the pair
 began to disagree (the disagreement summed from where the pair's two-sided CUSUM, drift half the pair's
 bound, last stood at zero: Page's change-point estimate) is handed to the navigation on the blaming
-sample, half of it (S(3)'s mean) times T_N taken out of the EKF's v_n (navigation_v_n_payback). The
-tangential axes' is not: the odometry (C1) has already taken most of it out of v_t, and a take-back there
-counted it twice (the open square's tangential biases, 3.8 -> 7.0 and 4.5 -> 11.0 mm).
+sample, half of it (S(3)'s mean) times T_N, which the velocity mixer takes out of every v_n that
+carries the past (navigation_v_n_payback, mixing.take_back_v_n). The sum runs only while the wheels turn
+(at rest the navigation holds v_n: nothing went in) and the gyro is trusted (the rotational terms from
+the wheels' yaw rate are no evidence), and none is paid for a sum spanning more than PAYBACK_WINDOW
+consistency_samples. The tangential axes' is not paid: the odometry (C1) has already taken most of it
+out of v_t, and a take-back there counted it twice (the open square's tangential biases, 3.8 -> 7.0 and
+4.5 -> 11.0 mm).
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
 of gyro_readmission_samples in a row whose summed difference is within gyro_readmission_fraction of the
@@ -442,11 +446,17 @@ _GAIN_RING = _GAIN_POS + 2
 # The variance of the pair's learned offset (t, n; pair_offset_update).
 _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
 # The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and, per side, the disagreement
-# summed since that side last stood at zero (pair_cusum_step); then this sample's v_n payback (m/s).
+# summed since that side last stood at zero and the samples it spans (pair_cusum_step); then this
+# sample's v_n payback (m/s).
 _CUSUM = _OFFSET_VAR + 2
 _CUSUM_SUM = _CUSUM + 2
-_V_N_PAYBACK = _CUSUM_SUM + 2
+_CUSUM_COUNT = _CUSUM_SUM + 2
+_V_N_PAYBACK = _CUSUM_COUNT + 2
 STATE_SIZE = _V_N_PAYBACK + 1
+PAYBACK_WINDOW = 4
+"""A lateral disagreement that built up over more than this many consistency_samples before the pair's
+averages blamed a sensor is no step the payback can size (a 15-sample average passes its bound after
+15 ln 3 = 16 samples for a step 1.5 times the bound, after 60 only for one within 2 % of it): none then."""
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -572,6 +582,7 @@ def health_check(
             if codes[c]:
                 out[c] = ref[c] if math.isfinite(ref[c]) else 0.0
             ref[c] = out[c]
+        s[_V_N_PAYBACK] = 0.0
         return s, out, codes
     ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
     ring_pos = int(s[_RING_POS])
@@ -842,7 +853,7 @@ def health_check(
     for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
         s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
     # What a lateral sensor excluded on this sample put in since the pair began to disagree
-    owed = pair_cusum_owed(s)
+    owed = pair_cusum_owed(s, PAYBACK_WINDOW * p.consistency_samples)
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -907,7 +918,9 @@ def health_check(
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
-            if axis == 1 and (hold[1] != 0.0 or hold[3] != 0.0):
+            # Summed only while the navigation integrates a_n (the wheels turn: at rest it holds v_n)
+            # and the gyro's omega' makes the rotational terms (not the wheels' yaw rate)
+            if axis == 1 and (hold[1] != 0.0 or hold[3] != 0.0 or not fast_known or not moving):
                 pair_cusum_reset(s)
             elif axis == 1:
                 pair_cusum_step(s, offset_free, 0.5 * limit)
@@ -952,9 +965,10 @@ def health_check(
 @jitable
 def pair_cusum_step(s, disagreement: float, drift: float):
     """Page's two-sided CUSUM of the lateral pair's offset-free ``disagreement`` (m/s^2) less ``drift``
-    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down) and
-    the disagreement summed since that side last stood at zero, where the change began (Page 1954), in
-    s[_CUSUM_SUM + side]. A non-finite sample restarts both."""
+    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down), the
+    disagreement summed since that side last stood at zero, where the change began (Page 1954), in
+    s[_CUSUM_SUM + side], and the samples that sum spans in s[_CUSUM_COUNT + side]. A non-finite
+    sample restarts both."""
     if not math.isfinite(disagreement):
         pair_cusum_reset(s)
         return
@@ -963,9 +977,11 @@ def pair_cusum_step(s, disagreement: float, drift: float):
         if statistic > 0.0:
             s[_CUSUM + side] = statistic
             s[_CUSUM_SUM + side] += disagreement
+            s[_CUSUM_COUNT + side] += 1.0
         else:
             s[_CUSUM + side] = 0.0
             s[_CUSUM_SUM + side] = 0.0
+            s[_CUSUM_COUNT + side] = 0.0
 
 
 @jitable
@@ -974,23 +990,27 @@ def pair_cusum_reset(s):
     for i in range(2):
         s[_CUSUM + i] = 0.0
         s[_CUSUM_SUM + i] = 0.0
+        s[_CUSUM_COUNT + i] = 0.0
 
 
 @jitable
-def pair_cusum_owed(s) -> float:
+def pair_cusum_owed(s, window: int) -> float:
     """The lateral disagreement summed since the pair began to disagree: the sum of the CUSUM's side
-    that stands higher (0 when neither is above zero). Sensor 1 put in this much (m/s^2 x samples)
-    beyond its replacement from sensor 2, sensor 2 its negative."""
+    that stands higher (0 when neither is above zero, or when that side spans more than ``window``
+    samples). Sensor 1 put in this much (m/s^2 x samples) beyond its replacement from sensor 2, sensor 2
+    its negative."""
     up, down = s[_CUSUM], s[_CUSUM + 1]
     if up <= 0.0 and down <= 0.0:
         return 0.0
-    return s[_CUSUM_SUM] if up >= down else s[_CUSUM_SUM + 1]
+    side = 0 if up >= down else 1
+    return s[_CUSUM_SUM + side] if s[_CUSUM_COUNT + side] <= window else 0.0
 
 
 def navigation_v_n_payback(state) -> float:
-    """The v_n (m/s) the navigation takes out after this sample (health_check's state ``state``): half
-    of what a lateral accelerometer blamed by the pair on this sample put in since the pair began to
-    disagree (S(3)'s mean), before the check caught it; 0 on every other sample."""
+    """The v_n (m/s) the navigation adds on this sample (health_check's state ``state``; the velocity
+    mixer, mixing.take_back_v_n): minus half of what a lateral accelerometer blamed by the pair on this
+    sample put in since the pair began to disagree (S(3)'s mean), before the check caught it; 0 on every
+    other sample."""
     return float(state[_V_N_PAYBACK])
 
 
@@ -1368,7 +1388,7 @@ class SensorHealthMonitor(LeafSystem):
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
-      v_n_payback (m/s): what the EKF takes out of its v_n after this sample (navigation_v_n_payback).
+      v_n_payback (m/s): what the velocity mixer adds to v_n on this sample (navigation_v_n_payback).
       One vector, so that one Python call per sample computes them all; the navigation diagram slices
       it with a Demultiplexer (diagrams/split.py).
 

@@ -23,6 +23,7 @@ from slipnav.systems.sensor_health import (
     health_check,
     health_constants,
     health_initial_state,
+    navigation_v_n_payback,
 )
 
 T_N = 0.002
@@ -95,6 +96,7 @@ def test_sensor_checks_compiled_equal_python(enabled):
     rng = np.random.default_rng(3)
     state_c = state_p = health_initial_state(geometry, 0.5)
     theta = np.zeros(2)
+    paybacks = []
     for k in range(400):
         theta += np.array([0.5, 0.45]) * T_N / 0.015
         raw = [*(rng.normal(size=4) * 0.3 + [0.0, 1.0, 0.0, 1.0]), 0.5 + 0.01 * rng.normal(), *theta]
@@ -106,6 +108,8 @@ def test_sensor_checks_compiled_equal_python(enabled):
             raw[1], raw[6] = math.nan, math.inf
         if 250 <= k < 300:
             raw[2] += 8.0  # accelerometer 2's t axis disagrees
+        if 350 <= k < 390:
+            raw[3] += 8.0  # and its n axis: blamed, what it put in taken back (navigation_v_n_payback)
         if 320 <= k < 340:
             raw[4] = math.nan  # the gyro lost: the yaw dynamics replace it, with and without the velocity
         raw = tuple(float(v) for v in raw)
@@ -119,6 +123,9 @@ def test_sensor_checks_compiled_equal_python(enabled):
         )
         assert_same((state_c, out_c, codes_c), (state_p, out_p, codes_p))
         assert [type(c) for c in codes_c] == [int] * 7
+        paybacks.append(navigation_v_n_payback(state_c))
+    if enabled:  # the payback branch ran: 8 m/s^2 for a few samples, half of it, T_N each
+        assert -0.5 * 8.0 * 10 * T_N < min(paybacks) < -0.5 * 8.0 * 1 * T_N
 
 
 RUN = """

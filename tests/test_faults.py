@@ -448,6 +448,23 @@ def test_what_a_lateral_accelerometer_put_in_before_its_exclusion_is_taken_out_o
     assert not paybacks(lost, v)[1].any()
 
 
+def test_only_what_went_in_while_the_wheels_turned_is_taken_back():
+    """At rest the navigation holds v_n (S(17) with the wheels at rest), so a lateral bias there put
+    nothing into it: 0.8 m/s^2 on accel2_n from sample 100, below the pair's bound at rest (1 m/s^2), is
+    blamed 4 samples after the robot drives off (800), and the payback is those samples' (1.5 mm/s;
+    summed from the bias's onset it would take 0.7 m/s out of v_n); 1.5 and 3 m/s^2, blamed at rest,
+    give none."""
+    for bias, blamed in ((0.8, (801, 810)), (1.5, (101, 130)), (3.0, (101, 110))):
+        rows = driving_off(2, n=1500, rest=800, v=1.6, difference=0.0)
+        rows[100:, 3] += bias
+        codes, taken = paybacks(rows, 0.0)
+        first = np.flatnonzero(codes[:, 3])[0]
+        assert blamed[0] <= first <= blamed[1] and codes[first, 3] == INCONSISTENT
+        moving = max(first - 800, 0)  # samples the wheels turned before the blame
+        assert np.count_nonzero(taken) == (1 if moving else 0)
+        assert -0.5 * T_N * bias * (moving + 1) <= taken.min() <= 0.0
+
+
 def test_the_fast_pair_bound_by_hand():
     """fast_pair_ratio: the bound is 1.6 x the slow test's bound plus 5 sigma of the gyro difference's
     noise in the rotational term: sigma_omega' = (1/3) 0.014 / 0.002 sqrt(1 + (1/3) / (5/3)) =
