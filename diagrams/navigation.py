@@ -173,6 +173,7 @@ def build_navigation_diagram(
     )
     odo = calibrated["odometry"]  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
+    b.Connect(check["v_n_payback"], ekf.GetInputPort("v_n_payback"))
     b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
     b.Connect(raw_odo, yaw_calibration.GetInputPort("odometry"))
     b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))
@@ -205,7 +206,6 @@ def build_navigation_diagram(
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
-    b.Connect(check["v_n_payback"], mixer_block.GetInputPort("v_n_payback"))
     b.ExportInput(mixer_block.GetInputPort("external_force"), "external_force")
     b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
     b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P

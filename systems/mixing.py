@@ -538,22 +538,6 @@ def slide_onset_step(
     return (count, age if count else 0, odo_v_t), count > 0
 
 
-def take_back_v_n(inertial, previous, check_state, v_n_payback: float) -> tuple:
-    """(inertial, previous, check_state) with ``v_n_payback`` (m/s) added to every v_n that carries the
-    past into this sample's S(17): ^I v_n, v_n,k-1 (x_k-1) and the tyre-model check's F and S. The sensor
-    checks' take-back of what a lateral accelerometer they have just excluded put in before
-    (systems/sensor_health.py, navigation_v_n_payback): S(17) then mixes as if x_k-1 had never held it,
-    in both branches (the model's relaxes v_n,k-1 by q2, the inertial one ^I v_n by q_I). Lists; the
-    inputs untouched; ``check_state`` None stays None."""
-    inertial, previous = list(inertial), list(previous)
-    if v_n_payback != 0.0:
-        inertial[1] += v_n_payback
-        previous[1] += v_n_payback
-        if check_state is not None:
-            check_state = [check_state[0] + v_n_payback, check_state[1] + v_n_payback, *check_state[2:]]
-    return inertial, previous, check_state
-
-
 def push_taken(external_force: bool, inertial_fault: bool) -> bool:
     """Does S(17) take the perturbation monitor's sideways push (``external_force``) this sample? Not
     while an inertial channel is excluded: the sensor checks replace it, and a replacement carries no
@@ -976,7 +960,6 @@ class VelocityMixer(LeafSystem):
         - accelerometers
         - encoder_fault
         - external_force
-        - v_n_payback
         output_ports:
         - mixing
         - tyre_model_state
@@ -988,9 +971,6 @@ class VelocityMixer(LeafSystem):
     - external_force (optional): 1 while the perturbation monitor flags a sideways push on the body
       (perturbation_monitor.sideways_push): v_n is the free integral of the lateral kinematics
       (mix_checked); unconnected: 0.
-    - v_n_payback (optional, m/s): the sensor checks' take-back of what a lateral accelerometer they have
-      just excluded put in before (navigation_v_n_payback), added to ^I v_n, v_n,k-1, F and S before
-      S(17) (take_back_v_n); unconnected: 0.
     - accelerometers: the checked (and corrected) [a_t1, a_n1, a_t2, a_n2] the EKF reads: the slide-onset
       test trusts the inertial v_t only while the pair agrees (accelerometer_pair_disagreement, with
       ^I omega).
@@ -1026,7 +1006,6 @@ class VelocityMixer(LeafSystem):
         self._acc = self.DeclareVectorInputPort("accelerometers", 4)
         self._enc_fault = self.DeclareVectorInputPort("encoder_fault", 1)
         self._external = self.DeclareVectorInputPort("external_force", 1)
-        self._payback = self.DeclareVectorInputPort("v_n_payback", 1)
         self._check = self.DeclareDiscreteState(
             [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
         )
@@ -1056,10 +1035,6 @@ class VelocityMixer(LeafSystem):
         )
         c1 = 0.0 if onset else float(self._c1.Eval(context)[0])
         check_state = context.get_discrete_state(self._check).get_value().tolist()
-        payback = float(self._payback.Eval(context)[0]) if self._payback.HasValue(context) else 0.0
-        inertial, previous, check_state = take_back_v_n(
-            inertial, self._prev.Eval(context).tolist(), check_state, payback
-        )
         fault = self._fault.Eval(context)[0] > 0.5
         pushed = push_taken(self._external.HasValue(context) and self._external.Eval(context)[0] > 0.5, fault)
         mixed, check, state = mix_checked(
@@ -1068,7 +1043,7 @@ class VelocityMixer(LeafSystem):
             c1,
             c2,
             c3,
-            previous,
+            self._prev.Eval(context).tolist(),
             self._p,
             check_state,
             self._T_N,

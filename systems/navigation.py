@@ -51,7 +51,6 @@ from slipnav.systems.mixing import (
     mixing_gain,
     push_taken,
     slide_onset_step,
-    take_back_v_n,
     wheels_at_rest,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
@@ -290,6 +289,7 @@ class NavigationLoop:
         x = self.x
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
+        inertial[1] += navigation_v_n_payback(self.health)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
         det_next, _ = slip_detector_step(
@@ -304,12 +304,8 @@ class NavigationLoop:
             self.slide_onset_state, odo[0], inertial[0], inertial[3], disagreement, mp, T_N
         )
         self.c1_mixed = 0.0 if self.slide_onset else self.c1
-        payback = navigation_v_n_payback(self.health)  # before S(17), as the VelocityMixer takes it
-        inertial_back, previous, self.tyre_model_state = take_back_v_n(
-            inertial, x, self.tyre_model_state, payback
-        )
         tyre_state = self.tyre_model_state
-        mixed = self.velocity_mix(odo, inertial_back, c2, c3, previous)
+        mixed = self.velocity_mix(odo, inertial, c2, c3, x)
         row = (
             *self.pose,
             *mixed.tolist(),

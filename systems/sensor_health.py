@@ -69,8 +69,10 @@ added then; the first increment after an exclusion (it spans the gap) is never u
 accelerometer the pair blames was read until then: what it put in beyond its replacement since the pair
 began to disagree (the disagreement summed from where the pair's two-sided CUSUM, drift half the pair's
 bound, last stood at zero: Page's change-point estimate) is handed to the navigation on the blaming
-sample, half of it (S(3)'s mean) times T_N, which the velocity mixer takes out of every v_n that
-carries the past (navigation_v_n_payback, mixing.take_back_v_n). The sum runs only while the wheels turn
+sample, half of it (S(3)'s mean) times T_N, which the EKF takes out of ^I v_n (navigation_v_n_payback):
+S(17) then mixes it in as far as it took the sensor in, by (1 - C2) q_I (the model branch C2 ignores
+^I v_n, so it never carried the excess; a take-back from v_n,k-1 there put in an error instead: the
+toleranced closed square's x2 accel1_n 48.6 -> 78.0 mm). The sum runs only while the wheels turn
 (at rest the navigation holds v_n: nothing went in) and the gyro is trusted (the rotational terms from
 the wheels' yaw rate are no evidence), and none is paid for a sum spanning more than PAYBACK_WINDOW
 consistency_samples. The tangential axes' is not paid: the odometry (C1) has already taken most of it
@@ -1007,10 +1009,9 @@ def pair_cusum_owed(s, window: int) -> float:
 
 
 def navigation_v_n_payback(state) -> float:
-    """The v_n (m/s) the navigation adds on this sample (health_check's state ``state``; the velocity
-    mixer, mixing.take_back_v_n): minus half of what a lateral accelerometer blamed by the pair on this
-    sample put in since the pair began to disagree (S(3)'s mean), before the check caught it; 0 on every
-    other sample."""
+    """The v_n (m/s) the EKF adds to ^I v_n on this sample (health_check's state ``state``): minus half
+    of what a lateral accelerometer blamed by the pair on this sample put in since the pair began to
+    disagree (S(3)'s mean), before the check caught it; 0 on every other sample."""
     return float(state[_V_N_PAYBACK])
 
 
@@ -1388,7 +1389,7 @@ class SensorHealthMonitor(LeafSystem):
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
-      v_n_payback (m/s): what the velocity mixer adds to v_n on this sample (navigation_v_n_payback).
+      v_n_payback (m/s): what the EKF adds to ^I v_n on this sample (navigation_v_n_payback).
       One vector, so that one Python call per sample computes them all; the navigation diagram slices
       it with a Demultiplexer (diagrams/split.py).
 
