@@ -456,8 +456,8 @@ _CUSUM_COUNT = _CUSUM_SUM + 2
 _V_N_PAYBACK = _CUSUM_COUNT + 2
 STATE_SIZE = _V_N_PAYBACK + 1
 PAYBACK_WINDOW = 4
-"""A lateral disagreement that built up over more than this many consistency_samples before the pair's
-averages blamed a sensor is no step the payback can size (a 15-sample average passes its bound after
+"""A lateral disagreement that built up over more than this many consistency_samples before the pair
+blamed a sensor is no step the payback can size (a 15-sample average passes its bound after
 15 ln 3 = 16 samples for a step 1.5 times the bound, after 60 only for one within 2 % of it): none then."""
 
 
@@ -942,9 +942,9 @@ def health_check(
             # Blamed by the pair, trusted until now: half (S(3)'s mean) of what it put in beyond its
             # replacement since the pair began to disagree (sensor 1 reads the disagreement above
             # sensor 2's replacement) is in the navigation's v_n; it is taken out (navigation_v_n_payback)
+            # (the blame's hold has already restarted the CUSUM)
             put_in = owed if c == 1 else -owed
             s[_V_N_PAYBACK] = -0.5 * put_in * g.T_N
-            pair_cusum_reset(s)
         # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
         excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
