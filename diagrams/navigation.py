@@ -31,7 +31,7 @@ from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
-from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
+from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonitor, payback_window
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector
@@ -144,7 +144,13 @@ def build_navigation_diagram(
         YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
     )
     mixer_block = add(
-        VelocityMixer(params.mixing, T_N, initial.ekf_state()[1], geometry.accelerometer_position),
+        VelocityMixer(
+            params.mixing,
+            T_N,
+            initial.ekf_state()[1],
+            geometry.accelerometer_position,
+            payback_window(params.health),
+        ),
         "Velocity mixer",
     )
     mixer = split_port(b, mixer_block.GetOutputPort("mixing"), MIXER_LAYOUT, "Velocity mixer's signals")
@@ -205,6 +211,7 @@ def build_navigation_diagram(
     b.Connect(learned["estimate"], monitor.GetInputPort("yaw_calibration"))  # the replacements read them
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
+    b.Connect(check["rollback_samples"], mixer_block.GetInputPort("rollback_samples"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
     b.ExportInput(mixer_block.GetInputPort("external_force"), "external_force")
     b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback

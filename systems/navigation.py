@@ -50,7 +50,10 @@ from slipnav.systems.mixing import (
     mixing_c3,
     mixing_gain,
     push_taken,
+    rolled_back,
     slide_onset_step,
+    tyre_peak_history,
+    tyre_peak_recorded,
     wheels_at_rest,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
@@ -65,8 +68,10 @@ from slipnav.systems.sensor_health import (
     health_check,
     health_constants,
     health_initial_state,
+    navigation_rollback_samples,
     navigation_v_n_payback,
     odometry_unusable,
+    payback_window,
     slip_detector_blind,
 )
 from slipnav.systems.sensors import SensorParameters
@@ -227,6 +232,9 @@ class NavigationLoop:
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
+        self.tyre_peak_history = tyre_peak_history(
+            payback_window(params.health), self.tyre_model_state[2:5]
+        )  # for the sensor checks' roll-back (rolled_back)
         self.tyre_model_weight = 0.0  # mix_checked's
         self.inertial_fault = self.encoder_fault = False
         self.pushed = False  # the perturbation monitor's sideways push as the mixer takes it (step)
@@ -306,6 +314,10 @@ class NavigationLoop:
         self.c1_mixed = 0.0 if self.slide_onset else self.c1
         tyre_state = self.tyre_model_state
         mixed = self.velocity_mix(odo, inertial, c2, c3, x)
+        self.tyre_model_state = rolled_back(
+            self.tyre_model_state, self.tyre_peak_history, navigation_rollback_samples(self.health)
+        )
+        tyre_peak_recorded(self.tyre_peak_history, tyre_state[2:5])
         row = (
             *self.pose,
             *mixed.tolist(),

@@ -77,7 +77,9 @@ toleranced closed square's x2 accel1_n 48.6 -> 78.0 mm). The sum runs only while
 the wheels' yaw rate are no evidence), and none is paid for a sum spanning more than PAYBACK_WINDOW
 consistency_samples. The tangential axes' is not paid: the odometry (C1) has already taken most of it
 out of v_t, and a take-back there counted it twice (the open square's tangential biases, 3.8 -> 7.0 and
-4.5 -> 11.0 mm).
+4.5 -> 11.0 mm). The same sample tells the navigation how many samples the sum spans
+(navigation_rollback_samples): the tyre peak the velocity mixer identifies had learned from their
+accelerations too, and goes back to its state from before them (mixing.rolled_back).
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
 of gyro_readmission_samples in a row whose summed difference is within gyro_readmission_fraction of the
@@ -449,16 +451,23 @@ _GAIN_RING = _GAIN_POS + 2
 _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
 # The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and, per side, the disagreement
 # summed since that side last stood at zero and the samples it spans (pair_cusum_step); then this
-# sample's v_n payback (m/s).
+# sample's v_n payback (m/s) and the samples the payback spans (the tyre peak's roll-back).
 _CUSUM = _OFFSET_VAR + 2
 _CUSUM_SUM = _CUSUM + 2
 _CUSUM_COUNT = _CUSUM_SUM + 2
 _V_N_PAYBACK = _CUSUM_COUNT + 2
-STATE_SIZE = _V_N_PAYBACK + 1
+_ROLLBACK = _V_N_PAYBACK + 1
+STATE_SIZE = _ROLLBACK + 1
 PAYBACK_WINDOW = 4
 """A lateral disagreement that built up over more than this many consistency_samples before the pair
 blamed a sensor is no step the payback can size (a 15-sample average passes its bound after
 15 ln 3 = 16 samples for a step 1.5 times the bound, after 60 only for one within 2 % of it): none then."""
+
+
+def payback_window(p: SensorHealthParameters) -> int:
+    """The most samples a payback (and the tyre peak's roll-back) spans: PAYBACK_WINDOW x
+    consistency_samples."""
+    return PAYBACK_WINDOW * int(p.consistency_samples)
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -585,6 +594,7 @@ def health_check(
                 out[c] = ref[c] if math.isfinite(ref[c]) else 0.0
             ref[c] = out[c]
         s[_V_N_PAYBACK] = 0.0
+        s[_ROLLBACK] = 0.0
         return s, out, codes
     ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
     ring_pos = int(s[_RING_POS])
@@ -855,7 +865,7 @@ def health_check(
     for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
         s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
     # What a lateral sensor excluded on this sample put in since the pair began to disagree
-    owed = pair_cusum_owed(s, PAYBACK_WINDOW * p.consistency_samples)
+    owed, owed_samples = pair_cusum_owed(s, PAYBACK_WINDOW * p.consistency_samples)
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -933,6 +943,7 @@ def health_check(
 
     # Analog output: the reading, else its redundant estimate (the reference carried along).
     s[_V_N_PAYBACK] = 0.0
+    s[_ROLLBACK] = 0.0
     for c in range(5):
         if codes[c] == 0:
             out[c] = ref[c] = raw[c]
@@ -945,6 +956,7 @@ def health_check(
             # (the blame's hold has already restarted the CUSUM)
             put_in = owed if c == 1 else -owed
             s[_V_N_PAYBACK] = -0.5 * put_in * g.T_N
+            s[_ROLLBACK] = owed_samples  # what the tyre peak learned from them is undone too
         # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
         excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
@@ -996,16 +1008,18 @@ def pair_cusum_reset(s):
 
 
 @jitable
-def pair_cusum_owed(s, window: int) -> float:
+def pair_cusum_owed(s, window: int) -> tuple:
     """The lateral disagreement summed since the pair began to disagree: the sum of the CUSUM's side
-    that stands higher (0 when neither is above zero, or when that side spans more than ``window``
-    samples). Sensor 1 put in this much (m/s^2 x samples) beyond its replacement from sensor 2, sensor 2
-    its negative."""
+    that stands higher, and the samples it spans ((0, 0) when neither is above zero, or when that side
+    spans more than ``window`` samples). Sensor 1 put in this much (m/s^2 x samples) beyond its
+    replacement from sensor 2, sensor 2 its negative."""
     up, down = s[_CUSUM], s[_CUSUM + 1]
     if up <= 0.0 and down <= 0.0:
-        return 0.0
+        return 0.0, 0.0
     side = 0 if up >= down else 1
-    return s[_CUSUM_SUM + side] if s[_CUSUM_COUNT + side] <= window else 0.0
+    if s[_CUSUM_COUNT + side] > window:
+        return 0.0, 0.0
+    return s[_CUSUM_SUM + side], s[_CUSUM_COUNT + side]
 
 
 def navigation_v_n_payback(state) -> float:
@@ -1013,6 +1027,14 @@ def navigation_v_n_payback(state) -> float:
     of what a lateral accelerometer blamed by the pair on this sample put in since the pair began to
     disagree (S(3)'s mean), before the check caught it; 0 on every other sample."""
     return float(state[_V_N_PAYBACK])
+
+
+def navigation_rollback_samples(state) -> int:
+    """How many samples back the navigation's tyre peak is rolled (health_check's state ``state``): on
+    the sample the pair blames a lateral sensor, the samples its payback spans (navigation_v_n_payback),
+    whose accelerations carried the fault before the check caught it (the velocity mixer restores the
+    tyre peak's state from before them, mix_checked's ``rollback``); 0 on every other sample."""
+    return int(state[_ROLLBACK])
 
 
 @jitable
@@ -1312,6 +1334,7 @@ HEALTH_STEP_LAYOUT = (
     ("encoder_fault", 1),
     ("sensor_fault", 1),
     ("v_n_payback", 1),
+    ("rollback_samples", 1),
 )
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
@@ -1389,7 +1412,9 @@ class SensorHealthMonitor(LeafSystem):
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
-      v_n_payback (m/s): what the EKF adds to ^I v_n on this sample (navigation_v_n_payback).
+      v_n_payback (m/s): what the EKF adds to ^I v_n on this sample (navigation_v_n_payback);
+      rollback_samples: how many samples back the velocity mixer restores its tyre peak's state
+      (navigation_rollback_samples; 0: none).
       One vector, so that one Python call per sample computes them all; the navigation diagram slices
       it with a Demultiplexer (diagrams/split.py).
 
@@ -1440,7 +1465,13 @@ class SensorHealthMonitor(LeafSystem):
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
         flags = health_flags(codes, odometry_unusable(state, out))
-        step[STATE_SIZE:] = [*out, *codes, *flags, navigation_v_n_payback(state)]
+        step[STATE_SIZE:] = [
+            *out,
+            *codes,
+            *flags,
+            navigation_v_n_payback(state),
+            navigation_rollback_samples(state),
+        ]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

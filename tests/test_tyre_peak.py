@@ -161,3 +161,58 @@ def test_mix_checked_learns_only_from_checked_samples_of_rolling_wheels():
     at_rest = mix_checked([0.0, 0.0, 0.0, 0.0], inertial, 0.0, 0.0, 0.0, previous, p, state, T_N)[2]
     assert at_rest[2:] == state[2:]
     assert len(mix_checked(odo, inertial, 1.0, 0.0, 0.0, previous, p, state[:2], T_N)[2]) == 2
+
+
+def test_the_samples_of_a_blamed_lateral_accelerometer_are_unlearnt():
+    """A lateral accelerometer the pair blames was read until then (sensor_health's payback); on the
+    blaming sample the checks say how many samples back its fault began (navigation_rollback_samples),
+    and the velocity mixer's tyre peak goes back to its state from before them: the ring of past states
+    by hand, then the block, fed a sliding sample for 8 T_N and rolled back 3 on the 9th."""
+    from pydrake.systems.analysis import Simulator
+    from slipnav.systems.mixing import (
+        VelocityMixer,
+        rolled_back,
+        tyre_peak_history,
+        tyre_peak_recorded,
+    )
+
+    states = [(5.49 + 0.01 * k, 0.1 * k, 0.2 * k) for k in range(12)]
+    history = tyre_peak_history(5, states[0])
+    for k in range(1, 12):  # before sample k: states[k]; the ring keeps the last 5
+        tyre_peak_recorded(history, states[k])
+    after = (0.3, -0.2, 9.0, 9.0, 9.0)  # this sample's (k = 12) own result
+    assert rolled_back(after, history, 0) == after
+    for n in range(1, 6):
+        assert rolled_back(after, history, n) == (0.3, -0.2, *states[12 - n])
+    assert rolled_back(after, history, 50) == (0.3, -0.2, *states[7])  # no further back than the ring
+    for bad in (0, -1, 2.0):
+        with pytest.raises(ValueError, match=r"horizon=.*integer >= 1"):
+            tyre_peak_history(bad, states[0])
+
+    p = MixingParameters()
+    sigma = peak_slip(p)
+    mixer = VelocityMixer(p, T_N, -sigma * 2.0, (0.02, 0.015), tyre_peak_horizon=5)  # F: the slide
+    context = mixer.CreateDefaultContext()
+    inertial = [2.0, -sigma * 2.0, 0.5, 0.0, -3.0]  # sliding at sigma_peak, 3 m/s^2 across
+    inputs = {
+        "odometry": [2.0, 0.5, 2.0, 2.0],
+        "inertial_estimate": inertial,
+        "C1": [1.0],
+        "C2_C3": [0.0, 0.0],
+        "previous_estimate": inertial,
+        "inertial_fault": [0.0],
+        "accelerometers": [0.0, -3.0, 0.0, -3.0],
+        "encoder_fault": [0.0],
+        "rollback_samples": [0.0],
+    }
+    for name, value in inputs.items():
+        mixer.GetInputPort(name).FixValue(context, value)
+    simulator = Simulator(mixer, context)
+    peaks = [mixer.GetOutputPort("tyre_model_state").Eval(context)[2:5].copy()]
+    for k in range(1, 9):  # 8 updates, at 0 .. 7 T_N
+        simulator.AdvanceTo(k * T_N)
+        peaks.append(mixer.GetOutputPort("tyre_model_state").Eval(context)[2:5].copy())
+    assert peaks[8][0] < peaks[5][0] - 1e-3  # a read of about 3 m/s^2 pulls it down sample by sample
+    mixer.GetInputPort("rollback_samples").FixValue(context, [3.0])
+    simulator.AdvanceTo(9 * T_N)  # the 9th update (sample 8): back to before sample 5
+    np.testing.assert_array_equal(mixer.GetOutputPort("tyre_model_state").Eval(context)[2:5], peaks[5])
