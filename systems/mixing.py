@@ -675,7 +675,8 @@ def tyre_peak_step(
     is learnt from a non-finite sample or while ``learn`` is False: mix_checked passes False while a
     sensor check excludes a channel or the wheels are at rest (wheels_at_rest: a standstill, where the
     force is the accelerometers' bias, or both wheels locked); what it learnt from the samples a lateral
-    accelerometer the checks blame afterwards had read is undone on the blaming sample (rolled_back).
+    accelerometer had carried a fault before the accelerometer pair blamed it (its partner healthy, the
+    span at most sensor_health.payback_window) is undone on the blaming sample (rolled_back).
     The drag is taken at the wheels' speed, as S(15)'s creep takes it (at the body's speed v_t the
     matched square's braking locks read 4 % low instead of 3 %, and the built-ins' matched errors grew
     on 3 seeds).
@@ -715,9 +716,11 @@ def tyre_peak_step(
 def tyre_peak_history(horizon: int, peak_state) -> np.ndarray:
     """A ring of the tyre peak's state [a_peak, |a| PT1, held] as it stood before each of the last
     ``horizon`` samples (tyre_peak_step; all ``peak_state`` at the start), then the next entry's index:
-    what rolled_back restores when the sensor checks blame a lateral accelerometer they had read."""
-    if not (isinstance(horizon, int) and horizon >= 1):
+    what rolled_back restores when the sensor checks blame a lateral accelerometer they had read. The
+    horizon must cover the checks' longest roll-back (sensor_health.payback_window)."""
+    if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
         raise ValueError(f"tyre peak history horizon={horizon!r} is out of range: allowed an integer >= 1")
+    horizon = int(horizon)
     return np.array([*(float(v) for v in peak_state)] * horizon + [0.0])
 
 
@@ -733,10 +736,11 @@ def rolled_back(check_state, history, samples: int) -> tuple:
     """The tyre-model check's state ``check_state`` [F, S, a_peak, |a| PT1, held] after this sample with
     the tyre peak's part as it stood ``samples`` samples back (in [1, horizon] of ``history``; 0: as it
     is), before the samples whose accelerations carried a lateral accelerometer's fault until the sensor
-    checks blamed it (sensor_health.navigation_rollback_samples): nothing learns from data that failed a
-    check, even after the fact. Open corner seed 1, accel2_n +5 m/s^2 at the slide: the peak learned
-    5.72 from its 5 samples against 5.52 without them (nominal 5.49)."""
-    if samples <= 0:
+    checks blamed it (sensor_health.navigation_rollback_samples: a lateral sensor the pair blames while
+    its partner is healthy, over the take-back's span, at most payback_window samples); a state without
+    the tyre peak's part (F, S) is returned as it is. Open corner seed 1, accel2_n +5 m/s^2 at the slide:
+    the peak learned 5.72 from its 5 samples against 5.55 without them (nominal 5.49)."""
+    if samples <= 0 or len(check_state) != 5:
         return tuple(check_state)
     horizon = (len(history) - 1) // 3
     index = (int(history[-1]) - min(samples, horizon)) % horizon
@@ -1018,7 +1022,8 @@ class VelocityMixer(LeafSystem):
       tyre model, for the EKF's P; tyre_model_check [w, F_k, S_k, a_peak, |a| PT1, held], the free
       integral's weight (tyre_model_check), the free integral and the tyre curve's own side slip after
       this sample (mix_checked), the identified tyre peak and its lower bound's filter and held value
-      (tyre_peak_step); slide_onset, 1 while the test holds; slide_onset_state, the test's state after
+      (tyre_peak_step; on a rollback_samples sample those from before the blamed samples, rolled_back);
+      slide_onset, 1 while the test holds; slide_onset_state, the test's state after
       this sample. One vector, one Python call per sample; the navigation diagram slices it with a
       Demultiplexer (diagrams/split.py).
     - tyre_model_state: the state [F, S, a_peak, |a| PT1, held] (the sensor checks read a_peak).
@@ -1056,10 +1061,10 @@ class VelocityMixer(LeafSystem):
         self._rollback = self.DeclareVectorInputPort("rollback_samples", 1)
         initial = [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
         self._check = self.DeclareDiscreteState(initial)
+        self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
         self._history = None
         if tyre_peak_horizon:
             self._history = self.DeclareDiscreteState(tyre_peak_history(tyre_peak_horizon, initial[2:5]))
-        self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
         self.DeclareStateOutputPort("tyre_model_state", self._check)
         self._mixing = self.DeclareVectorOutputPort(
             "mixing", sum(size for _, size in MIXER_LAYOUT), self._calc

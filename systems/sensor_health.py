@@ -1033,7 +1033,8 @@ def navigation_rollback_samples(state) -> int:
     """How many samples back the navigation's tyre peak is rolled (health_check's state ``state``): on
     the sample the pair blames a lateral sensor, the samples its payback spans (navigation_v_n_payback),
     whose accelerations carried the fault before the check caught it (the velocity mixer restores the
-    tyre peak's state from before them, mix_checked's ``rollback``); 0 on every other sample."""
+    tyre peak's state from before them: mixing.rolled_back, the VelocityMixer's rollback_samples
+    input); 0 on every other sample."""
     return int(state[_ROLLBACK])
 
 

@@ -122,7 +122,10 @@ def test_diagram_equals_plain_loop_where_a_blamed_lateral_accelerometer_is_unlea
     blamed = int(np.flatnonzero(a["health_accel2_n"])[0])
     assert a["health_accel2_n"][blamed] == INCONSISTENT and onset < blamed <= onset + 10
     assert peak[blamed - 1] > peak[onset - 1] + 0.03  # learned from the biased samples (5.61 vs 5.56)
+    # back to where it stood before the onset: the CUSUM's change point is the onset itself here (the
+    # peak moves on every sample around it, so a roll-back a sample short or long would not match)
     assert peak[blamed] == peak[onset - 1]
+    assert peak[onset - 2] != peak[onset - 1] != peak[onset]
 
 
 def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes, seed=7):

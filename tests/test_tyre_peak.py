@@ -185,9 +185,11 @@ def test_the_samples_of_a_blamed_lateral_accelerometer_are_unlearnt():
     for n in range(1, 6):
         assert rolled_back(after, history, n) == (0.3, -0.2, *states[12 - n])
     assert rolled_back(after, history, 50) == (0.3, -0.2, *states[7])  # no further back than the ring
-    for bad in (0, -1, 2.0):
+    assert rolled_back((0.3, -0.2), history, 3) == (0.3, -0.2)  # no identification: nothing to restore
+    for bad in (0, -1, 2.0, True):
         with pytest.raises(ValueError, match=r"horizon=.*integer >= 1"):
             tyre_peak_history(bad, states[0])
+    assert len(tyre_peak_history(np.int64(4), states[0])) == 13
 
     p = MixingParameters()
     sigma = peak_slip(p)
