@@ -726,10 +726,9 @@ def tyre_peak_history(horizon: int, peak_state) -> np.ndarray:
 
 def tyre_peak_recorded(history, peak_state) -> None:
     """Write ``peak_state`` (before this sample) into the ring ``history`` (tyre_peak_history), in place."""
-    horizon = (len(history) - 1) // 3
     position = int(history[-1])
-    history[3 * position : 3 * position + 3] = [float(v) for v in peak_state]
-    history[-1] = float((position + 1) % horizon)
+    history[3 * position : 3 * position + 3] = peak_state
+    history[-1] = (position + 1) % ((len(history) - 1) // 3)
 
 
 def rolled_back(check_state, history, samples: int) -> tuple:
@@ -1107,8 +1106,10 @@ class VelocityMixer(LeafSystem):
             pushed,
         )
         if self._history is not None and self._rollback.HasValue(context):
-            history = context.get_discrete_state(self._history).get_value()
-            state = rolled_back(state, history, int(self._rollback.Eval(context)[0]))
+            samples = int(self._rollback.Eval(context)[0])
+            if samples > 0:  # the ring only on a blaming sample
+                history = context.get_discrete_state(self._history).get_value()
+                state = rolled_back(state, history, samples)
         tyre = believed_tyre(self._p, check_state[2])
         gain = mixing_gain(mixed, c1, c2, tyre, wheels_at_rest(odo), check, pushed)
         output.SetFromVector(
