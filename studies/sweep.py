@@ -630,9 +630,11 @@ def summary_table(name: str, jobs: list, rows: list) -> tuple[list[str], dict]:
         def mw(k, col=col):
             return f"{col[k].mean():.3f} ({col[k].max():.3f})"
 
+        # a baseline that ended exactly on the truth (a run too short to move) gives no ratio
+        ratio = f"{col['fused_pct'].mean() / best.mean():.3f}" if best.mean() > 0 else "-"
         lines.append(
             f"{label:<{width}}{len(sel):>5}{mw('fused_pct'):>16}{mw('odometry_pct'):>16}"
-            f"{mw('gyrodometry_pct'):>16}{col['fused_pct'].mean() / best.mean():>11.3f}"
+            f"{mw('gyrodometry_pct'):>16}{ratio:>11}"
             f"{sum(not r['completed'] for r in sel):>11}"
         )
     fused = np.array([r["fused_pct"] for r in rows], float)

@@ -198,3 +198,18 @@ def test_resume_runs_again_the_lines_of_another_code_or_scenario_version(tmp_pat
     x, progress = run()
     assert x == [0.5, 1.5, 4.5] and "3 lines of another code" in progress
     assert _lines(path)[0] == header and len(_lines(path)) == 4
+
+
+def test_the_summary_gives_no_ratio_over_a_baseline_that_ended_on_the_truth():
+    """fused/best is the mean fused error over the mean better baseline: 0.2 / 0.1 = 2; a baseline that
+    ended exactly on the truth (a run too short to move) gives '-', not inf and a RuntimeWarning."""
+    jobs = [{"seed": 0}, {"seed": 1}]
+    rows = [
+        {"fused_pct": 0.1, "odometry_pct": 0.05, "gyrodometry_pct": 0.3, "completed": True},
+        {"fused_pct": 0.3, "odometry_pct": 0.4, "gyrodometry_pct": 0.15, "completed": False},
+    ]
+    lines, figures = engine.summary_table("probe", jobs, rows)
+    assert lines[-1].split()[-2:] == ["2.000", "1"]  # (0.1 + 0.3) / (0.05 + 0.15); one incomplete
+    assert figures == {"mean_fused_pct": pytest.approx(0.2), "worst_fused_pct": 0.3}
+    still = [dict(r, odometry_pct=0.0) for r in rows]
+    assert engine.summary_table("probe", jobs, still)[0][-1].split()[-2:] == ["-", "1"]
