@@ -70,10 +70,16 @@ accelerometer the pair blames was read until then: what it put in beyond its rep
 began to disagree (the disagreement summed from where the pair's two-sided CUSUM, drift half the pair's
 bound, last stood at zero: Page's change-point estimate) is handed to the navigation on the blaming
 sample, half of it (S(3)'s mean) times T_N, which the EKF takes out of ^I v_n (navigation_v_n_payback):
-S(17) then mixes it in as far as it took the sensor in, by (1 - C2) q_I (the model branch C2 ignores
-^I v_n, so it never carried the excess; a take-back from v_n,k-1 there put in an error instead: the
-toleranced closed square's x2 accel1_n 48.6 -> 78.0 mm). The sum runs only while the wheels turn
-(at rest the navigation holds v_n: nothing went in) and the gyro is trusted (the rotational terms from
+S(17) then mixes it in by this sample's (1 - C2) q_I (the model branch C2 ignores ^I v_n; a take-back
+from v_n,k-1 there put in an error instead: the toleranced closed square's x2 accel1_n 48.6 -> 78.0 mm).
+That is right only while S(17)'s weights and the EKF's lag stay as they were while the excess went in
+(open loop, 10 seeds, a 5 m/s^2 lateral bias): in the corner's slide (C2 = 0) v_n had taken in 16.5
+mm/s (median) and the payback overshoots it by a quarter of that; on the square's straight the bias
+itself lifts |a_n| over b2, so C2 falls and the inertial branch takes the excess in, but C2 is back at
+1 once the sensor is replaced, and v_n keeps 23.8 of the 24.3 mm/s (medians). Sizing it right needs
+v_n as it would have run with the replacement from the change point (not built; README, Sensor
+faults). The sum runs only while the wheels turn (at rest the navigation holds v_n: nothing went in)
+and the gyro is trusted (the rotational terms from
 the wheels' yaw rate are no evidence), and none is paid for a sum spanning more than PAYBACK_WINDOW
 consistency_samples. The tangential axes' is not paid: the odometry (C1) has already taken most of it
 out of v_t, and a take-back there counted it twice (the open square's tangential biases, 3.8 -> 7.0 and
