@@ -179,7 +179,6 @@ def build_navigation_diagram(
     )
     odo = calibrated["odometry"]  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
-    b.Connect(check["v_n_payback"], ekf.GetInputPort("v_n_payback"))
     b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
     b.Connect(raw_odo, yaw_calibration.GetInputPort("odometry"))
     b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))
@@ -212,6 +211,8 @@ def build_navigation_diagram(
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
     b.Connect(check["rollback_samples"], mixer_block.GetInputPort("rollback_samples"))
+    b.Connect(check["lateral_take_back"], mixer_block.GetInputPort("lateral_take_back"))
+    b.Connect(gain.GetOutputPort("kalman_gain"), mixer_block.GetInputPort("kalman_gain"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
     b.ExportInput(mixer_block.GetInputPort("external_force"), "external_force")
     b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback

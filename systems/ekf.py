@@ -266,7 +266,6 @@ class InertialEkf(LeafSystem):
         - kalman_gain
         - mixed_estimate
         - mixing_gain
-        - v_n_payback
         output_ports:
         - inertial_estimate
         - prior_covariance
@@ -278,10 +277,8 @@ class InertialEkf(LeafSystem):
     - mixed_estimate: the mixer's S(15)-(17) estimate of this step; it becomes the filter state (Fig. 3).
     - mixing_gain: [C1, w_n], the weights of odometry in S(15) and of the tyre model in S(17) this step
       (VelocityMixer); P sees the mixing through them (ekf_mixing_covariance).
-    - v_n_payback (optional, m/s): added to ^I v_n; the sensor checks' take-back of what a lateral
-      accelerometer put in before they excluded it (systems/sensor_health.py); unconnected: 0.
     - inertial_estimate: ^I x_k = S(8) applied to the prediction S(2) of the state (direct feedthrough of
-      the sensor sample and the gain), plus the v_n payback.
+      the sensor sample and the gain).
     - prior_covariance: P_{k|k-1}, S(6), of the state (for the gain block; state).
     - estimate: the state x_{k-1} (the previous mixed estimate; the mixer reads v_n,k-1 from it for S(17)).
     - covariance: P_{k-1}.
@@ -306,7 +303,6 @@ class InertialEkf(LeafSystem):
         self._gain_port = self.DeclareVectorInputPort("kalman_gain", 15)
         self._mixed_port = self.DeclareVectorInputPort("mixed_estimate", 5)
         self._mixing_gain_port = self.DeclareVectorInputPort("mixing_gain", 2)
-        self._payback_port = self.DeclareVectorInputPort("v_n_payback", 1)
         self._x = self.DeclareDiscreteState(x0)
         self._P = self.DeclareDiscreteState(P0.ravel())
         self._prior = self.DeclareDiscreteState(ekf_prior_covariance(P0, x0, self._Q, T_N).ravel())
@@ -319,7 +315,6 @@ class InertialEkf(LeafSystem):
                 self._accel_port.ticket(),
                 self._gyro_port.ticket(),
                 self._gain_port.ticket(),
-                self._payback_port.ticket(),
             },
         )
         self.DeclareStateOutputPort("prior_covariance", self._prior)
@@ -331,10 +326,7 @@ class InertialEkf(LeafSystem):
         x = context.get_discrete_state(self._x).get_value()
         y = ekf_measurement(self._accel_port.Eval(context).tolist(), self._gyro_port.Eval(context).tolist())
         L = self._gain_port.Eval(context).reshape(5, 3)
-        estimate = ekf_inertial_estimate(x, L, y, self._T_N)
-        if self._payback_port.HasValue(context):
-            estimate[1] += self._payback_port.Eval(context)[0]
-        output.SetFromVector(estimate)
+        output.SetFromVector(ekf_inertial_estimate(x, L, y, self._T_N))
 
     def _update(self, context, discrete_state):
         P_prior = discrete_state.get_value(self._prior).reshape(5, 5)

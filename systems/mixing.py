@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ekf import ekf_predict
 from slipnav.systems.rates import pt1_step
 from slipnav.systems.sensor_health import pair_rotational_difference
 
@@ -842,6 +843,87 @@ def mix_checked(
     return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
 
 
+LATERAL_SHADOW_SIZE = 11
+"""lateral_shadow_step's state: the estimate x (v_t, v_n, omega, a_t, a_n) of the shadow without
+accelerometer 1's a_n, of the one without accelerometer 2's, and whether the pair's CUSUM stood above
+zero after the previous sample (1) or the shadows rest (0)."""
+
+
+def lateral_shadow_step(
+    shadow,
+    take_back,
+    odo,
+    inertial,
+    previous,
+    L,
+    c1: float,
+    c3: float,
+    p: MixingParameters,
+    check_state,
+    T_N: float,
+    inertial_fault: bool = False,
+    encoder_fault: bool = False,
+    external_force: bool = False,
+):
+    """The navigation's estimate as it would have run had either lateral accelerometer been replaced
+    from where the pair began to disagree: what the navigation takes when the sensor checks blame one
+    (sensor_health.navigation_lateral_take_back).
+
+    A lateral accelerometer's fault goes into the navigation for the few samples the pair needs to
+    blame it: through S(3)'s mean into the EKF's a_n, which lags its measurement and which S(2)
+    integrates into ^I v_n, and through S(17), whose branch weights the fault itself moves (a bias that
+    lifts |^I a_n| over b2 lowers C2 and hands v_n to the inertial branch). How much of it the estimate
+    holds therefore depends on the whole path. Each shadow re-runs that path sample by sample from the
+    change point: S(2) from its own previous estimate, S(8) with the same gain and measurement except
+    the mean's a_n, which replaces the sensor (-/+ disagreement / 2: the other sensor plus S(3)'s
+    rotational difference and the pair's offset, the checks' replacement), and mix_checked with its own
+    C2 (S(13) at its own ^I a_n); odometry, C1, C3 and the tyre model's state are the navigation's.
+    L y is read off the navigation's own update: ^I x - S(2)(x) + L C S(2)(x).
+
+    Args:
+        shadow: the state after the previous sample (LATERAL_SHADOW_SIZE; zeros at the start).
+        take_back: (disagreement, active, blamed) of this sample (navigation_lateral_take_back).
+        odo, inertial, previous, c1, c3, check_state, inertial_fault, encoder_fault, external_force:
+            the navigation's, as mix_checked takes them (inertial: ^I x_k; previous: x_k-1).
+        L: the EKF's gain of this sample, 5 x 3.
+
+    Returns:
+        (the state after this sample, the blamed sensor's shadow estimate x_k or None).
+    """
+    disagreement, active, blamed = take_back
+    if shadow[10] == 0.0 and active == 0.0 and blamed == 0.0:
+        return shadow, None  # the pair agrees: the shadows rest
+    previous = np.asarray(previous, float)
+    predicted = ekf_predict(previous, T_N)
+    measured = np.asarray(inertial, float) - predicted + L @ predicted[2:5]  # L y
+    starts = shadow[10] == 0.0  # the change point: both start from the navigation's x_k-1
+    out = np.empty(LATERAL_SHADOW_SIZE)
+    for c, sign in ((0, -1.0), (1, 1.0)):
+        x = previous if starts else np.asarray(shadow[5 * c : 5 * c + 5], float)
+        x_predicted = ekf_predict(x, T_N)
+        replaced = np.array([0.0, 0.0, sign * 0.5 * disagreement]) - x_predicted[2:5]
+        estimate = x_predicted + measured + L @ replaced
+        c2 = mixing_c2(estimate[4], p)
+        mixed, _, _ = mix_checked(
+            odo, estimate, c1, c2, c3, x, p, check_state, T_N, inertial_fault, encoder_fault, external_force
+        )
+        out[5 * c : 5 * c + 5] = mixed
+    out[10] = active
+    taken = out[5 * (int(blamed) - 1) : 5 * int(blamed)].copy() if blamed else None
+    return out, taken
+
+
+def taken_from_shadow(mixed, check_state, taken):
+    """The mixed estimate and the tyre-model check's state after this sample with the lateral part
+    (v_n, ^I a_n) of the shadow ``taken`` (lateral_shadow_step; None: as they are): F and S restart
+    from its v_n, as they do from the mixed v_n while an inertial channel is excluded."""
+    if taken is None:
+        return mixed, check_state
+    mixed = np.array(mixed, float)
+    mixed[1], mixed[4] = taken[1], taken[4]
+    return mixed, (float(taken[1]), float(taken[1]), *check_state[2:])
+
+
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
     """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n] (without the tyre-model check:
     mix_checked).
@@ -920,6 +1002,7 @@ MIXER_LAYOUT = (
     ("tyre_model_check", 6),
     ("slide_onset", 1),
     ("slide_onset_state", 3),
+    ("lateral_shadow_state", LATERAL_SHADOW_SIZE),
 )
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
 MIXER_START = {name: sum(size for _, size in MIXER_LAYOUT[:i]) for i, (name, _) in enumerate(MIXER_LAYOUT)}
@@ -930,6 +1013,7 @@ TYRE_MODEL_STATE_LAYOUT = (("free_and_curve_v_n", 2), ("tyre_peak", 1), ("peak_b
 """VelocityMixer's ``tyre_model_state`` output, in order: (name, size): F and S, a_peak, the lower
 bound's filter and held value."""
 _ONSET_STATE = slice(MIXER_START["slide_onset_state"], MIXER_START["slide_onset_state"] + 3)
+_SHADOW_STATE = slice(MIXER_START["lateral_shadow_state"], None)
 
 
 class MixerC2C3(LeafSystem):
@@ -997,6 +1081,8 @@ class VelocityMixer(LeafSystem):
         - encoder_fault
         - external_force
         - rollback_samples
+        - kalman_gain
+        - lateral_take_back
         output_ports:
         - mixing
         - tyre_model_state
@@ -1012,6 +1098,11 @@ class VelocityMixer(LeafSystem):
       had read, how many samples its fault went in (sensor_health.navigation_rollback_samples): the tyre
       peak's state after this sample is the one from before them (rolled_back; at most
       ``tyre_peak_horizon``); unconnected or 0: none.
+    - lateral_take_back (optional): the sensor checks' (disagreement, active, blamed) of this sample
+      (sensor_health.navigation_lateral_take_back), and kalman_gain: the EKF's L of this sample (5 x 3,
+      row-major): two shadows re-run the EKF and S(17) with either lateral accelerometer replaced from
+      where the pair began to disagree, and on the sample the checks blame one the mixed v_n and a_n
+      are its shadow's (lateral_shadow_step, taken_from_shadow); unconnected: no shadows.
     - accelerometers: the checked (and corrected) [a_t1, a_n1, a_t2, a_n2] the EKF reads: the slide-onset
       test trusts the inertial v_t only while the pair agrees (accelerometer_pair_disagreement, with
       ^I omega).
@@ -1022,13 +1113,14 @@ class VelocityMixer(LeafSystem):
       integral's weight (tyre_model_check), the free integral and the tyre curve's own side slip after
       this sample (mix_checked), the identified tyre peak and its lower bound's filter and held value
       (tyre_peak_step; on a rollback_samples sample those from before the blamed samples, rolled_back);
-      slide_onset, 1 while the test holds; slide_onset_state, the test's state after
-      this sample. One vector, one Python call per sample; the navigation diagram slices it with a
-      Demultiplexer (diagrams/split.py).
+      slide_onset, 1 while the test holds; slide_onset_state, the test's state after this sample;
+      lateral_shadow_state, the shadows after this sample (LATERAL_SHADOW_SIZE). One vector, one
+      Python call per sample; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
     - tyre_model_state: the state [F, S, a_peak, |a| PT1, held] (the sensor checks read a_peak).
 
     Update every T_N: F, S, a_peak with its filter and held value, the slide-onset test's state
-    (state, from SLIDE_ONSET_INITIAL), and the ring of the tyre peak's past states (tyre_peak_history).
+    (state, from SLIDE_ONSET_INITIAL), the lateral shadows (state, zeros at the start), and the ring of
+    the tyre peak's past states (tyre_peak_history).
 
     Args:
         params: MixingParameters. T_N: navigation period (s). initial_v_n: F_-1 = S_-1, the initial
@@ -1058,9 +1150,12 @@ class VelocityMixer(LeafSystem):
         self._enc_fault = self.DeclareVectorInputPort("encoder_fault", 1)
         self._external = self.DeclareVectorInputPort("external_force", 1)
         self._rollback = self.DeclareVectorInputPort("rollback_samples", 1)
+        self._gain = self.DeclareVectorInputPort("kalman_gain", 15)
+        self._take_back = self.DeclareVectorInputPort("lateral_take_back", 3)
         initial = [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
         self._check = self.DeclareDiscreteState(initial)
         self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
+        self._shadow = self.DeclareDiscreteState(LATERAL_SHADOW_SIZE)
         self._history = None
         if tyre_peak_horizon:
             self._history = self.DeclareDiscreteState(tyre_peak_history(tyre_peak_horizon, initial[2:5]))
@@ -1105,6 +1200,25 @@ class VelocityMixer(LeafSystem):
             self._enc_fault.Eval(context)[0] > 0.5,
             pushed,
         )
+        shadow = context.get_discrete_state(self._shadow).get_value()
+        if self._take_back.HasValue(context):
+            shadow, taken = lateral_shadow_step(
+                shadow,
+                self._take_back.Eval(context).tolist(),
+                odo,
+                inertial,
+                self._prev.Eval(context).tolist(),
+                self._gain.Eval(context).reshape(5, 3),
+                c1,
+                c3,
+                self._p,
+                check_state,
+                self._T_N,
+                fault,
+                self._enc_fault.Eval(context)[0] > 0.5,
+                pushed,
+            )
+            mixed, state = taken_from_shadow(mixed, state, taken)
         if self._history is not None and self._rollback.HasValue(context):
             samples = int(self._rollback.Eval(context)[0])
             if samples > 0:  # the ring only on a blaming sample
@@ -1113,7 +1227,16 @@ class VelocityMixer(LeafSystem):
         tyre = believed_tyre(self._p, check_state[2])
         gain = mixing_gain(mixed, c1, c2, tyre, wheels_at_rest(odo), check, pushed)
         output.SetFromVector(
-            [*mixed.tolist(), *mixed[0:3].tolist(), *gain, check, *state, 1.0 if onset else 0.0, *onset_state]
+            [
+                *mixed.tolist(),
+                *mixed[0:3].tolist(),
+                *gain,
+                check,
+                *state,
+                1.0 if onset else 0.0,
+                *onset_state,
+                *shadow,
+            ]
         )
 
     def _update(self, context, discrete_state):
@@ -1122,4 +1245,5 @@ class VelocityMixer(LeafSystem):
             before = context.get_discrete_state(self._check).get_value()[2:5]
             tyre_peak_recorded(discrete_state.get_mutable_value(self._history), before)
         discrete_state.set_value(self._check, mixing[_CHECK_STATE])
+        discrete_state.set_value(self._shadow, mixing[_SHADOW_STATE])
         discrete_state.set_value(self._onset_state, mixing[_ONSET_STATE])

@@ -38,12 +38,14 @@ from slipnav.systems.ekf import (
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
+    LATERAL_SHADOW_SIZE,
     SLIDE_ONSET_INITIAL,
     MixingParameters,
     accelerometer_pair_disagreement,
     believed_tyre,
     c3_residual,
     c3_turn_rate,
+    lateral_shadow_step,
     mix_checked,
     mixer_c1_step,
     mixing_c2,
@@ -52,6 +54,7 @@ from slipnav.systems.mixing import (
     push_taken,
     rolled_back,
     slide_onset_step,
+    taken_from_shadow,
     tyre_peak_history,
     tyre_peak_recorded,
     wheels_at_rest,
@@ -68,8 +71,8 @@ from slipnav.systems.sensor_health import (
     health_check,
     health_constants,
     health_initial_state,
+    navigation_lateral_take_back,
     navigation_rollback_samples,
-    navigation_v_n_payback,
     odometry_unusable,
     payback_window,
     slip_detector_blind,
@@ -235,6 +238,7 @@ class NavigationLoop:
         self.tyre_peak_history = tyre_peak_history(
             payback_window(params.health), self.tyre_model_state[2:5]
         )  # for the sensor checks' roll-back (rolled_back)
+        self.lateral_shadow = np.zeros(LATERAL_SHADOW_SIZE)  # lateral_shadow_step's
         self.tyre_model_weight = 0.0  # mix_checked's
         self.inertial_fault = self.encoder_fault = False
         self.pushed = False  # the perturbation monitor's sideways push as the mixer takes it (step)
@@ -297,7 +301,6 @@ class NavigationLoop:
         x = self.x
         measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
-        inertial[1] += navigation_v_n_payback(self.health)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
         det_next, _ = slip_detector_step(
@@ -314,6 +317,23 @@ class NavigationLoop:
         self.c1_mixed = 0.0 if self.slide_onset else self.c1
         tyre_state = self.tyre_model_state
         mixed = self.velocity_mix(odo, inertial, c2, c3, x)
+        self.lateral_shadow, taken = lateral_shadow_step(
+            self.lateral_shadow,
+            navigation_lateral_take_back(self.health),
+            odo,
+            inertial,
+            x,
+            self.L,
+            self.c1_mixed,
+            c3,
+            mp,
+            tyre_state,
+            T_N,
+            self.inertial_fault,
+            self.encoder_fault,
+            self.pushed,
+        )
+        mixed, self.tyre_model_state = taken_from_shadow(mixed, self.tyre_model_state, taken)
         self.tyre_model_state = rolled_back(
             self.tyre_model_state, self.tyre_peak_history, navigation_rollback_samples(self.health)
         )

@@ -66,24 +66,26 @@ the two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise shif
 encoder advances by v_pred T_N / r (the other
 wheel and the gyro), else by its last increment. A stuck encoder's travel missed before the detection is
 added then; the first increment after an exclusion (it spans the gap) is never used. A lateral
-accelerometer the pair blames was read until then: what it put in beyond its replacement since the pair
-began to disagree (the disagreement summed from where the pair's two-sided CUSUM, drift half the pair's
-bound, last stood at zero: Page's change-point estimate) is handed to the navigation on the blaming
-sample, half of it (S(3)'s mean) times T_N, which the EKF takes out of ^I v_n (navigation_v_n_payback):
-S(17) then mixes it in by this sample's (1 - C2) q_I (the model branch C2 ignores ^I v_n; a take-back
-from v_n,k-1 there put in an error instead: the toleranced closed square's x2 accel1_n 48.6 -> 78.0 mm).
-That is right only while S(17)'s weights and the EKF's lag stay as they were while the excess went in
-(open loop, 10 seeds, a 5 m/s^2 lateral bias): in the corner's slide (C2 = 0) v_n had taken in 16.5
-mm/s (median) and the payback overshoots it by a quarter of that; on the square's straight the bias
-itself lifts |a_n| over b2, so C2 falls and the inertial branch takes the excess in, but C2 is back at
-1 once the sensor is replaced, and v_n keeps 23.8 of the 24.3 mm/s (medians). Sizing it right needs
-v_n as it would have run with the replacement from the change point (not built; README, Sensor
-faults). The sum runs only while the wheels turn (at rest the navigation holds v_n: nothing went in)
-and the gyro is trusted (the rotational terms from
-the wheels' yaw rate are no evidence), and none is paid for a sum spanning more than PAYBACK_WINDOW
-consistency_samples. The tangential axes' is not paid: the odometry (C1) has already taken most of it
+accelerometer the pair blames was read until then, and what it put in is taken back. A two-sided CUSUM
+of the pair's offset-free disagreement (drift half the pair's bound; pair_cusum_step) marks where the
+pair began to disagree (Page's change-point estimate); every sample the checks hand the navigation that
+disagreement and whether the CUSUM stands above zero, and on the blaming sample which sensor they
+blamed (navigation_lateral_take_back). The navigation's velocity mixer keeps two shadows, from the
+change point on, of its own estimate with either sensor replaced (the other one plus S(3)'s rotational
+difference and the pair's offset: the mean's a_n less or plus half the disagreement), re-running the
+EKF and S(17) with their own C2 (mixing.lateral_shadow_step), and on the blame takes the blamed
+sensor's shadow's v_n and a_n. How much of a fault the estimate holds depends on the whole path: the
+EKF's a_n lags its measurement, and a bias that lifts |^I a_n| over b2 moves S(17)'s weight to the
+inertial branch, which is back on the model branch once the sensor is replaced. A take-back of T_N/2 x
+the excess in ^I v_n (the previous release) therefore left v_n 4 mm/s past the outage's in the corner's
+slide (median over 10 seeds; 16.5 mm/s had gone in) and kept 23.8 of 24.3 mm/s on the square's
+straight; the shadow leaves it within 2 mm/s and 1 mm/s of the run where the channel is lost
+(tests/test_faults.py). The CUSUM runs only while the wheels turn (at rest the navigation holds v_n:
+nothing went in) and the gyro is trusted (the rotational terms from the wheels' yaw rate are no
+evidence), and nothing is taken back for a change point more than PAYBACK_WINDOW consistency_samples
+back. The tangential axes get no take-back: the odometry (C1) has already taken most of their excess
 out of v_t, and a take-back there counted it twice (the open square's tangential biases, 3.8 -> 7.0 and
-4.5 -> 11.0 mm). The same sample tells the navigation how many samples the sum spans
+4.5 -> 11.0 mm). The same sample tells the navigation how many samples back the change began
 (navigation_rollback_samples): the tyre peak the velocity mixer identifies had learned from their
 accelerations too, and goes back to its state from before them (mixing.rolled_back).
 
@@ -455,24 +457,24 @@ _GAIN_POS = _GAIN + 2 * GAIN_SLOTS
 _GAIN_RING = _GAIN_POS + 2
 # The variance of the pair's learned offset (t, n; pair_offset_update).
 _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
-# The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and, per side, the disagreement
-# summed since that side last stood at zero and the samples it spans (pair_cusum_step); then this
-# sample's v_n payback (m/s) and the samples the payback spans (the tyre peak's roll-back).
+# The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and, per side, the samples since
+# that side last stood at zero (pair_cusum_step); then this sample's take-back for the navigation: the
+# samples it spans (the tyre peak's roll-back), the offset-free disagreement as the CUSUM took it (0:
+# not taken), whether the CUSUM stands above zero after it, and the lateral sensor blamed (0, 1, 2).
 _CUSUM = _OFFSET_VAR + 2
-_CUSUM_SUM = _CUSUM + 2
-_CUSUM_COUNT = _CUSUM_SUM + 2
-_V_N_PAYBACK = _CUSUM_COUNT + 2
-_ROLLBACK = _V_N_PAYBACK + 1
-STATE_SIZE = _ROLLBACK + 1
+_CUSUM_COUNT = _CUSUM + 2
+_ROLLBACK = _CUSUM_COUNT + 2
+_SHADOW = _ROLLBACK + 1
+STATE_SIZE = _SHADOW + 3
 PAYBACK_WINDOW = 4
 """A lateral disagreement that built up over more than this many consistency_samples before the pair
-blamed a sensor is no step the payback can size (a 15-sample average passes its bound after
+blamed a sensor is no step the take-back can place (a 15-sample average passes its bound after
 15 ln 3 = 16 samples for a step 1.5 times the bound, after 60 only for one within 2 % of it): none then."""
 
 
 def payback_window(p: SensorHealthParameters) -> int:
-    """The most samples a payback (and the tyre peak's roll-back) spans: PAYBACK_WINDOW x
-    consistency_samples."""
+    """The most samples a take-back (the lateral shadows, the tyre peak's roll-back) reaches back:
+    PAYBACK_WINDOW x consistency_samples."""
     return PAYBACK_WINDOW * int(p.consistency_samples)
 
 
@@ -599,8 +601,8 @@ def health_check(
             if codes[c]:
                 out[c] = ref[c] if math.isfinite(ref[c]) else 0.0
             ref[c] = out[c]
-        s[_V_N_PAYBACK] = 0.0
         s[_ROLLBACK] = 0.0
+        s[_SHADOW : _SHADOW + 3] = 0.0
         return s, out, codes
     ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
     ring_pos = int(s[_RING_POS])
@@ -871,7 +873,8 @@ def health_check(
     for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
         s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
     # What a lateral sensor excluded on this sample put in since the pair began to disagree
-    owed, owed_samples = pair_cusum_owed(s, PAYBACK_WINDOW * p.consistency_samples)
+    span = pair_cusum_span(s, PAYBACK_WINDOW * p.consistency_samples)
+    s[_SHADOW] = 0.0
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -942,27 +945,27 @@ def health_check(
                 pair_cusum_reset(s)
             elif axis == 1:
                 pair_cusum_step(s, offset_free, 0.5 * limit)
+                s[_SHADOW] = offset_free if math.isfinite(offset_free) else 0.0
     else:  # an axis out of the pair for its own fault: the gain test's window is stale when it returns
         pair_gain_reset(s)
         pair_cusum_reset(s)
     s[_W + 3] = v_o
 
     # Analog output: the reading, else its redundant estimate (the reference carried along).
-    s[_V_N_PAYBACK] = 0.0
     s[_ROLLBACK] = 0.0
+    s[_SHADOW + 1] = 1.0 if s[_CUSUM] > 0.0 or s[_CUSUM + 1] > 0.0 else 0.0
+    s[_SHADOW + 2] = 0.0
     for c in range(5):
         if codes[c] == 0:
             out[c] = ref[c] = raw[c]
             excl[c] = 0.0
             continue
         if (c == 1 or c == 3) and codes[c] == INCONSISTENT and excl[c] == 0.0 and codes[c ^ 2] == 0:
-            # Blamed by the pair, trusted until now: half (S(3)'s mean) of what it put in beyond its
-            # replacement since the pair began to disagree (sensor 1 reads the disagreement above
-            # sensor 2's replacement) is in the navigation's v_n; it is taken out (navigation_v_n_payback)
-            # (the blame's hold has already restarted the CUSUM)
-            put_in = owed if c == 1 else -owed
-            s[_V_N_PAYBACK] = -0.5 * put_in * g.T_N
-            s[_ROLLBACK] = owed_samples  # what the tyre peak learned from them is undone too
+            # Blamed by the pair, trusted until now: what it put into the navigation since the pair
+            # began to disagree is taken back there (navigation_lateral_take_back; the blame's hold has
+            # already restarted the CUSUM), and what the tyre peak learned from it undone
+            s[_ROLLBACK] = span
+            s[_SHADOW + 2] = float(c // 2 + 1) if span > 0.0 else 0.0
         # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
         excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
@@ -985,10 +988,9 @@ def health_check(
 @jitable
 def pair_cusum_step(s, disagreement: float, drift: float):
     """Page's two-sided CUSUM of the lateral pair's offset-free ``disagreement`` (m/s^2) less ``drift``
-    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down), the
-    disagreement summed since that side last stood at zero, where the change began (Page 1954), in
-    s[_CUSUM_SUM + side], and the samples that sum spans in s[_CUSUM_COUNT + side]. A non-finite
-    sample restarts both."""
+    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down) and
+    the samples since that side last stood at zero, where the change began (Page 1954), in
+    s[_CUSUM_COUNT + side]. A non-finite sample restarts both."""
     if not math.isfinite(disagreement):
         pair_cusum_reset(s)
         return
@@ -996,11 +998,9 @@ def pair_cusum_step(s, disagreement: float, drift: float):
         statistic = s[_CUSUM + side] + (disagreement if side == 0 else -disagreement) - drift
         if statistic > 0.0:
             s[_CUSUM + side] = statistic
-            s[_CUSUM_SUM + side] += disagreement
             s[_CUSUM_COUNT + side] += 1.0
         else:
             s[_CUSUM + side] = 0.0
-            s[_CUSUM_SUM + side] = 0.0
             s[_CUSUM_COUNT + side] = 0.0
 
 
@@ -1009,35 +1009,36 @@ def pair_cusum_reset(s):
     """Both sides of the lateral pair's CUSUM at zero (pair_cusum_step)."""
     for i in range(2):
         s[_CUSUM + i] = 0.0
-        s[_CUSUM_SUM + i] = 0.0
         s[_CUSUM_COUNT + i] = 0.0
 
 
 @jitable
-def pair_cusum_owed(s, window: int) -> tuple:
-    """The lateral disagreement summed since the pair began to disagree: the sum of the CUSUM's side
-    that stands higher, and the samples it spans ((0, 0) when neither is above zero, or when that side
-    spans more than ``window`` samples). Sensor 1 put in this much (m/s^2 x samples) beyond its
-    replacement from sensor 2, sensor 2 its negative."""
+def pair_cusum_span(s, window: int) -> float:
+    """The samples since the lateral pair began to disagree: those of the CUSUM's side that stands
+    higher (0 when neither is above zero, or when that side spans more than ``window`` samples)."""
     up, down = s[_CUSUM], s[_CUSUM + 1]
     if up <= 0.0 and down <= 0.0:
-        return 0.0, 0.0
-    side = 0 if up >= down else 1
-    if s[_CUSUM_COUNT + side] > window:
-        return 0.0, 0.0
-    return s[_CUSUM_SUM + side], s[_CUSUM_COUNT + side]
+        return 0.0
+    count = s[_CUSUM_COUNT + (0 if up >= down else 1)]
+    return count if count <= window else 0.0
 
 
-def navigation_v_n_payback(state) -> float:
-    """The v_n (m/s) the EKF adds to ^I v_n on this sample (health_check's state ``state``): minus half
-    of what a lateral accelerometer blamed by the pair on this sample put in since the pair began to
-    disagree (S(3)'s mean), before the check caught it; 0 on every other sample."""
-    return float(state[_V_N_PAYBACK])
+def navigation_lateral_take_back(state) -> tuple:
+    """What the navigation's lateral shadows read on this sample (health_check's state ``state``;
+    mixing.lateral_shadow_step): (disagreement, active, blamed). disagreement: the lateral pair's
+    offset-free a_n1 - a_n2 - (S(3)'s rotational difference) as the CUSUM took it (m/s^2; 0 when it
+    took none); active: 1 while the CUSUM stands above zero after this sample (the pair may be
+    disagreeing since its last zero); blamed: 1 or 2 on the sample the pair blames that lateral
+    sensor, trusted until then with its partner healthy, within PAYBACK_WINDOW consistency_samples of
+    the CUSUM's change point (the navigation then takes the shadow that replaced it from there); else
+    0."""
+    return float(state[_SHADOW]), float(state[_SHADOW + 1]), float(state[_SHADOW + 2])
 
 
 def navigation_rollback_samples(state) -> int:
     """How many samples back the navigation's tyre peak is rolled (health_check's state ``state``): on
-    the sample the pair blames a lateral sensor, the samples its payback spans (navigation_v_n_payback),
+    the sample the pair blames a lateral sensor, the samples since the CUSUM's change point
+    (navigation_lateral_take_back),
     whose accelerations carried the fault before the check caught it (the velocity mixer restores the
     tyre peak's state from before them: mixing.rolled_back, the VelocityMixer's rollback_samples
     input); 0 on every other sample."""
@@ -1340,8 +1341,8 @@ HEALTH_STEP_LAYOUT = (
     ("inertial_fault", 1),
     ("encoder_fault", 1),
     ("sensor_fault", 1),
-    ("v_n_payback", 1),
     ("rollback_samples", 1),
+    ("lateral_take_back", 3),
 )
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
@@ -1419,9 +1420,9 @@ class SensorHealthMonitor(LeafSystem):
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
-      v_n_payback (m/s): what the EKF adds to ^I v_n on this sample (navigation_v_n_payback);
       rollback_samples: how many samples back the velocity mixer restores its tyre peak's state
-      (navigation_rollback_samples; 0: none).
+      (navigation_rollback_samples; 0: none); lateral_take_back: [disagreement, active, blamed], what
+      the velocity mixer's lateral shadows read (navigation_lateral_take_back).
       One vector, so that one Python call per sample computes them all; the navigation diagram slices
       it with a Demultiplexer (diagrams/split.py).
 
@@ -1476,8 +1477,8 @@ class SensorHealthMonitor(LeafSystem):
             *out,
             *codes,
             *flags,
-            navigation_v_n_payback(state),
             navigation_rollback_samples(state),
+            *navigation_lateral_take_back(state),
         ]
 
     def _update(self, context, discrete_state):

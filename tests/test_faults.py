@@ -39,8 +39,8 @@ from slipnav.systems.sensor_health import (
     health_flags,
     health_initial_state,
     health_step,
+    navigation_lateral_take_back,
     navigation_rollback_samples,
-    navigation_v_n_payback,
     pair_gain_ratio,
     pair_gain_reset,
     pair_gain_upper_bound,
@@ -409,70 +409,137 @@ def test_accelerometer_bias_is_isolated_by_the_pair_and_the_kinematics():
     assert np.flatnonzero(check(rows, no_gain)[1][:, 2])[-1] < 330
 
 
-def paybacks(rows, v0, spans=None):
-    """check's codes and navigation_v_n_payback after every sample (and navigation_rollback_samples
-    appended to ``spans``)."""
+def take_backs(rows, v0):
+    """check's codes, navigation_lateral_take_back (disagreement, active, blamed) and
+    navigation_rollback_samples after every sample."""
     params, state = SensorHealthParameters(), health_initial_state(GEOMETRY, v0)
-    codes, taken = [], []
+    codes, taken, spans = [], [], []
     for row in rows:
         state, _, code = health_step(state, row, params, GEOMETRY)
         codes.append(code)
-        taken.append(navigation_v_n_payback(state))
-        if spans is not None:
-            spans.append(navigation_rollback_samples(state))
-    return np.array(codes), np.array(taken)
+        taken.append(navigation_lateral_take_back(state))
+        spans.append(navigation_rollback_samples(state))
+    return np.array(codes), np.array(taken), np.array(spans)
 
 
 @pytest.mark.parametrize("sensor, bias", [(2, 5.0), (1, -5.0), (2, 3.0)])
-def test_what_a_lateral_accelerometer_put_in_before_its_exclusion_is_taken_out_of_v_n(sensor, bias):
+def test_the_checks_say_when_and_what_a_blamed_lateral_accelerometer_put_in(sensor, bias):
     """A lateral accelerometer biased in a turn (2 m/s, 3 rad/s) is blamed by the pair after a few
-    samples; until then the navigation read it, and S(3)'s mean put half of its excess over the healthy
-    sensor's replacement (the other one less S(3)'s rotational difference -2 omega^2 y + 2 omega' x)
-    into v_n. On the blaming sample the checks hand the navigation that much back, -T_N / 2 times the
-    excess summed from the fault's onset (the pair's CUSUM finds it), once; a channel caught by its own
-    check (NaN) and a fault-free drive give none. The same sample tells the navigation how many samples
-    the sum spans (navigation_rollback_samples), back to the onset, for the tyre peak's roll-back."""
+    samples; until then the navigation read it. The checks hand the navigation, every sample, the
+    pair's offset-free disagreement as the CUSUM took it: the blamed sensor's excess over its
+    replacement (the other one plus or less S(3)'s rotational difference -2 omega^2 y + 2 omega' x),
+    computed here independently; whether the CUSUM stands above zero (from the onset, or a sample or two
+    before when the noise already leaned that way); and on the blaming sample which sensor it blamed
+    (once) and how many samples back the change began (the tyre peak's roll-back). A channel caught by
+    its own check (NaN) and a fault-free drive blame none."""
     v, omega, onset = 2.0, 3.0, 300
     rows = stream(600, v, omega, seed=3)
     column = 2 * sensor - 1  # a_n1 or a_n2
     rows[onset:500, column] += bias
-    spans = []
-    codes, taken = paybacks(rows, v, spans)
+    codes, taken, spans = take_backs(rows, v)
+    disagreement, active, blamed_sensor = taken.T
     blamed = np.flatnonzero(codes[:, column])[0]
     assert codes[blamed, column] == INCONSISTENT and onset < blamed <= onset + 50  # 13, 13, 29
+    assert np.flatnonzero(blamed_sensor).tolist() == [blamed] and blamed_sensor[blamed] == sensor
     omega_dot = np.diff(rows[:, 4], prepend=np.nan) / T_N
     rotational = -2 * rows[:, 4] ** 2 * 0.015 + 2 * omega_dot * 0.02  # a_n1 - a_n2
     replacement = rows[:, 3] + rotational if sensor == 1 else rows[:, 1] - rotational
-    excess = np.sum(rows[onset:blamed, column] - replacement[onset:blamed])
-    assert abs(excess - bias * (blamed - onset)) < 0.2 * abs(bias) * (blamed - onset)  # the bias, + noise
-    assert taken[blamed] == pytest.approx(-0.5 * T_N * excess, abs=0.5 * T_N * 1.5)  # +- 1.5 m/s^2 samples
-    assert np.count_nonzero(taken) == 1
-    # the CUSUM's change point: the onset, or a sample or two before it when the noise already leaned
-    # that way (the drift is half the bound, so it stands at zero most of the fault-free time)
-    assert np.flatnonzero(spans).tolist() == [blamed]
-    assert blamed - onset <= spans[blamed] <= blamed - onset + 3
-    clean_codes, clean_taken = paybacks(stream(600, v, omega, seed=3), v)
-    assert not clean_codes.any() and not clean_taken.any()
+    excess = rows[onset:blamed, column] - replacement[onset:blamed]  # what the sensor put in
+    signed = 1.0 if sensor == 1 else -1.0  # a_n1 - a_n2
+    np.testing.assert_allclose(signed * disagreement[onset:blamed], excess, atol=0.1)  # less the offset
+    assert np.all(active[onset:blamed] == 1.0) and active[blamed] == 0.0  # the blame restarts the CUSUM
+    change = int(np.flatnonzero(active[:blamed] == 0.0)[-1]) + 1  # the CUSUM's change point
+    assert onset - 3 <= change <= onset
+    assert np.flatnonzero(spans).tolist() == [blamed] and spans[blamed] == blamed - change
+    clean_codes, clean_taken, _ = take_backs(stream(600, v, omega, seed=3), v)
+    assert not clean_codes.any() and not clean_taken[:, 2].any()
     lost = stream(600, v, omega, seed=3)
     lost[onset:500, column] = np.nan
-    assert not paybacks(lost, v)[1].any()
+    assert not take_backs(lost, v)[1][:, 2].any()
+
+
+def test_the_lateral_shadows_rerun_the_ekf_and_s17_with_the_other_sensor_by_hand():
+    """lateral_shadow_step against the navigation's own functions: from the change point each shadow
+    is the EKF's S(2) and S(8) on its own previous estimate with the mean's a_n replaced (-/+ half the
+    disagreement: sensor 1's, sensor 2's), then mix_checked with its own C2 (S(13)); they rest while the
+    pair agrees, and the blamed sensor's is handed over, whose v_n and a_n the navigation takes (F and S
+    restart from that v_n)."""
+    from slipnav.systems.ekf import ekf_inertial_estimate
+    from slipnav.systems.mixing import (
+        LATERAL_SHADOW_SIZE,
+        MixingParameters,
+        lateral_shadow_step,
+        mix_checked,
+        mixing_c2,
+        taken_from_shadow,
+    )
+
+    p = MixingParameters()
+    rng = np.random.default_rng(5)
+    L = 0.01 * rng.standard_normal((5, 3))
+    L[4, 2], L[3, 1], L[2, 0] = 0.59, 0.59, 0.5
+    odo, c1, c3, check_state = [1.5, 0.8, 1.55, 1.45], 0.9, 0.2, (0.01, 0.012, 5.49, 2.0, 2.5)
+    x = np.array([1.5, 0.02, 0.8, 0.3, 1.2])  # x_k-1 at the change point
+    y = [np.array([0.8, 0.35, 1.3]), np.array([0.81, 0.3, 1.5])]  # [omega, a_t, a_n] of two samples
+    disagreement = [0.9, 1.4]  # a_n1 - a_n2 beyond S(3)'s rotational terms and the pair's offset
+
+    resting = np.zeros(LATERAL_SHADOW_SIZE)
+    inertial = ekf_inertial_estimate(x, L, y[0], T_N)
+    args = (odo, inertial, x, L, c1, c3, p, check_state, T_N)
+    state, taken = lateral_shadow_step(resting, (0.0, 0.0, 0.0), *args)
+    assert state is resting and taken is None  # the pair agrees
+
+    shadows = [x, x]
+    state = resting
+    for k in range(2):
+        inertial = ekf_inertial_estimate(x, L, y[k], T_N)  # the navigation's (x: its x_k-1)
+        state, taken = lateral_shadow_step(
+            state, (disagreement[k], 1.0, 0.0), odo, inertial, x, L, c1, c3, p, check_state, T_N
+        )
+        assert taken is None and state[10] == 1.0
+        for c, sign in ((0, -1.0), (1, 1.0)):
+            replaced = y[k] + [0.0, 0.0, sign * 0.5 * disagreement[k]]
+            estimate = ekf_inertial_estimate(shadows[c], L, replaced, T_N)
+            expected = mix_checked(
+                odo, estimate, c1, mixing_c2(estimate[4], p), c3, shadows[c], p, check_state, T_N
+            )[0]
+            np.testing.assert_allclose(state[5 * c : 5 * c + 5], expected, rtol=1e-12, atol=1e-12)
+            shadows[c] = expected
+        x = x + np.array([0.001, -0.003, 0.0, 0.01, 0.02])  # the navigation moved on its own way
+    # the blaming sample (its own reading already replaced: no disagreement taken) hands sensor 2's over
+    inertial = ekf_inertial_estimate(x, L, y[1], T_N)
+    state, taken = lateral_shadow_step(
+        state, (0.0, 0.0, 2.0), odo, inertial, x, L, c1, c3, p, check_state, T_N
+    )
+    estimate = ekf_inertial_estimate(shadows[1], L, y[1], T_N)
+    expected = mix_checked(odo, estimate, c1, mixing_c2(estimate[4], p), c3, shadows[1], p, check_state, T_N)[
+        0
+    ]
+    np.testing.assert_allclose(taken, expected, rtol=1e-12, atol=1e-12)
+    assert state[10] == 0.0  # they rest from the next sample on
+    mixed = np.array([1.5, 0.05, 0.8, 0.3, 1.2])
+    replaced, check = taken_from_shadow(mixed, check_state, taken)
+    np.testing.assert_array_equal(replaced, [1.5, taken[1], 0.8, 0.3, taken[4]])
+    assert check == (taken[1], taken[1], 5.49, 2.0, 2.5)
+    assert taken_from_shadow(mixed, check_state, None) == (mixed, check_state)
 
 
 def test_only_what_went_in_while_the_wheels_turned_is_taken_back():
     """At rest the navigation holds v_n (S(17) with the wheels at rest), so a lateral bias there put
     nothing into it: 0.8 m/s^2 on accel2_n from sample 100, below the pair's bound at rest (1 m/s^2), is
-    blamed 4 samples after the robot drives off (800), and the payback is those samples' (1.5 mm/s;
-    summed from the bias's onset it would take 0.7 m/s out of v_n); 1.5 and 3 m/s^2, blamed at rest,
-    give none."""
+    blamed 4 samples after the robot drives off (800), and the change the navigation is told of began
+    when the wheels did (the CUSUM rests while they stand); 1.5 and 3 m/s^2, blamed at rest, give no
+    take-back."""
     for bias, blamed in ((0.8, (801, 810)), (1.5, (101, 130)), (3.0, (101, 110))):
         rows = driving_off(2, n=1500, rest=800, v=1.6, difference=0.0)
         rows[100:, 3] += bias
-        codes, taken = paybacks(rows, 0.0)
+        codes, taken, spans = take_backs(rows, 0.0)
         first = np.flatnonzero(codes[:, 3])[0]
         assert blamed[0] <= first <= blamed[1] and codes[first, 3] == INCONSISTENT
         moving = max(first - 800, 0)  # samples the wheels turned before the blame
-        assert np.count_nonzero(taken) == (1 if moving else 0)
-        assert -0.5 * T_N * bias * (moving + 1) <= taken.min() <= 0.0
+        assert np.count_nonzero(taken[:, 2]) == (1 if moving else 0)
+        assert not np.any(taken[:800, 1])  # the CUSUM rests at a standstill
+        assert 0 <= spans.max() <= moving
 
 
 def test_the_fast_pair_bound_by_hand():
@@ -1439,35 +1506,58 @@ def test_a_gyro_lost_in_the_open_corners_slide_costs_little_heading(
     assert final_position_error(faulty, "est") <= 3.0 * final_position_error(clean, "est")
 
 
+def lateral_pair(scenario: str, seed: int, channel: str, start: float):
+    """Open loop: ``channel`` biased by +5 m/s^2 from ``start`` for 0.5 s, and the same channel lost
+    (NaN: nothing biased got in); the two runs' arrays."""
+    runs = {}
+    for kind, value in (("bias", 5.0), ("nan", 0.0)):
+        event = FaultEvent(kind, channel, start, 0.5, value)
+        runs[kind] = run_scenario(load_scenario(scenario), seed=seed, open_loop=True, faults=[event]).arrays
+    return runs["bias"], runs["nan"]
+
+
 def test_a_lateral_bias_in_the_open_corners_slide_leaves_v_n_as_an_outage_does():
     """slipnav faults --open-loop's corner seed 1: accel2_n reads +5 m/s^2 from 2.418 s, in the slide
     (a_n about 5 m/s^2), and the pair blames it after 5 samples. Those 5 samples had put 16 mm/s into
     v_n, which the slide's S(17) (C2 = 0) kept: v_n ran 18 mm/s beside the run where the same channel is
-    lost (NaN: nothing biased got in) over the next 40 ms, and the fused pose ended 12.9 mm off (8.6 x
-    the fault-free 1.5 mm; the NaN run 6.3). Taking it back on the blaming sample leaves v_n within
-    9 mm/s of the outage's: it takes out the whole 25 mm/s that T_N/2 x the excess gives, of which v_n
-    had taken in 16 (the EKF's a_n lags its measurement: 1.5, 2.2, 2.3, 2.5 of the 2.5 m/s^2 in S(3)'s
-    mean). The tyre peak had learned from the same 5 samples, 5.72 m/s^2 against the outage's 5.55
-    (nominal and true 5.49), and the curve it shapes in S(17) then drew v_n 14 mm/s off over the slide
-    (9.1 mm, 6.1 x); rolled back to its state before them on the blaming sample, it is the outage's from
-    there on, and the pose ends 4.9 mm off (below the outage's 6.3)."""
-    corner = load_scenario("corner")
-
-    def faulty(kind, value):
-        event = FaultEvent(kind, "accel2_n", 2.418, 0.5, value)
-        return run_scenario(corner, seed=1, open_loop=True, faults=[event]).arrays
-
-    biased, lost = faulty("bias", 5.0), faulty("nan", 0.0)
+    lost over the next 40 ms, and the fused pose ended 12.9 mm off (8.6 x the fault-free 1.5 mm; the
+    lost channel's run 6.3). On the blaming sample the navigation takes the estimate of its shadow that
+    replaced accel2_n from the change point on (mixing.lateral_shadow_step): v_n is then within 2 mm/s
+    of the outage's (a take-back of T_N/2 x the excess, 25 mm/s, had left it 9 mm/s on the other
+    side). The tyre peak had learned from the same 5 samples, 5.72 m/s^2 against the outage's 5.55
+    (nominal and true 5.49); rolled back to its state before them, it is the outage's from there on.
+    The pose ends as the outage's does (6.8 against 6.3 mm)."""
+    biased, lost = lateral_pair("corner", 1, "accel2_n", 2.418)
     t = biased["t"]
     blamed = t[np.flatnonzero(biased["health_accel2_n"])[0]]
     assert biased["health_accel2_n"][t == blamed][0] == INCONSISTENT and 2.42 < blamed < 2.44
-    after = (t >= blamed + 0.004) & (t <= blamed + 0.04)
-    assert np.mean(np.abs(biased["est_v_n"] - lost["est_v_n"])[after]) < 0.01  # m/s; 0.018 unpaid
-    from_blame = t >= blamed
+    before, after = t == blamed - T_N, (t >= blamed) & (t <= blamed + 0.04)
+    gap = np.abs(biased["est_v_n"] - lost["est_v_n"])
+    assert gap[before][0] > 0.014  # m/s: what went in
+    assert gap[after].max() < 0.002  # 0.018 without a take-back, 0.009 with T_N/2 x the excess
     peak_gap = np.abs(biased["est_tyre_peak"] - lost["est_tyre_peak"])
-    assert peak_gap[t == blamed - T_N][0] > 0.1  # learned from the biased samples until the blame
-    assert peak_gap[from_blame].max() < 0.005  # m/s^2; 0.166 without the roll-back
-    assert final_position_error(biased, "est") < final_position_error(lost, "est")  # 2.05 x, 1.44 x before
+    assert peak_gap[before][0] > 0.1  # learned from the biased samples until the blame
+    assert peak_gap[t >= blamed].max() < 0.005  # m/s^2; 0.166 without the roll-back
+    ratio = final_position_error(biased, "est") / final_position_error(lost, "est")
+    assert 0.9 < ratio < 1.15  # 2.05 before the take-back
+
+
+def test_a_lateral_bias_on_the_squares_straight_is_taken_back_from_either_branch_of_s17():
+    """slipnav faults --open-loop's square seed 0: accel1_n reads +5 m/s^2 from 3.546 s on the straight
+    at 2 m/s. The bias itself lifts |^I a_n| above b2, so C2 falls (0.25) and S(17)'s inertial branch
+    integrates it into v_n: 21 mm/s over the 12 samples before the blame. Once the sensor is replaced, C2
+    is back at 1 and the model branch, which ignores ^I v_n, carries that excess on from v_n,k-1: a take-
+    back added to ^I v_n reached v_n by 2 % (24.7 mm/s left, decaying over 0.2 s). The shadow that
+    replaced accel1_n from the change point ran S(17) with its own C2 (about 1 throughout), and taking
+    its estimate leaves v_n with the outage's."""
+    biased, lost = lateral_pair("square", 0, "accel1_n", 3.546)
+    t = biased["t"]
+    k = int(np.flatnonzero(biased["health_accel1_n"])[0])
+    assert biased["health_accel1_n"][k] == INCONSISTENT and 3.56 < t[k] < 3.58
+    assert biased["C2"][k - 3] < 0.5 < biased["C2"][k]
+    gap = np.abs(biased["est_v_n"] - lost["est_v_n"])
+    assert gap[k - 1] > 0.015  # m/s
+    assert gap[k : k + 25].max() < 0.001
 
 
 def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():

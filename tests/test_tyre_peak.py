@@ -164,7 +164,7 @@ def test_mix_checked_learns_only_from_checked_samples_of_rolling_wheels():
 
 
 def test_the_samples_of_a_blamed_lateral_accelerometer_are_unlearnt():
-    """A lateral accelerometer the pair blames was read until then (sensor_health's payback); on the
+    """A lateral accelerometer the pair blames was read until then (sensor_health's take-back); on the
     blaming sample the checks say how many samples back its fault began (navigation_rollback_samples),
     and the velocity mixer's tyre peak goes back to its state from before them: the ring of past states
     by hand, then the block, fed a sliding sample for 8 T_N and rolled back 3 on the 9th."""
