@@ -30,7 +30,11 @@ from slipnav.systems.odometry import ODOMETRY_STEP_LAYOUT, Odometry
 from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
+from slipnav.systems.sensor_correction import (
+    SensorCalibration,
+    SensorCorrection,
+    lateral_replacement_gains,
+)
 from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonitor, payback_window
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
@@ -150,6 +154,9 @@ def build_navigation_diagram(
             initial.ekf_state()[1],
             geometry.accelerometer_position,
             payback_window(params.health),
+            lateral_replacement_gains(
+                None if calibration is None or calibration.is_identity() else calibration
+            ),
         ),
         "Velocity mixer",
     )

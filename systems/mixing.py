@@ -843,10 +843,14 @@ def mix_checked(
     return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
 
 
-LATERAL_SHADOW_SIZE = 11
-"""lateral_shadow_step's state: the estimate x (v_t, v_n, omega, a_t, a_n) of the shadow without
-accelerometer 1's a_n, of the one without accelerometer 2's, and whether the pair's CUSUM stood above
-zero after the previous sample (1) or the shadows rest (0)."""
+LATERAL_SHADOW_SIZE = 15
+"""lateral_shadow_step's state: per shadow (the one without accelerometer 1's a_n, then the one without
+accelerometer 2's) its estimate x (v_t, v_n, omega, a_t, a_n) and its tyre-model check's F and S; then
+whether the pair's CUSUM stood above zero after the previous sample (1) or the shadows rest (0)."""
+
+IDENTITY_REPLACEMENT = ((0.0, 1.0), (0.0, 1.0))
+"""lateral_shadow_step's replacement_gains without a sensor correction: a change of accelerometer i's
+raw a_n changes what the EKF reads of it by (0, 1) (sensor_correction.lateral_replacement_gains)."""
 
 
 def lateral_shadow_step(
@@ -864,6 +868,7 @@ def lateral_shadow_step(
     inertial_fault: bool = False,
     encoder_fault: bool = False,
     external_force: bool = False,
+    replacement_gains=IDENTITY_REPLACEMENT,
 ):
     """The navigation's estimate as it would have run had either lateral accelerometer been replaced
     from where the pair began to disagree: what the navigation takes when the sensor checks blame one
@@ -875,10 +880,12 @@ def lateral_shadow_step(
     lifts |^I a_n| over b2 lowers C2 and hands v_n to the inertial branch). How much of it the estimate
     holds therefore depends on the whole path. Each shadow re-runs that path sample by sample from the
     change point: S(2) from its own previous estimate, S(8) with the same gain and measurement except
-    the mean's a_n, which replaces the sensor (-/+ disagreement / 2: the other sensor plus S(3)'s
-    rotational difference and the pair's offset, the checks' replacement), and mix_checked with its own
-    C2 (S(13) at its own ^I a_n); odometry, C1, C3 and the tyre model's state are the navigation's.
-    L y is read off the navigation's own update: ^I x - S(2)(x) + L C S(2)(x).
+    for the replaced sensor (its raw a_n less or plus the disagreement: the other sensor plus S(3)'s
+    rotational difference and the pair's offset, the checks' replacement, through the sensor
+    correction's ``replacement_gains`` into the mean's a_t and a_n), and mix_checked with its own C2
+    (S(13) at its own ^I a_n) and its own tyre-model check (F, S from the navigation's at the change
+    point); odometry, C1, C3 and the identified tyre peak are the navigation's. L y is read off the
+    navigation's own update: ^I x - S(2)(x) + L C S(2)(x).
 
     Args:
         shadow: the state after the previous sample (LATERAL_SHADOW_SIZE; zeros at the start).
@@ -886,37 +893,64 @@ def lateral_shadow_step(
         odo, inertial, previous, c1, c3, check_state, inertial_fault, encoder_fault, external_force:
             the navigation's, as mix_checked takes them (inertial: ^I x_k; previous: x_k-1).
         L: the EKF's gain of this sample, 5 x 3.
+        replacement_gains: per accelerometer, what a unit change of its raw a_n changes in the
+            (t, n) the EKF reads (IDENTITY_REPLACEMENT without a sensor correction).
 
     Returns:
-        (the state after this sample, the blamed sensor's shadow estimate x_k or None).
+        (the state after this sample, the blamed sensor's shadow [x_k, F_k, S_k] or None).
     """
     disagreement, active, blamed = take_back
-    if shadow[10] == 0.0 and active == 0.0 and blamed == 0.0:
+    if shadow[14] == 0.0 and active == 0.0 and blamed == 0.0:
         return shadow, None  # the pair agrees: the shadows rest
+    if active == 0.0 and blamed == 0.0:  # the CUSUM fell back to zero: nothing to take
+        rested = np.array(shadow, float)
+        rested[14] = 0.0
+        return rested, None
     previous = np.asarray(previous, float)
     predicted = ekf_predict(previous, T_N)
     measured = np.asarray(inertial, float) - predicted + L @ predicted[2:5]  # L y
-    starts = shadow[10] == 0.0  # the change point: both start from the navigation's x_k-1
+    starts = shadow[14] == 0.0  # the change point: both start from the navigation's x_k-1, F, S
     out = np.empty(LATERAL_SHADOW_SIZE)
-    for c, sign in ((0, -1.0), (1, 1.0)):
-        x = previous if starts else np.asarray(shadow[5 * c : 5 * c + 5], float)
+    for c, change in ((0, -disagreement), (1, disagreement)):
+        if starts:
+            x, free, curve = previous, check_state[0], check_state[1]
+        else:
+            x, free, curve = (
+                np.asarray(shadow[7 * c : 7 * c + 5], float),
+                shadow[7 * c + 5],
+                shadow[7 * c + 6],
+            )
         x_predicted = ekf_predict(x, T_N)
-        replaced = np.array([0.0, 0.0, sign * 0.5 * disagreement]) - x_predicted[2:5]
+        gain_t, gain_n = replacement_gains[c]
+        replaced = np.array([0.0, 0.5 * gain_t * change, 0.5 * gain_n * change]) - x_predicted[2:5]
         estimate = x_predicted + measured + L @ replaced
-        c2 = mixing_c2(estimate[4], p)
-        mixed, _, _ = mix_checked(
-            odo, estimate, c1, c2, c3, x, p, check_state, T_N, inertial_fault, encoder_fault, external_force
+        own_check = (free, curve, *check_state[2:])
+        mixed, _, state = mix_checked(
+            odo,
+            estimate,
+            c1,
+            mixing_c2(estimate[4], p),
+            c3,
+            x,
+            p,
+            own_check,
+            T_N,
+            inertial_fault,
+            encoder_fault,
+            external_force,
         )
-        out[5 * c : 5 * c + 5] = mixed
-    out[10] = active
-    taken = out[5 * (int(blamed) - 1) : 5 * int(blamed)].copy() if blamed else None
+        out[7 * c : 7 * c + 5] = mixed
+        out[7 * c + 5 : 7 * c + 7] = state[0:2]
+    out[14] = active
+    taken = out[7 * (int(blamed) - 1) : 7 * int(blamed)].copy() if blamed else None
     return out, taken
 
 
 def taken_from_shadow(mixed, check_state, taken):
     """The mixed estimate and the tyre-model check's state after this sample with the lateral part
-    (v_n, ^I a_n) of the shadow ``taken`` (lateral_shadow_step; None: as they are): F and S restart
-    from its v_n, as they do from the mixed v_n while an inertial channel is excluded."""
+    (v_n, ^I a_n) of the shadow ``taken`` (lateral_shadow_step's [x, F, S]; None: as they are): F and S
+    restart from its v_n, as they do from the mixed v_n while an inertial channel is excluded (the
+    blaming sample excludes one)."""
     if taken is None:
         return mixed, check_state
     mixed = np.array(mixed, float)
@@ -1127,6 +1161,8 @@ class VelocityMixer(LeafSystem):
             estimate's v_n (m/s). accelerometer_position: accelerometer 1's nominal (x, y) (m; S(3)).
         tyre_peak_horizon: samples of the tyre peak's past kept for rollback_samples
             (sensor_health.payback_window; 0: none, the input is ignored).
+        replacement_gains: the sensor correction's lateral_replacement_gains for the shadows
+            (IDENTITY_REPLACEMENT without one).
     """
 
     def __init__(
@@ -1136,8 +1172,10 @@ class VelocityMixer(LeafSystem):
         initial_v_n: float,
         accelerometer_position,
         tyre_peak_horizon: int = 0,
+        replacement_gains=IDENTITY_REPLACEMENT,
     ):
         super().__init__()
+        self._replacement = tuple(tuple(float(v) for v in gains) for gains in replacement_gains)
         self._p, self._T_N = params, T_N
         self._position = (float(accelerometer_position[0]), float(accelerometer_position[1]))
         self._odo = self.DeclareVectorInputPort("odometry", 4)
@@ -1217,6 +1255,7 @@ class VelocityMixer(LeafSystem):
                 fault,
                 self._enc_fault.Eval(context)[0] > 0.5,
                 pushed,
+                self._replacement,
             )
             mixed, state = taken_from_shadow(mixed, state, taken)
         if self._history is not None and self._rollback.HasValue(context):

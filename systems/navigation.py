@@ -62,7 +62,12 @@ from slipnav.systems.mixing import (
 from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import pose_step
-from slipnav.systems.sensor_correction import SensorCalibration, corrected_accelerometers, corrected_gyro
+from slipnav.systems.sensor_correction import (
+    SensorCalibration,
+    corrected_accelerometers,
+    corrected_gyro,
+    lateral_replacement_gains,
+)
 from slipnav.systems.sensor_health import (
     FORCE_REFERENCE_FIELDS,
     NO_CURRENTS,
@@ -239,6 +244,7 @@ class NavigationLoop:
             payback_window(params.health), self.tyre_model_state[2:5]
         )  # for the sensor checks' roll-back (rolled_back)
         self.lateral_shadow = np.zeros(LATERAL_SHADOW_SIZE)  # lateral_shadow_step's
+        self.replacement_gains = lateral_replacement_gains(self.sensor_calibration)
         self.tyre_model_weight = 0.0  # mix_checked's
         self.inertial_fault = self.encoder_fault = False
         self.pushed = False  # the perturbation monitor's sideways push as the mixer takes it (step)
@@ -332,6 +338,7 @@ class NavigationLoop:
             self.inertial_fault,
             self.encoder_fault,
             self.pushed,
+            self.replacement_gains,
         )
         mixed, self.tyre_model_state = taken_from_shadow(mixed, self.tyre_model_state, taken)
         self.tyre_model_state = rolled_back(

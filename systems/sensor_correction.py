@@ -93,6 +93,21 @@ def corrected_accelerometers(calibration: SensorCalibration, readings) -> list[f
     return out
 
 
+def lateral_replacement_gains(calibration: SensorCalibration | None) -> tuple:
+    """Per accelerometer, what a unit change of its raw a_n changes in the (t, n) that
+    corrected_accelerometers gives: R(-gamma_i) (0, 1) / (1 + s_i) = (-sin gamma_i, cos gamma_i) /
+    (1 + s_i); (0, 1) without a calibration (mixing.lateral_shadow_step's replacement_gains)."""
+    if calibration is None:
+        return ((0.0, 1.0), (0.0, 1.0))
+    gains = []
+    for gamma, scale in (
+        (calibration.accel1_misalignment, calibration.accel1_scale_error),
+        (calibration.accel2_misalignment, calibration.accel2_scale_error),
+    ):
+        gains.append((-math.sin(gamma) / (1.0 + scale), math.cos(gamma) / (1.0 + scale)))
+    return tuple(gains)
+
+
 class SensorCorrection(LeafSystem):
     """Removes the model's sensor gains and misalignments from every sample (module docstring):
     stateless, direct feedthrough.

@@ -72,15 +72,16 @@ pair began to disagree (Page's change-point estimate); every sample the checks h
 disagreement and whether the CUSUM stands above zero, and on the blaming sample which sensor they
 blamed (navigation_lateral_take_back). The navigation's velocity mixer keeps two shadows, from the
 change point on, of its own estimate with either sensor replaced (the other one plus S(3)'s rotational
-difference and the pair's offset: the mean's a_n less or plus half the disagreement), re-running the
-EKF and S(17) with their own C2 (mixing.lateral_shadow_step), and on the blame takes the blamed
-sensor's shadow's v_n and a_n. How much of a fault the estimate holds depends on the whole path: the
-EKF's a_n lags its measurement, and a bias that lifts |^I a_n| over b2 moves S(17)'s weight to the
-inertial branch, which is back on the model branch once the sensor is replaced. A take-back of T_N/2 x
-the excess in ^I v_n (the previous release) therefore left v_n 4 mm/s past the outage's in the corner's
-slide (median over 10 seeds; 16.5 mm/s had gone in) and kept 23.8 of 24.3 mm/s on the square's
-straight; the shadow leaves it within 2 mm/s and 1 mm/s of the run where the channel is lost
-(tests/test_faults.py). The CUSUM runs only while the wheels turn (at rest the navigation holds v_n:
+difference and the pair's offset: the sensor's raw a_n less or plus the disagreement, through the
+model's sensor correction), re-running the EKF and S(17) with their own C2 and tyre-model check
+(mixing.lateral_shadow_step), and on the blame takes the blamed sensor's shadow's v_n and a_n. How
+much of a fault the estimate holds depends on the whole path: the EKF's a_n lags its measurement, and
+a bias that lifts |^I a_n| over b2 moves S(17)'s weight to the inertial branch, which is back on the
+model branch once the sensor is replaced. A take-back of T_N/2 x the excess in ^I v_n (the previous
+release) therefore left v_n 4 mm/s past the outage's in the corner's slide (median over 10 seeds; 16.5
+mm/s had gone in) and kept 23.8 of 24.3 mm/s on the square's straight; the shadow leaves it within 2
+mm/s and 1 mm/s of the run where the channel is lost (open corner seed 1, square seed 0:
+tests/test_faults.py). The CUSUM runs only while the wheels turn (at rest the navigation holds v_n:
 nothing went in) and the gyro is trusted (the rotational terms from the wheels' yaw rate are no
 evidence), and nothing is taken back for a change point more than PAYBACK_WINDOW consistency_samples
 back. The tangential axes get no take-back: the odometry (C1) has already taken most of their excess
@@ -457,15 +458,15 @@ _GAIN_POS = _GAIN + 2 * GAIN_SLOTS
 _GAIN_RING = _GAIN_POS + 2
 # The variance of the pair's learned offset (t, n; pair_offset_update).
 _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
-# The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and, per side, the samples since
-# that side last stood at zero (pair_cusum_step); then this sample's take-back for the navigation: the
-# samples it spans (the tyre peak's roll-back), the offset-free disagreement as the CUSUM took it (0:
-# not taken), whether the CUSUM stands above zero after it, and the lateral sensor blamed (0, 1, 2).
+# The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and the samples since both sides
+# last stood at zero (pair_cusum_step); then this sample's take-back for the navigation: the samples it
+# reaches back (the tyre peak's roll-back), the offset-free disagreement as the CUSUM took it (0: not
+# taken), whether the CUSUM stands above zero after it, and the lateral sensor blamed (0, 1, 2).
 _CUSUM = _OFFSET_VAR + 2
 _CUSUM_COUNT = _CUSUM + 2
-_ROLLBACK = _CUSUM_COUNT + 2
-_SHADOW = _ROLLBACK + 1
-STATE_SIZE = _SHADOW + 3
+_ROLLBACK = _CUSUM_COUNT + 1
+_TAKE_BACK = _ROLLBACK + 1
+STATE_SIZE = _TAKE_BACK + 3
 PAYBACK_WINDOW = 4
 """A lateral disagreement that built up over more than this many consistency_samples before the pair
 blamed a sensor is no step the take-back can place (a 15-sample average passes its bound after
@@ -602,7 +603,7 @@ def health_check(
                 out[c] = ref[c] if math.isfinite(ref[c]) else 0.0
             ref[c] = out[c]
         s[_ROLLBACK] = 0.0
-        s[_SHADOW : _SHADOW + 3] = 0.0
+        s[_TAKE_BACK : _TAKE_BACK + 3] = 0.0
         return s, out, codes
     ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
     ring_pos = int(s[_RING_POS])
@@ -872,9 +873,9 @@ def health_check(
     fast_known = known and excl[4] == 0.0
     for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
         s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
-    # What a lateral sensor excluded on this sample put in since the pair began to disagree
+    # How far back a lateral sensor excluded on this sample had put its fault in
     span = pair_cusum_span(s, PAYBACK_WINDOW * p.consistency_samples)
-    s[_SHADOW] = 0.0
+    s[_TAKE_BACK] = 0.0
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -945,7 +946,7 @@ def health_check(
                 pair_cusum_reset(s)
             elif axis == 1:
                 pair_cusum_step(s, offset_free, 0.5 * limit)
-                s[_SHADOW] = offset_free if math.isfinite(offset_free) else 0.0
+                s[_TAKE_BACK] = offset_free if math.isfinite(offset_free) else 0.0
     else:  # an axis out of the pair for its own fault: the gain test's window is stale when it returns
         pair_gain_reset(s)
         pair_cusum_reset(s)
@@ -953,8 +954,8 @@ def health_check(
 
     # Analog output: the reading, else its redundant estimate (the reference carried along).
     s[_ROLLBACK] = 0.0
-    s[_SHADOW + 1] = 1.0 if s[_CUSUM] > 0.0 or s[_CUSUM + 1] > 0.0 else 0.0
-    s[_SHADOW + 2] = 0.0
+    s[_TAKE_BACK + 1] = 1.0 if s[_CUSUM] > 0.0 or s[_CUSUM + 1] > 0.0 else 0.0
+    s[_TAKE_BACK + 2] = 0.0
     for c in range(5):
         if codes[c] == 0:
             out[c] = ref[c] = raw[c]
@@ -965,7 +966,7 @@ def health_check(
             # began to disagree is taken back there (navigation_lateral_take_back; the blame's hold has
             # already restarted the CUSUM), and what the tyre peak learned from it undone
             s[_ROLLBACK] = span
-            s[_SHADOW + 2] = float(c // 2 + 1) if span > 0.0 else 0.0
+            s[_TAKE_BACK + 2] = float(c // 2 + 1) if span > 0.0 else 0.0
         # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
         excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
@@ -988,38 +989,30 @@ def health_check(
 @jitable
 def pair_cusum_step(s, disagreement: float, drift: float):
     """Page's two-sided CUSUM of the lateral pair's offset-free ``disagreement`` (m/s^2) less ``drift``
-    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down) and
-    the samples since that side last stood at zero, where the change began (Page 1954), in
-    s[_CUSUM_COUNT + side]. A non-finite sample restarts both."""
+    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down), and
+    in s[_CUSUM_COUNT] the samples since both last stood at zero, where the change began (Page 1954;
+    the earlier of the two sides' change points, from which the navigation's shadows run). A
+    non-finite sample restarts both."""
     if not math.isfinite(disagreement):
         pair_cusum_reset(s)
         return
     for side in range(2):
         statistic = s[_CUSUM + side] + (disagreement if side == 0 else -disagreement) - drift
-        if statistic > 0.0:
-            s[_CUSUM + side] = statistic
-            s[_CUSUM_COUNT + side] += 1.0
-        else:
-            s[_CUSUM + side] = 0.0
-            s[_CUSUM_COUNT + side] = 0.0
+        s[_CUSUM + side] = statistic if statistic > 0.0 else 0.0
+    s[_CUSUM_COUNT] = s[_CUSUM_COUNT] + 1.0 if s[_CUSUM] > 0.0 or s[_CUSUM + 1] > 0.0 else 0.0
 
 
 @jitable
 def pair_cusum_reset(s):
     """Both sides of the lateral pair's CUSUM at zero (pair_cusum_step)."""
-    for i in range(2):
-        s[_CUSUM + i] = 0.0
-        s[_CUSUM_COUNT + i] = 0.0
+    s[_CUSUM] = s[_CUSUM + 1] = s[_CUSUM_COUNT] = 0.0
 
 
 @jitable
 def pair_cusum_span(s, window: int) -> float:
-    """The samples since the lateral pair began to disagree: those of the CUSUM's side that stands
-    higher (0 when neither is above zero, or when that side spans more than ``window`` samples)."""
-    up, down = s[_CUSUM], s[_CUSUM + 1]
-    if up <= 0.0 and down <= 0.0:
-        return 0.0
-    count = s[_CUSUM_COUNT + (0 if up >= down else 1)]
+    """The samples since the lateral pair began to disagree: since both sides of the CUSUM last stood
+    at zero (0 when neither is above zero now, or when that is more than ``window`` samples back)."""
+    count = s[_CUSUM_COUNT]
     return count if count <= window else 0.0
 
 
@@ -1032,16 +1025,15 @@ def navigation_lateral_take_back(state) -> tuple:
     sensor, trusted until then with its partner healthy, within PAYBACK_WINDOW consistency_samples of
     the CUSUM's change point (the navigation then takes the shadow that replaced it from there); else
     0."""
-    return float(state[_SHADOW]), float(state[_SHADOW + 1]), float(state[_SHADOW + 2])
+    return float(state[_TAKE_BACK]), float(state[_TAKE_BACK + 1]), float(state[_TAKE_BACK + 2])
 
 
 def navigation_rollback_samples(state) -> int:
     """How many samples back the navigation's tyre peak is rolled (health_check's state ``state``): on
     the sample the pair blames a lateral sensor, the samples since the CUSUM's change point
-    (navigation_lateral_take_back),
-    whose accelerations carried the fault before the check caught it (the velocity mixer restores the
-    tyre peak's state from before them: mixing.rolled_back, the VelocityMixer's rollback_samples
-    input); 0 on every other sample."""
+    (navigation_lateral_take_back), whose accelerations carried the fault before the check caught it
+    (the velocity mixer restores the tyre peak's state from before them: mixing.rolled_back, the
+    VelocityMixer's rollback_samples input); 0 on every other sample."""
     return int(state[_ROLLBACK])
 
 

@@ -137,7 +137,7 @@ def test_a_run_whose_estimate_becomes_non_finite_stops_with_status_3(tmp_path, m
             out[0] = math.nan
         return out, state
 
-    monkeypatch.setattr(mixing, "taken_from_shadow", broken)  # VelocityMixer's last word, once a sample
+    monkeypatch.setattr(mixing, "taken_from_shadow", broken)  # the VelocityMixer calls it once a sample
     assert main(["run", "corner", "--out", str(tmp_path), "--no-figures"]) == 3
     err = capsys.readouterr().err
     assert err.startswith("slipnav: error: corner stopped early: the navigation estimate became non-finite")

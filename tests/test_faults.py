@@ -460,10 +460,12 @@ def test_the_checks_say_when_and_what_a_blamed_lateral_accelerometer_put_in(sens
 
 def test_the_lateral_shadows_rerun_the_ekf_and_s17_with_the_other_sensor_by_hand():
     """lateral_shadow_step against the navigation's own functions: from the change point each shadow
-    is the EKF's S(2) and S(8) on its own previous estimate with the mean's a_n replaced (-/+ half the
-    disagreement: sensor 1's, sensor 2's), then mix_checked with its own C2 (S(13)); they rest while the
-    pair agrees, and the blamed sensor's is handed over, whose v_n and a_n the navigation takes (F and S
-    restart from that v_n)."""
+    is the EKF's S(2) and S(8) on its own previous estimate with the replaced sensor's raw a_n less or
+    plus the disagreement, through the sensor correction into the mean's a_t and a_n (sensor 1's,
+    sensor 2's), then mix_checked with its own C2 (S(13)) and its own F and S (from the navigation's at
+    the change point); they rest while the pair agrees and stop when the CUSUM falls back to zero
+    without a blame, and the blamed sensor's is handed over, whose v_n and a_n the navigation takes (F
+    and S restart from that v_n)."""
     from slipnav.systems.ekf import ekf_inertial_estimate
     from slipnav.systems.mixing import (
         LATERAL_SHADOW_SIZE,
@@ -473,12 +475,32 @@ def test_the_lateral_shadows_rerun_the_ekf_and_s17_with_the_other_sensor_by_hand
         mixing_c2,
         taken_from_shadow,
     )
+    from slipnav.systems.sensor_correction import (
+        SensorCalibration,
+        corrected_accelerometers,
+        lateral_replacement_gains,
+    )
 
     p = MixingParameters()
     rng = np.random.default_rng(5)
     L = 0.01 * rng.standard_normal((5, 3))
     L[4, 2], L[3, 1], L[2, 0] = 0.59, 0.59, 0.5
-    odo, c1, c3, check_state = [1.5, 0.8, 1.55, 1.45], 0.9, 0.2, (0.01, 0.012, 5.49, 2.0, 2.5)
+    odo, c1, c3 = [1.5, 0.8, 1.55, 1.45], 0.9, 0.2
+    check_state = (0.01, 0.012, 5.49, 2.0, 2.5)  # the navigation's F, S and tyre peak
+    calibration = SensorCalibration(
+        accel1_scale_error=0.02, accel2_scale_error=-0.01, accel1_misalignment=0.03, accel2_misalignment=-0.02
+    )
+    gains = lateral_replacement_gains(calibration)
+    raw = np.array([0.3, 1.4, 0.35, 1.1])  # one sample's raw [a_t1, a_n1, a_t2, a_n2]
+    for c, (column, change) in enumerate(((1, -0.7), (3, 0.7))):  # what a raw a_n change does
+        moved = raw.copy()
+        moved[column] += change
+        effect = np.subtract(
+            corrected_accelerometers(calibration, moved), corrected_accelerometers(calibration, raw)
+        )
+        np.testing.assert_allclose(effect[2 * c : 2 * c + 2], np.multiply(gains[c], change), rtol=1e-12)
+    assert lateral_replacement_gains(None) == ((0.0, 1.0), (0.0, 1.0))
+
     x = np.array([1.5, 0.02, 0.8, 0.3, 1.2])  # x_k-1 at the change point
     y = [np.array([0.8, 0.35, 1.3]), np.array([0.81, 0.3, 1.5])]  # [omega, a_t, a_n] of two samples
     disagreement = [0.9, 1.4]  # a_n1 - a_n2 beyond S(3)'s rotational terms and the pair's offset
@@ -489,39 +511,50 @@ def test_the_lateral_shadows_rerun_the_ekf_and_s17_with_the_other_sensor_by_hand
     state, taken = lateral_shadow_step(resting, (0.0, 0.0, 0.0), *args)
     assert state is resting and taken is None  # the pair agrees
 
-    shadows = [x, x]
+    def by_hand(shadow, k, c, sign):
+        x_s, free, curve = shadow
+        replaced = y[k] + np.array([0.0, *(0.5 * sign * disagreement[k] * np.array(gains[c]))])
+        estimate = ekf_inertial_estimate(x_s, L, replaced, T_N)
+        own = (free, curve, *check_state[2:])
+        mixed, _, after = mix_checked(odo, estimate, c1, mixing_c2(estimate[4], p), c3, x_s, p, own, T_N)
+        return mixed, after[0], after[1]
+
+    shadows = [(x, *check_state[0:2]), (x, *check_state[0:2])]
     state = resting
     for k in range(2):
         inertial = ekf_inertial_estimate(x, L, y[k], T_N)  # the navigation's (x: its x_k-1)
+        take_back = (disagreement[k], 1.0, 0.0)
         state, taken = lateral_shadow_step(
-            state, (disagreement[k], 1.0, 0.0), odo, inertial, x, L, c1, c3, p, check_state, T_N
+            state, take_back, odo, inertial, x, L, c1, c3, p, check_state, T_N, False, False, False, gains
         )
-        assert taken is None and state[10] == 1.0
+        assert taken is None and state[14] == 1.0
         for c, sign in ((0, -1.0), (1, 1.0)):
-            replaced = y[k] + [0.0, 0.0, sign * 0.5 * disagreement[k]]
-            estimate = ekf_inertial_estimate(shadows[c], L, replaced, T_N)
-            expected = mix_checked(
-                odo, estimate, c1, mixing_c2(estimate[4], p), c3, shadows[c], p, check_state, T_N
-            )[0]
-            np.testing.assert_allclose(state[5 * c : 5 * c + 5], expected, rtol=1e-12, atol=1e-12)
-            shadows[c] = expected
+            shadows[c] = by_hand(shadows[c], k, c, sign)
+            np.testing.assert_allclose(state[7 * c : 7 * c + 5], shadows[c][0], rtol=1e-12, atol=1e-12)
+            np.testing.assert_allclose(state[7 * c + 5 : 7 * c + 7], shadows[c][1:], rtol=1e-12, atol=1e-12)
         x = x + np.array([0.001, -0.003, 0.0, 0.01, 0.02])  # the navigation moved on its own way
     # the blaming sample (its own reading already replaced: no disagreement taken) hands sensor 2's over
     inertial = ekf_inertial_estimate(x, L, y[1], T_N)
-    state, taken = lateral_shadow_step(
-        state, (0.0, 0.0, 2.0), odo, inertial, x, L, c1, c3, p, check_state, T_N
+    after, taken = lateral_shadow_step(
+        state, (0.0, 0.0, 2.0), odo, inertial, x, L, c1, c3, p, check_state, T_N, False, False, False, gains
     )
-    estimate = ekf_inertial_estimate(shadows[1], L, y[1], T_N)
-    expected = mix_checked(odo, estimate, c1, mixing_c2(estimate[4], p), c3, shadows[1], p, check_state, T_N)[
-        0
-    ]
-    np.testing.assert_allclose(taken, expected, rtol=1e-12, atol=1e-12)
-    assert state[10] == 0.0  # they rest from the next sample on
+    replaced = y[1]  # no disagreement this sample
+    estimate = ekf_inertial_estimate(shadows[1][0], L, replaced, T_N)
+    own = (*shadows[1][1:], *check_state[2:])
+    expected, _, own_after = mix_checked(
+        odo, estimate, c1, mixing_c2(estimate[4], p), c3, shadows[1][0], p, own, T_N
+    )
+    np.testing.assert_allclose(taken[0:5], expected, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(taken[5:7], own_after[0:2], rtol=1e-12, atol=1e-12)
+    assert after[14] == 0.0  # they rest from the next sample on
     mixed = np.array([1.5, 0.05, 0.8, 0.3, 1.2])
-    replaced, check = taken_from_shadow(mixed, check_state, taken)
-    np.testing.assert_array_equal(replaced, [1.5, taken[1], 0.8, 0.3, taken[4]])
+    replaced_mix, check = taken_from_shadow(mixed, check_state, taken)
+    np.testing.assert_array_equal(replaced_mix, [1.5, taken[1], 0.8, 0.3, taken[4]])
     assert check == (taken[1], taken[1], 5.49, 2.0, 2.5)
     assert taken_from_shadow(mixed, check_state, None) == (mixed, check_state)
+    # the CUSUM fell back to zero without a blame: nothing is stepped, the shadows rest
+    stopped, none = lateral_shadow_step(state, (0.0, 0.0, 0.0), *args)
+    assert none is None and stopped[14] == 0.0 and np.array_equal(stopped[0:14], state[0:14])
 
 
 def test_only_what_went_in_while_the_wheels_turned_is_taken_back():
@@ -1558,6 +1591,10 @@ def test_a_lateral_bias_on_the_squares_straight_is_taken_back_from_either_branch
     gap = np.abs(biased["est_v_n"] - lost["est_v_n"])
     assert gap[k - 1] > 0.015  # m/s
     assert gap[k : k + 25].max() < 0.001
+    # the shadow's EKF a_n and the tyre check's free integral (restarted from the taken v_n) too
+    assert np.abs(biased["est_a_n"] - lost["est_a_n"])[k - 1] > 1.0  # m/s^2
+    assert np.abs(biased["est_a_n"] - lost["est_a_n"])[k : k + 25].max() < 0.05
+    assert np.abs(biased["free_v_n"] - lost["free_v_n"])[k : k + 25].max() < 0.001
 
 
 def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
