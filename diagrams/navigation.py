@@ -154,9 +154,7 @@ def build_navigation_diagram(
             initial.ekf_state()[1],
             geometry.accelerometer_position,
             payback_window(params.health),
-            lateral_replacement_gains(
-                None if calibration is None or calibration.is_identity() else calibration
-            ),
+            lateral_replacement_gains(calibration),
         ),
         "Velocity mixer",
     )

@@ -25,6 +25,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.ekf import ekf_predict
 from slipnav.systems.rates import pt1_step
+from slipnav.systems.sensor_correction import IDENTITY_REPLACEMENT
 from slipnav.systems.sensor_health import pair_rotational_difference
 
 
@@ -847,10 +848,6 @@ LATERAL_SHADOW_SIZE = 15
 """lateral_shadow_step's state: per shadow (the one without accelerometer 1's a_n, then the one without
 accelerometer 2's) its estimate x (v_t, v_n, omega, a_t, a_n) and its tyre-model check's F and S; then
 whether the pair's CUSUM stood above zero after the previous sample (1) or the shadows rest (0)."""
-
-IDENTITY_REPLACEMENT = ((0.0, 1.0), (0.0, 1.0))
-"""lateral_shadow_step's replacement_gains without a sensor correction: a change of accelerometer i's
-raw a_n changes what the EKF reads of it by (0, 1) (sensor_correction.lateral_replacement_gains)."""
 
 
 def lateral_shadow_step(

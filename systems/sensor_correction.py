@@ -93,19 +93,21 @@ def corrected_accelerometers(calibration: SensorCalibration, readings) -> list[f
     return out
 
 
+IDENTITY_REPLACEMENT = ((0.0, 1.0), (0.0, 1.0))
+"""lateral_replacement_gains without a sensor correction: a unit change of accelerometer i's raw a_n
+changes what the EKF reads of it by (0, 1)."""
+
+
 def lateral_replacement_gains(calibration: SensorCalibration | None) -> tuple:
     """Per accelerometer, what a unit change of its raw a_n changes in the (t, n) that
-    corrected_accelerometers gives: R(-gamma_i) (0, 1) / (1 + s_i) = (-sin gamma_i, cos gamma_i) /
-    (1 + s_i); (0, 1) without a calibration (mixing.lateral_shadow_step's replacement_gains)."""
-    if calibration is None:
-        return ((0.0, 1.0), (0.0, 1.0))
-    gains = []
-    for gamma, scale in (
-        (calibration.accel1_misalignment, calibration.accel1_scale_error),
-        (calibration.accel2_misalignment, calibration.accel2_scale_error),
-    ):
-        gains.append((-math.sin(gamma) / (1.0 + scale), math.cos(gamma) / (1.0 + scale)))
-    return tuple(gains)
+    corrected_accelerometers gives (it is linear): R(-gamma_i) (0, 1) / (1 + s_i); IDENTITY_REPLACEMENT
+    without a calibration or with one that corrects no gain (mixing.lateral_shadow_step's
+    replacement_gains)."""
+    if calibration is None or calibration.is_identity():
+        return IDENTITY_REPLACEMENT
+    first = corrected_accelerometers(calibration, (0.0, 1.0, 0.0, 0.0))
+    second = corrected_accelerometers(calibration, (0.0, 0.0, 0.0, 1.0))
+    return (first[0], first[1]), (second[2], second[3])
 
 
 class SensorCorrection(LeafSystem):

@@ -940,7 +940,7 @@ def health_check(
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
-            # Summed only while the navigation integrates a_n (the wheels turn: at rest it holds v_n)
+            # Stepped only while the navigation integrates a_n (the wheels turn: at rest it holds v_n)
             # and the gyro's omega' makes the rotational terms (not the wheels' yaw rate)
             if axis == 1 and (hold[1] != 0.0 or hold[3] != 0.0 or not fast_known or not moving):
                 pair_cusum_reset(s)
