@@ -39,6 +39,7 @@ from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonito
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector
+from slipnav.systems.standstill import STANDSTILL_STEP_LAYOUT, StandstillDetector, standstill_constants
 from slipnav.systems.yaw_calibration import CALIBRATED_LAYOUT, PARAMETERS_LAYOUT, YawRateCalibration
 
 NAVIGATION_OUTPUTS = (
@@ -60,6 +61,8 @@ NAVIGATION_OUTPUTS = (
     "gyro_bias",
     "yaw_calibration",
     "health",
+    "standstill",
+    "accelerometer_bias",
 )
 
 
@@ -115,6 +118,8 @@ def build_navigation_diagram(
         - yaw_calibration
         - health
         - checked_encoders
+        - standstill
+        - accelerometer_bias
     """
     params.validate()
     initial = initial or NavigationInitialState()
@@ -182,6 +187,15 @@ def build_navigation_diagram(
     calibrated = split_port(
         b, yaw_calibration.GetOutputPort("calibrated"), CALIBRATED_LAYOUT, "Calibrated gyro and odometry"
     )
+    learned = split_port(
+        b, yaw_calibration.GetOutputPort("parameters"), PARAMETERS_LAYOUT, "Learned gyro bias and D"
+    )
+    standstill = add(StandstillDetector(standstill_constants(params.standstill, geometry, T_N)), "Standstill")
+    b.Connect(acc, standstill.GetInputPort("accelerometers"))
+    b.Connect(calibrated["gyro"], standstill.GetInputPort("gyro"))
+    b.Connect(check["encoders"], standstill.GetInputPort("encoders"))
+    zupt = split_port(b, standstill.GetOutputPort("step"), STANDSTILL_STEP_LAYOUT, "Standstill's signals")
+    acc = zupt["accelerometers"]  # less the biases: what every later block reads
     odo = calibrated["odometry"]  # what the fusion reads; the baselines read raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
     b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
@@ -209,9 +223,6 @@ def build_navigation_diagram(
     tyre_state = mixer_block.GetOutputPort("tyre_model_state")
     tyre = split_port(b, tyre_state, TYRE_MODEL_STATE_LAYOUT, "Identified tyre peak")
     b.Connect(tyre["tyre_peak"], monitor.GetInputPort("tyre_peak"))
-    learned = split_port(
-        b, yaw_calibration.GetOutputPort("parameters"), PARAMETERS_LAYOUT, "Learned gyro bias and D"
-    )
     b.Connect(learned["estimate"], monitor.GetInputPort("yaw_calibration"))  # the replacements read them
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
@@ -220,6 +231,7 @@ def build_navigation_diagram(
     b.Connect(gain.GetOutputPort("kalman_gain"), mixer_block.GetInputPort("kalman_gain"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
     b.ExportInput(mixer_block.GetInputPort("external_force"), "external_force")
+    b.Connect(zupt["standstill"], mixer_block.GetInputPort("standstill"))
     b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
     b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P
     b.Connect(mixer["body_velocity"], sideslip.GetInputPort("body_velocity"))
@@ -247,6 +259,8 @@ def build_navigation_diagram(
     b.ExportOutput(yaw_calibration.GetOutputPort("parameters"), "yaw_calibration")
     b.ExportOutput(check["health"], "health")
     b.ExportOutput(check["encoders"], "checked_encoders")
+    b.ExportOutput(zupt["standstill"], "standstill")
+    b.ExportOutput(zupt["accelerometer_bias"], "accelerometer_bias")
     diagram = b.Build()
     diagram.set_name("navigation")
     return diagram

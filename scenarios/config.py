@@ -105,7 +105,7 @@ class Scenario:
         localisation: what the follower localises by (Indiveri et al. Fig. 6): ``fused`` (the
             navigation's estimate), ``odometry``, ``gyrodometry`` or ``truth`` (an oracle).
         navigation: tuning of the navigation blocks (NavigationParameters: ekf, mixing, sideslip,
-            gyrodometry, yaw_calibration, health), e.g. ``navigation: {mixing: {b1: 0.05}}``.
+            gyrodometry, yaw_calibration, health, standstill), e.g. ``navigation: {mixing: {b1: 0.05}}``.
         faults: timed sensor faults between the sensors and the navigation (systems/faults.py
             FaultEvent: kind, channel, start, duration, value), e.g. ``faults: [{kind: dropout,
             channel: gyro, start: 2.0, duration: 0.5}]``.

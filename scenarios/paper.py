@@ -132,11 +132,12 @@ DEVIATIONS = (
         lambda s: dc.replace(s, perturbation_monitor=dc.replace(s.perturbation_monitor, push_demand=0.0)),
     ),
     Deviation(
-        "rest_hold",
-        "wheels at rest hold the body sideways: S(17)'s v_n scaled by 1 - C1",
-        "S(17) at rest as while rolling",
-        "navigation.mixing.hold_at_rest: false",
-        lambda s: _nav(s, "mixing", hold_at_rest=False),
+        "standstill_measurement",
+        "standstill is a measurement: while wheels and inertial sensors agree the robot stands, the "
+        "estimate is zero (ZUPT) and the accelerometers' biases are learned",
+        "S(2)-(17) at rest as while rolling",
+        "navigation.standstill.enabled: false",
+        lambda s: _nav(s, "standstill", enabled=False),
     ),
     Deviation(
         "gyrodometry",

@@ -737,6 +737,10 @@ def collect_navigation(a: dict, data) -> None:
     a["odo_v_t"], a["odo_omega"] = odo[0], odo[1]
     a["fault"] = np.maximum(data("nav_inertial_fault")[0], data("nav_encoder_fault")[0])
     a["est_gyro_bias"] = data("nav_gyro_bias")[0]
+    a["standstill"] = data("nav_standstill")[0]
+    accel_bias = data("nav_accelerometer_bias")
+    for i, axis in enumerate(("t1", "n1", "t2", "n2")):
+        a[f"est_accel_bias_{axis}"] = accel_bias[i]
     health = data("nav_health")
     for i, channel in enumerate(SENSOR_CHANNELS):
         a[f"health_{channel}"] = health[i]

@@ -82,12 +82,12 @@ class OracleNavigationLoop(NavigationLoop):
         super().__init__(*args, **kwargs)
         self._slipping, self._true_v_t, self._side_slip = slipping, true_v_t, side_slip
 
-    def velocity_mix(self, odo, inertial, c2, c3, previous):
+    def velocity_mix(self, odo, inertial, c2, c3, previous, standing):
         if self._side_slip is not None and self._side_slip[self.k]:
             c2 = 0.0
         if self._slipping is not None:
             self.c1 = self.c1_mixed = 0.0 if self._slipping[self.k] else 1.0
-        mixed = super().velocity_mix(odo, inertial, c2, c3, previous)
+        mixed = super().velocity_mix(odo, inertial, c2, c3, previous, standing)
         if self._true_v_t is not None:
             mixed[0] = self._true_v_t[self.k]
         return mixed

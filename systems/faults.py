@@ -40,7 +40,7 @@ from slipnav.systems.plant import NO_DISTURBANCE
 
 SENSOR_CHANNELS = ("accel1_t", "accel1_n", "accel2_t", "accel2_n", "gyro", "encoder_R", "encoder_L")
 ENCODER_CHANNELS = ("encoder_R", "encoder_L")
-SENSOR_FAULT_KINDS = ("nan", "inf", "dropout", "stuck", "bias", "scale", "spike", "saturation")
+SENSOR_FAULT_KINDS = ("nan", "inf", "dropout", "stuck", "bias", "ramp", "scale", "spike", "saturation")
 PLANT_EVENT_KINDS = ("wheel_lifted", "wheel_held", "wheel_pushed", "body_push")
 WHEEL_CHANNELS = ("wheel_R", "wheel_L")
 BODY_CHANNELS = ("body_t", "body_n")
@@ -53,15 +53,16 @@ class FaultEvent:
     """One timed sensor fault or plant perturbation (module docstring).
 
     Args:
-        kind: a sensor fault: nan, inf, dropout, stuck (encoders), bias, scale, spike or saturation; a
+        kind: a sensor fault: nan, inf, dropout, stuck (encoders), bias, ramp (analog channels: a bias
+            growing at ``value`` per second from the start), scale, spike or saturation; a
             perturbation: wheel_lifted, wheel_held, wheel_pushed or body_push.
         channel: a sensor: accel1_t, accel1_n, accel2_t, accel2_n, gyro, encoder_R or encoder_L; a wheel
             (wheel_R, wheel_L) or the body (body_t, body_n) for a perturbation.
         start: first time the navigation reads the faulty channel (s), in [0, 3600].
         duration: how long (s), in (0, 3600]; unused by ``spike``.
-        value: the bias (rad/s, m/s^2, encoder counts), relative scale change (> -1), spike or
-            saturation level (> 0), the hand's torque (N m) or the push (N); unused by nan, inf,
-            dropout, stuck, wheel_lifted and wheel_held.
+        value: the bias (rad/s, m/s^2, encoder counts), the ramp's rate (rad/s^2, m/s^3), relative
+            scale change (> -1), spike or saturation level (> 0), the hand's torque (N m) or the push
+            (N); unused by nan, inf, dropout, stuck, wheel_lifted and wheel_held.
     """
 
     kind: str = "nan"
@@ -86,6 +87,11 @@ class FaultEvent:
             raise ValueError(
                 f"channel={self.channel!r} cannot be 'stuck': allowed {list(ENCODER_CHANNELS)} "
                 "(a frozen analog channel is a 'dropout')"
+            )
+        if self.kind == "ramp" and self.channel in ENCODER_CHANNELS:
+            raise ValueError(
+                f"channel={self.channel!r} cannot 'ramp': allowed {list(SENSOR_CHANNELS[:5])} "
+                "(an encoder's growing error is a 'scale')"
             )
         _require("start", self.start, 0.0, MAX_FAULT_TIME, closed_low=True)
         _require("duration", self.duration, 0.0, MAX_FAULT_TIME, closed_low=False)
@@ -155,6 +161,8 @@ def apply_sensor_faults(t: float, raw, held, previous_raw, events, T_N: float, e
             out[i] = float(held[i])
         elif e.kind in ("bias", "spike"):
             out[i] += e.value * counts
+        elif e.kind == "ramp":
+            out[i] += e.value * (t - e.start)
         elif e.kind == "scale" and i >= 5:
             out[i] = float(held[i]) + (1.0 + e.value) * (out[i] - float(previous_raw[i]))
         elif e.kind == "scale":

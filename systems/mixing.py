@@ -27,6 +27,7 @@ from slipnav.systems.ekf import ekf_predict
 from slipnav.systems.rates import pt1_step
 from slipnav.systems.sensor_correction import IDENTITY_REPLACEMENT
 from slipnav.systems.sensor_health import pair_rotational_difference
+from slipnav.systems.standstill import zero_velocity_update
 
 
 @dc.dataclass
@@ -118,9 +119,6 @@ class MixingParameters:
         free_side_slip_anchor: lateral tyre utilisation |^I a_n| / a_peak below which the free integral
             is the estimate itself (anchored): 0.2 (Tinyphoon 1.1 m/s^2), where the side slip is below
             1 deg whatever the friction, and above a braking lock's lateral commotion (0.25 m/s^2).
-        hold_at_rest: while neither wheel turned (wheels_at_rest), S(17)'s v_n is scaled by 1 - C1: tyres
-            that hold the body by static friction hold it sideways too, and the inertial branch does not
-            integrate the a_n bias at a standstill (mix). False: S(17) as while rolling.
         slide_onset_jump: the per-sample wheel-speed test (slide_onset_step): when the odometric v_t
             changes in one T_N by more than this (m/s) beyond what ^I a_t T_N allows, the wheels have
             left the body (a lock or a spin: 0.05 m/s in 2 ms is 25 m/s^2, four times the tyres' peak),
@@ -191,7 +189,6 @@ class MixingParameters:
     tyre_model_gate_speed: float = 1.0
     free_side_slip_time_constant: float = 0.25
     free_side_slip_anchor: float = 0.2
-    hold_at_rest: bool = True
     slide_onset_jump: float = math.inf
     slide_onset_release: float = 0.03
     slide_onset_release_samples: int = 5
@@ -236,7 +233,6 @@ class MixingParameters:
             "odometry_slip_compensation",
             "side_slip_from_accelerations",
             "delta_v_running_integral",
-            "hold_at_rest",
             "tyre_peak_identification",
         ):
             if not isinstance(getattr(self, name), bool):
@@ -552,9 +548,9 @@ def mixing_gain(
     c1: float,
     c2: float,
     p: MixingParameters,
-    at_rest: bool = False,
     check: float = 0.0,
     external_force: bool = False,
+    standing: bool = False,
 ) -> np.ndarray:
     """[w_t, w_n]: how much the mixed estimate ``mixed`` (mix's output) took from outside the EKF.
 
@@ -564,12 +560,14 @@ def mixing_gain(
     ``check``, the weight w of the free integral in the inertial branch (tyre_model_check), takes its
     share from the tyre model: the branch's outside weight is (1 - q_I)(1 - w) (the free integral is the
     EKF's own kinematics, no measurement).
-    With the wheels at rest (wheels_at_rest) and hold_at_rest mix scales that v_n by 1 - C1 (the wheels'
-    v_n = 0 weighs C1): w_n = 1 - (1 - C1)(1 - w_n).
+    While the robot stands (``standing``: the zero-velocity update, systems/standstill.py) both
+    velocities are measured as zero: [1, 1].
     While an outside force pushes the body (``external_force``, mix_checked) v_n is the free integral
     alone: w_n = 0.
     The EKF's covariance takes the mixing as updates with these gains (ekf.ekf_mixing_covariance).
     """
+    if standing:
+        return np.array([1.0, 1.0])
     if external_force:
         return np.array([c1, 0.0])
     utilisation = mixing_utilisation(mixed[0], mixed[2], mixed[3], mixed[4], p)
@@ -577,8 +575,6 @@ def mixing_gain(
     if check > 0.0:
         q_inertial = 1.0 - (1.0 - q_inertial) * (1.0 - check)
     w_n = 1.0 - c2 * p.q2 - (1.0 - c2) * q_inertial
-    if at_rest and p.hold_at_rest:
-        w_n = 1.0 - (1.0 - c1) * (1.0 - w_n)
     return np.array([c1, w_n])
 
 
@@ -799,10 +795,9 @@ def mix_checked(
     else:
         target, utilisation = model, tyre_utilisation(v_t, omega, p)
     q_inertial = inertial_relaxation(utilisation, p)
-    hold = 1.0 - c1 if at_rest and p.hold_at_rest else 1.0
 
     def side_slip(carried, relaxed_from, towards):
-        return hold * (
+        return (
             c2 * (model + p.q2 * (relaxed_from - model_prev))
             + (1.0 - c2) * (towards + q_inertial * (carried - towards))
         )
@@ -968,9 +963,7 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^O v_t, ^I a_t, ^I a_n)
     (m with side_slip_from_accelerations = False) by q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u the
     tyres' utilisation capped at 1. The paper's S(17) for a_peak = inf (m = f = 0) and q2_inertial = 1.
-    With the wheels at rest (wheels_at_rest) and hold_at_rest that v_n is scaled by 1 - C1: tyres that
-    hold the body by static friction hold it sideways too, as far as C1 trusts the wheels (a locked slide
-    drops C1); the inertial branch would otherwise integrate the a_n bias (0.07 mm/s after an hour).
+    At a standstill the zero-velocity update (systems/standstill.py) replaces the whole estimate.
 
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
@@ -1114,6 +1107,7 @@ class VelocityMixer(LeafSystem):
         - rollback_samples
         - kalman_gain
         - lateral_take_back
+        - standstill
         output_ports:
         - mixing
         - tyre_model_state
@@ -1134,6 +1128,9 @@ class VelocityMixer(LeafSystem):
       row-major): two shadows re-run the EKF and S(17) with either lateral accelerometer replaced from
       where the pair began to disagree, and on the sample the checks blame one the mixed v_n and a_n
       are its shadow's (lateral_shadow_step, taken_from_shadow); unconnected: no shadows.
+    - standstill (optional): 1 while the robot stands (systems/standstill.py): the mixed estimate is
+      zero and the check's F and S restart from rest (zero_velocity_update), applied to mix_checked's
+      output, with the gain [1, 1] (mixing_gain); unconnected: 0.
     - accelerometers: the checked (and corrected) [a_t1, a_n1, a_t2, a_n2] the EKF reads: the slide-onset
       test trusts the inertial v_t only while the pair agrees (accelerometer_pair_disagreement, with
       ^I omega).
@@ -1187,6 +1184,7 @@ class VelocityMixer(LeafSystem):
         self._rollback = self.DeclareVectorInputPort("rollback_samples", 1)
         self._gain = self.DeclareVectorInputPort("kalman_gain", 15)
         self._take_back = self.DeclareVectorInputPort("lateral_take_back", 3)
+        self._standstill = self.DeclareVectorInputPort("standstill", 1)
         initial = [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
         self._check = self.DeclareDiscreteState(initial)
         self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
@@ -1235,6 +1233,9 @@ class VelocityMixer(LeafSystem):
             self._enc_fault.Eval(context)[0] > 0.5,
             pushed,
         )
+        standing = self._standstill.HasValue(context) and self._standstill.Eval(context)[0] > 0.5
+        if standing:
+            mixed, state = zero_velocity_update(mixed, state)
         shadow = context.get_discrete_state(self._shadow).get_value()
         if self._take_back.HasValue(context):
             shadow, taken = lateral_shadow_step(
@@ -1261,7 +1262,7 @@ class VelocityMixer(LeafSystem):
                 history = context.get_discrete_state(self._history).get_value()
                 state = rolled_back(state, history, samples)
         tyre = believed_tyre(self._p, check_state[2])
-        gain = mixing_gain(mixed, c1, c2, tyre, wheels_at_rest(odo), check, pushed)
+        gain = mixing_gain(mixed, c1, c2, tyre, check, pushed, standing)
         output.SetFromVector(
             [
                 *mixed.tolist(),

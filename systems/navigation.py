@@ -8,15 +8,18 @@ Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K
 1. check every sensor channel (systems/sensor_health.py: exclude and replace faulty ones, flag them),
    odometry S(10) from the encoder difference;
    the gyro and the odometric yaw rate calibrated with the bias and radius difference learned up to
-   the last batch (systems/yaw_calibration.py);
+   the last batch (systems/yaw_calibration.py); the accelerometers less the biases learned up to sample
+   k-1 and the standstill test of sample k (systems/standstill.py);
 2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
 3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry (C3 of the residual's
    PT1 up to sample k);
-4. mixing S(15)-(17) with the C1 in force -> mixed estimate (the navigation output of sample k);
+4. mixing S(15)-(17) with the C1 in force, zero while the robot stands (the zero-velocity update) ->
+   mixed estimate (the navigation output of sample k);
 5. updates: EKF state <- mixed estimate, P <- S(9) and the mixing as pseudo-measurements
    (ekf_covariance_update with the mixed estimate's mixing_gain); pose S(21); odometry-only and
    Gyrodometry poses (the raw gyro and the raw odometry); the calibration from the raw gyro, the raw
-   odometry and the C1 in force (its Kalman update at each batch's end); the C3 residual;
+   odometry and the C1 in force (its Kalman update at each batch's end); the C3 residual; the
+   standstill test's state and the accelerometer biases (their Kalman update while standing);
    at control instants also C1 S(12) from this batch's dv and the batches' leaky sum, L S(7) from
    P_{k|k-1}, S(18)-(20) from the mixed estimate, and the detector's reset. C1, L and alpha computed
    at t_K act from sample k+1 on.
@@ -57,7 +60,6 @@ from slipnav.systems.mixing import (
     taken_from_shadow,
     tyre_peak_history,
     tyre_peak_recorded,
-    wheels_at_rest,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.plant import RobotParameters
@@ -85,6 +87,16 @@ from slipnav.systems.sensor_health import (
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.standstill import (
+    StandstillParameters,
+    accelerometer_biases,
+    bias_free,
+    standstill_constants,
+    standstill_initial_state,
+    standstill_step,
+    standstill_test,
+    zero_velocity_update,
+)
 from slipnav.systems.yaw_calibration import (
     YawCalibrationParameters,
     calibrated_gyro,
@@ -104,10 +116,19 @@ class NavigationParameters:
     gyrodometry: GyrodometryParameters = dc.field(default_factory=GyrodometryParameters)
     yaw_calibration: YawCalibrationParameters = dc.field(default_factory=YawCalibrationParameters)
     health: SensorHealthParameters = dc.field(default_factory=SensorHealthParameters)
+    standstill: StandstillParameters = dc.field(default_factory=StandstillParameters)
 
     def validate(self) -> "NavigationParameters":
         """Re-run every part's range checks (YAML loading sets fields after construction)."""
-        parts = (self.ekf, self.mixing, self.sideslip, self.gyrodometry, self.yaw_calibration, self.health)
+        parts = (
+            self.ekf,
+            self.mixing,
+            self.sideslip,
+            self.gyrodometry,
+            self.yaw_calibration,
+            self.health,
+            self.standstill,
+        )
         for part in parts:
             part.__post_init__()
         return self
@@ -132,7 +153,8 @@ LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
     "odo_x odo_y odo_phi gyro_x gyro_y gyro_phi C1 C2 C3 slide_onset tyre_model_weight free_v_n "
     "est_tyre_peak delta_v "
-    "odo_v_t odo_omega fault est_gyro_bias"
+    "odo_v_t odo_omega fault est_gyro_bias standstill est_accel_bias_t1 est_accel_bias_n1 "
+    "est_accel_bias_t2 est_accel_bias_n2"
 ).split() + [f"health_{channel}" for channel in SENSOR_CHANNELS]
 
 DEFAULT_WHEEL_SPEED_BOUND = 10.0
@@ -224,6 +246,8 @@ class NavigationLoop:
         check_slide_onset(params.mixing, self.geometry)
         self.health = health_initial_state(self.geometry, initial.speed)
         self.health_constants = health_constants(params.health, self.geometry)
+        self.standstill_constants = standstill_constants(params.standstill, self.geometry, T_N)
+        self.standstill = standstill_initial_state(self.standstill_constants)
         self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
         self.params, self.track_width, self.T_N = params, track_width, T_N
         self.n = int(round(T_C / T_N))
@@ -251,11 +275,12 @@ class NavigationLoop:
         self.slide_onset_state, self.slide_onset, self.c1_mixed = SLIDE_ONSET_INITIAL, False, self.c1
         self.k = 0
 
-    def velocity_mix(self, odo, inertial, c2: float, c3: float, previous) -> np.ndarray:
+    def velocity_mix(self, odo, inertial, c2: float, c3: float, previous, standing: bool) -> np.ndarray:
         """S(15)-(17) at sample ``self.k`` with the C1 in force (``c1_mixed``: 0 during a slide onset) and
         the tyre-model check (mix_checked,
-        which updates ``tyre_model_state`` and ``tyre_model_weight``); ``previous`` is the EKF state x_k-1
-        (studies/error_budget.py overrides this to feed oracle inputs)."""
+        which updates ``tyre_model_state`` and ``tyre_model_weight``), then the zero-velocity update while
+        ``standing``; ``previous`` is the EKF state x_k-1 (studies/error_budget.py overrides this to
+        feed oracle inputs)."""
         mixed, self.tyre_model_weight, self.tyre_model_state = mix_checked(
             odo,
             inertial,
@@ -270,6 +295,8 @@ class NavigationLoop:
             self.encoder_fault,
             self.pushed,
         )
+        if standing:
+            mixed, self.tyre_model_state = zero_velocity_update(mixed, self.tyre_model_state)
         return mixed
 
     def step(
@@ -293,6 +320,8 @@ class NavigationLoop:
         if self.sensor_calibration is not None:  # SensorCorrection
             cal = self.sensor_calibration
             acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)
+        corrected = acc
+        acc = bias_free(self.standstill, corrected)  # StandstillDetector
         fault_imu = 1.0 if any(codes[0:5]) else 0.0
         self.inertial_fault = fault_imu > 0.5  # the tyre-model check rests (velocity_mix)
         self.pushed = push_taken(external_force, self.inertial_fault)
@@ -305,7 +334,15 @@ class NavigationLoop:
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         bias = theta[0]
         x = self.x
-        measurement = ekf_measurement(acc, [calibrated_gyro(g, theta, cal)])
+        gyro_calibrated = calibrated_gyro(g, theta, cal)
+        measurement = ekf_measurement(acc, [gyro_calibrated])
+        standing, standstill_test_state = standstill_test(
+            self.standstill,
+            acc,
+            gyro_calibrated,
+            self.checked_encoders,
+            self.standstill_constants,
+        )
         inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
         excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
@@ -322,7 +359,7 @@ class NavigationLoop:
         )
         self.c1_mixed = 0.0 if self.slide_onset else self.c1
         tyre_state = self.tyre_model_state
-        mixed = self.velocity_mix(odo, inertial, c2, c3, x)
+        mixed = self.velocity_mix(odo, inertial, c2, c3, x, standing)
         self.lateral_shadow, taken = lateral_shadow_step(
             self.lateral_shadow,
             navigation_lateral_take_back(self.health),
@@ -364,13 +401,13 @@ class NavigationLoop:
             odo_raw[1],
             max(fault_imu, fault_enc),
             bias,
+            1.0 if standing else 0.0,
+            *accelerometer_biases(self.standstill),
             *codes,
         )
         self.x = mixed
         tyre = believed_tyre(mp, tyre_state[2])
-        gain = mixing_gain(
-            mixed, self.c1_mixed, c2, tyre, wheels_at_rest(odo), self.tyre_model_weight, self.pushed
-        )
+        gain = mixing_gain(mixed, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
         self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)
@@ -382,6 +419,10 @@ class NavigationLoop:
             self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n
         )
         self.c3_residual, self.c3_turn_rate = residual, turn
+        self.standstill = standstill_step(
+            self.standstill, corrected, self.checked_encoders, standing, standstill_test_state,
+            self.standstill_constants,
+        )
         self.odo_state = odo_next
         self.det_state = det_next
         if self.k % self.n == 0:

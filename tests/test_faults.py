@@ -1634,3 +1634,16 @@ def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
     # odometric yaw rate)
     cost = (faulty["est_phi"][-1] - faulty["true_phi"][-1]) - (clean["est_phi"][-1] - clean["true_phi"][-1])
     assert 0.0 < abs(math.degrees(cost)) < 1.0
+
+
+def test_a_ramp_grows_from_its_start():
+    """A ramp adds value x (t - start) to an analog channel while active, nothing before or after; an
+    encoder cannot ramp."""
+    ramp = FaultEvent("ramp", "gyro", 1.0, 2.0, 0.01)
+    raw = [0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 2.0]
+    for t, added in ((0.998, 0.0), (1.0, 0.0), (2.5, 0.015), (2.998, 0.01998)):
+        out = apply_sensor_faults(t, raw, raw, raw, [ramp], 0.002, 0.001)
+        assert out[4] == pytest.approx(0.5 + added, abs=1e-12) and out[5:] == raw[5:]
+    assert apply_sensor_faults(3.0, raw, raw, raw, [ramp], 0.002, 0.001)[4] == 0.5
+    with pytest.raises(ValueError, match="cannot 'ramp'"):
+        FaultEvent("ramp", "encoder_R", 1.0, 1.0, 1.0)

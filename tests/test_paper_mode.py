@@ -39,7 +39,7 @@ def test_paper_mode_sets_every_switch_and_keeps_the_rest():
     assert (m.a3, m.b3) == (60.0, 0.05)  # S(14) on single samples (the default 200, 0.02 suit the PT1)
     assert (m.odometry_slip_compensation, m.side_slip_from_accelerations) == (False, False)
     assert math.isinf(m.tyre_peak_acceleration) and m.q2_inertial == 1.0
-    assert math.isinf(m.gyro_turn_rate) and m.hold_at_rest is False
+    assert math.isinf(m.gyro_turn_rate) and nav.standstill.enabled is False
     assert nav.gyrodometry.rate_time_constant == 0.0
     assert p.slip_control.delayed_step_size is False and p.follower.use_estimated_speed is False
     # The rest is the scenario's: tuning the papers give no number for, and T_N, T_C = the papers' 2, 20 ms.

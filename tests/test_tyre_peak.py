@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario, with_keys
-from slipnav.scenarios.metrics import final_position_error
+from slipnav.scenarios.metrics import rms_position_error
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
 from slipnav.systems.mixing import MixingParameters, peak_slip, tyre_peak_step
 
@@ -122,10 +122,10 @@ def test_bad_identification_parameters_are_named(key, value, allowed):
 
 def test_the_closed_square_identifies_the_floor_and_its_estimate_gains():
     """Square, plain closed loop (the diagram's twin), the plant's friction 0.5, 0.7 (nominal) and 0.9:
-    the identified a_peak ends within 5 % of mu g f_w = 3.92, 5.49, 7.06 m/s^2 (seed 1: 3.91, 5.32,
-    6.90). At friction 0.5 the curve at the identified peak sets S(15)'s creep and S(17)'s side slip:
-    the final position error is 1.1 mm against 52.8 mm with the nominal curve throughout (seed 0), 5.0
-    against 66.6 mm (seed 2; seed 1: 8.9 against 22.2 mm)."""
+    the identified a_peak ends within 5 % of mu g f_w = 3.92, 5.49, 7.06 m/s^2. At friction 0.5 the curve
+    at the identified peak sets S(15)'s creep and S(17)'s side slip: over seeds 0-3 the RMS position
+    error along the run is 26 mm against 35 mm with the nominal curve throughout (the final errors are a
+    lottery of the path: 7-60 mm against 5-67 mm)."""
     square = load_scenario("square")
     steps = 4700  # 9.4 s: the lap and its final braking
     for friction, seed in ((0.5, 1), (0.7, 1), (0.9, 1)):
@@ -135,10 +135,11 @@ def test_the_closed_square_identifies_the_floor_and_its_estimate_gains():
         np.testing.assert_allclose(a["nav_est_tyre_peak"][-1], friction * 9.81 * 0.8, rtol=0.05)
     slippery = with_keys(square, {"plant.robot_overrides.tyre_friction": 0.5})
     nominal_curve = with_keys(slippery, {"navigation.mixing.tyre_peak_identification": False})
-    for seed in (0, 2):
-        identified = final_position_error(run_scenario_plain_loop(slippery, seed, steps), "nav_est")
-        fixed = final_position_error(run_scenario_plain_loop(nominal_curve, seed, steps), "nav_est")
-        assert identified < 0.3 * fixed, (seed, identified, fixed)
+    identified = fixed = 0.0
+    for seed in (0, 1, 2, 3):
+        identified += rms_position_error(run_scenario_plain_loop(slippery, seed, steps), "nav_est")
+        fixed += rms_position_error(run_scenario_plain_loop(nominal_curve, seed, steps), "nav_est")
+    assert identified < 0.85 * fixed, (identified, fixed)
 
 
 def test_mix_checked_learns_only_from_checked_samples_of_rolling_wheels():
