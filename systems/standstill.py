@@ -58,8 +58,9 @@ StandstillState = namedview(
 """The standstill test's state: samples since an encoder angle last changed, the last angles (rad), the
 PT1 averages (rad/s, m/s^2), the accelerometer biases (m/s^2) and their variances (m^2/s^4)."""
 
-_BIASES = slice(6, 10)
-_VARIANCES = slice(10, 14)
+_FIELD = StandstillState._fields.index
+_BIASES = slice(_FIELD("bias_t1"), _FIELD("bias_n2") + 1)
+_VARIANCES = slice(_FIELD("variance_t1"), _FIELD("variance_n2") + 1)
 
 
 @dc.dataclass
@@ -198,6 +199,11 @@ def zero_velocity_update(mixed, check_state):
 
 STANDSTILL_STEP_LAYOUT = (("accelerometers", 4), ("standstill", 1), ("test", 4), ("accelerometer_bias", 4))
 """StandstillDetector's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
+_STEP_START = {
+    name: sum(size for _, size in STANDSTILL_STEP_LAYOUT[:i])
+    for i, (name, _) in enumerate(STANDSTILL_STEP_LAYOUT)
+}
+_STANDING, _TEST = _STEP_START["standstill"], slice(_STEP_START["test"], _STEP_START["accelerometer_bias"])
 
 
 class StandstillDetector(LeafSystem):
@@ -235,7 +241,9 @@ class StandstillDetector(LeafSystem):
         self._gyro = self.DeclareVectorInputPort("gyro", 1)
         self._enc = self.DeclareVectorInputPort("encoders", 2)
         self._state = self.DeclareDiscreteState(standstill_initial_state(constants))
-        self._step = self.DeclareVectorOutputPort("step", 13, self._calc_step)
+        self._step = self.DeclareVectorOutputPort(
+            "step", sum(size for _, size in STANDSTILL_STEP_LAYOUT), self._calc_step
+        )
         self.DeclarePeriodicDiscreteUpdateEvent(constants.T_N, 0.0, self._update)
 
     def _calc_step(self, context, output):
@@ -256,8 +264,8 @@ class StandstillDetector(LeafSystem):
             context.get_discrete_state(self._state).get_value(),
             self._acc.Eval(context).tolist(),
             self._enc.Eval(context).tolist(),
-            step[4] > 0.5,
-            step[5:9].tolist(),
+            step[_STANDING] > 0.5,
+            step[_TEST].tolist(),
             self._c,
         )
         discrete_state.set_value(self._state, state)
