@@ -343,6 +343,7 @@ def run_scenario(
         "localisation": None if open_loop else scenario.localisation,
         "sensor_faults": int(np.nansum(arrays["fault"])),
         "sensor_health": health_report(arrays["t"], arrays, SENSOR_CHANNELS),
+        "gyro_bias_changes_s": change_times(arrays["t"], arrays["gyro_bias_changes"]),
         "perturbations": perturbation_report(arrays["t"], arrays),
         "faults": [dc.asdict(event) for event in faults],
         "tolerances": bool(tolerances),
@@ -747,6 +748,14 @@ def collect_navigation(a: dict, data) -> None:
     calibration = data("nav_yaw_calibration")
     a["est_gyro_bias_std"] = calibration[2]
     a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1], calibration[3]
+    a["gyro_bias_changes"] = calibration[6]
+
+
+def change_times(t, counts) -> list:
+    """The times (s) at which a cumulative count of detected changes (``gyro_bias_changes``) grows."""
+    counts = np.nan_to_num(np.asarray(counts, float))
+    grown = np.flatnonzero(np.diff(counts, prepend=counts[:1]) > 0)
+    return [float(t[k]) for k in grown]
 
 
 def artifact_stem(result: RunResult) -> str:

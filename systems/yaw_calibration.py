@@ -29,6 +29,15 @@ the gyro by the wheels' differential slip that every yaw acceleration and the sh
 (Tinyphoon's corner: 10-15 % at turn-in), so a scale fitted there absorbs the robot's dynamics, not its
 geometry; turns are the gyro's (C3 S(14)).
 
+A change of the gyro's bias (a step, or a drift faster than its random walk) is judged by one test on
+the filter's normalised innovation z = (gyro - omega_o - H theta) / sqrt(S) (systems/residual_test.py):
+a two-sided CUSUM over the batches that both witnesses allow, the wheels standing still or saying the
+robot drives straight at a steady yaw rate (change_yaw_rate, steady_yaw_acceleration), and the gyro
+within the band of the largest bias step. On an alarm the N batches since the CUSUM's change point
+measure the change (their mean residual m): b_g's variance widens by m^2 and the mean updates it with
+R / N (bias_change_update). The learning gate (straight_yaw_rate, innovation_gate) keeps reading the gyro
+less the new b_g. A healthy stream raises one false alarm per change_run_length tested batches.
+
 The navigation reads the calibrated gyro gyro - b_g and the calibrated odometric yaw rate
 omega_o + D v_o / b; the baselines (odometry-only, Gyrodometry) keep the raw signals.
 """
@@ -38,6 +47,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.residual_test import CusumState, CusumTest, cusum_shift, cusum_step
 
 
 @dc.dataclass
@@ -61,10 +71,27 @@ class YawCalibrationParameters:
         standstill_measurement_std: the same at standstill (no encoder count in the batch; rad/s): 0.005,
             the gyro's noise over a batch alone, with margin. A 1 s standstill learns the bias to ~0.7
             mrad/s before the robot moves, which D then cannot absorb.
-        innovation_gate: a batch whose innovation exceeds this many sigmas is not learned from: 4.
+        innovation_gate: a batch whose innovation exceeds this many sigmas is not learned from: 4 (unless
+            it raises the bias-change alarm).
         trusted_c1: C1 S(12) at or above which the odometry has no tangential slip: 0.9.
         straight_yaw_rate: |batch mean of gyro - b_g| below which the robot drives straight (rad/s):
             0.05, > 10 sigma of the batch's gyro noise, so that the gate does not select on the noise.
+        change_yaw_rate: |batch mean of the calibrated odometric yaw rate| below which the wheels say the
+            robot drives straight enough for the bias-change test (rad/s): 0.15, the path follower's
+            corrections on a straight; the tyres' differential slip at that rate (10-15 %) stays within
+            the batch's measurement_std.
+        steady_yaw_acceleration: the change of the calibrated odometric yaw rate from the previous batch
+            to this one, per second, below which the wheels' yaw rate is steady enough for the change test
+            (rad/s^2): 1.0, four of Tinyphoon's encoder counts per batch; while the yaw rate changes the
+            body's lags the wheels' by the tyres' slip (Kurt3D's turn-in: 0.07 rad/s for 4 batches).
+        largest_bias_step: the largest change of the gyro bias the change test follows (rad/s): 0.15; a
+            moving batch is tested only while the gyro less b_g stays within straight_yaw_rate +
+            largest_bias_step (a body that turns while its wheels do not is sliding).
+        change_run_length: mean number of tested batches between false alarms of the bias-change test
+            (a CUSUM of the normalised innovation, systems/residual_test.py): 180000, one per hour.
+        change_drift: the CUSUM's drift k (sigma): 0.5, soonest for a shift of one innovation sigma; |z|
+            beyond innovation_gate counts as innovation_gate there, so that a few batches of a slide
+            cannot raise the alarm that a persistent bias change raises.
     """
 
     enabled: bool = True
@@ -77,13 +104,19 @@ class YawCalibrationParameters:
     innovation_gate: float = 4.0
     trusted_c1: float = 0.9
     straight_yaw_rate: float = 0.05
+    change_yaw_rate: float = 0.15
+    steady_yaw_acceleration: float = 2.0
+    largest_bias_step: float = 0.15
+    change_run_length: float = 180000.0
+    change_drift: float = 0.5
 
     def __post_init__(self):
         if not isinstance(self.enabled, bool):
             raise ValueError(f"yaw_calibration.enabled={self.enabled!r} is out of range: allowed true, false")
         positive = (
             "initial_bias_std initial_radius_difference_std measurement_std standstill_measurement_std "
-            "innovation_gate straight_yaw_rate"
+            "innovation_gate straight_yaw_rate change_yaw_rate steady_yaw_acceleration largest_bias_step "
+            "change_drift"
         ).split()
         for name in positive:
             v = getattr(self, name)
@@ -93,17 +126,59 @@ class YawCalibrationParameters:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
                 raise ValueError(f"yaw_calibration.{name}={v!r} is out of range: allowed [0, inf)")
+        if not (math.isfinite(self.change_run_length) and self.change_run_length > 1.0):
+            raise ValueError(
+                f"yaw_calibration.change_run_length={self.change_run_length!r} is out of range: allowed "
+                "(1, inf) batches"
+            )
+        if not self.innovation_gate > self.change_drift:
+            raise ValueError(
+                f"yaw_calibration.change_drift={self.change_drift!r} is out of range: allowed (0, "
+                f"innovation_gate={self.innovation_gate})"
+            )
         if not (0.0 <= self.trusted_c1 <= 1.0):
             raise ValueError(
                 f"yaw_calibration.trusted_c1={self.trusted_c1!r} is out of range: allowed [0, 1]"
             )
 
 
-# State layout: theta = [b_g, D] (2), P (4, row-major), batch sums of (gyro, omega_o, v_o, |v_o| +
-# |omega_o|) (4), batch sample count, 1 while every sample of the batch passed its checks, learned
-# batches, rejected batches.
-_THETA, _P, _SUMS, _COUNT, _OK, _LEARNED, _REJECTED = slice(0, 2), slice(2, 6), slice(6, 10), 10, 11, 12, 13
-STATE_SIZE = 14
+CALIBRATION_LAYOUT = (
+    ("theta", 2),
+    ("covariance", 4),
+    ("sums", 4),
+    ("count", 1),
+    ("ok", 1),
+    ("learned", 1),
+    ("rejected", 1),
+    ("cusum", 6),
+    ("changes", 1),
+    ("previous_wheels", 1),
+)
+"""The calibration's state, in order (name, size): theta = [b_g, D], its covariance P (row-major), the
+batch's sums of (gyro, omega_o, v_o, |v_o| + |omega_o|), its sample count, 1 while every sample of the
+batch passed its checks, the learned and rejected batches, the bias-change CUSUM (CusumState), the bias
+changes detected, the previous batch's calibrated odometric yaw rate (NaN: none)."""
+
+
+def _layout_slices(layout) -> dict:
+    slices, start = {}, 0
+    for name, size in layout:
+        slices[name] = slice(start, start + size) if size > 1 else start
+        start += size
+    return slices
+
+
+_SLICES = _layout_slices(CALIBRATION_LAYOUT)
+_THETA, _P, _SUMS, _COUNT, _OK = (_SLICES[k] for k in ("theta", "covariance", "sums", "count", "ok"))
+_LEARNED, _REJECTED, _CUSUM, _CHANGES = (_SLICES[k] for k in ("learned", "rejected", "cusum", "changes"))
+_PREVIOUS_WHEELS = _SLICES["previous_wheels"]
+STATE_SIZE = sum(size for _, size in CALIBRATION_LAYOUT)
+NUM_THETA = 2
+
+
+def bias_change_test(p: YawCalibrationParameters) -> CusumTest:
+    """The CUSUM that judges the calibration's normalised innovations for a change of the gyro bias."""
+    return CusumTest.from_run_length(p.change_run_length, p.change_drift, p.innovation_gate)
 
 
 def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
@@ -111,6 +186,7 @@ def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
     state = np.zeros(STATE_SIZE)
     state[_P] = np.diag([p.initial_bias_std**2, p.initial_radius_difference_std**2]).ravel()
     state[_OK] = 1.0
+    state[_PREVIOUS_WHEELS] = math.nan
     return state
 
 
@@ -157,20 +233,38 @@ def yaw_calibration_step(
         return state
     n = state[_COUNT]
     gyro_mean, omega_mean, v_mean, moving = state[_SUMS] / n
-    theta, P = state[_THETA].copy(), state[_P].reshape(2, 2)
+    theta, P = state[_THETA].copy(), state[_P].reshape(NUM_THETA, NUM_THETA)
+    # predict step: the random walks over the batch
     P = P + np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * (n * T_N)
-    if state[_OK] > 0.5 and abs(gyro_mean - theta[0]) <= p.straight_yaw_rate:
+    wheels = omega_mean + theta[1] * v_mean / track_width  # the calibrated odometric yaw rate
+    steady = abs(wheels - state[_PREVIOUS_WHEELS]) <= p.steady_yaw_acceleration * n * T_N
+    state[_PREVIOUS_WHEELS] = wheels if state[_OK] > 0.5 else math.nan
+    learn, test = batch_selection(gyro_mean - theta[0], wheels, moving > 0.0, steady, p)
+    if state[_OK] > 0.5 and (learn or test):
         H = np.array([1.0, v_mean / track_width])
         R = (p.measurement_std if moving > 0.0 else p.standstill_measurement_std) ** 2
         innovation = gyro_mean - omega_mean - H @ theta
         S = H @ P @ H + R
-        if innovation * innovation <= p.innovation_gate**2 * S:
+        alarm = 0
+        if test:
+            # test: the normalised innovation's CUSUM
+            z = innovation / math.sqrt(S)
+            cusum, alarm = cusum_step(CusumState(state[_CUSUM]), z, bias_change_test(p), innovation)
+            state[_CUSUM] = cusum[:]
+            if alarm:
+                theta, P = bias_change_update(theta, P, cusum, alarm, R)
+                state[_CUSUM] = 0.0
+                state[_CHANGES] += 1.0
+                state[_LEARNED] += 1.0
+                learn = False  # this batch is part of the change's evidence
+        if learn and innovation * innovation <= p.innovation_gate**2 * S:
+            # update step
             gain = P @ H / S
             theta = theta + gain * innovation
-            I_KH = np.eye(2) - np.outer(gain, H)
+            I_KH = np.eye(NUM_THETA) - np.outer(gain, H)
             P = I_KH @ P @ I_KH.T + np.outer(gain, gain) * R
             state[_LEARNED] += 1.0
-        else:
+        elif learn:
             state[_REJECTED] += 1.0
     state[_THETA] = theta
     state[_P] = (0.5 * (P + P.T)).ravel()
@@ -180,13 +274,43 @@ def yaw_calibration_step(
     return state
 
 
+def bias_change_update(theta, P, cusum: CusumState, side: int, R: float) -> tuple:
+    """A detected change of b_g: the N batches since the CUSUM's change point say the residual moved by
+    their mean m. b_g's variance widens by m^2 (the change's size), and the mean is the measurement
+    y = m of b_g's change (H = [1, 0], R / N). Returns the new (theta, P)."""
+    count, shift = cusum_shift(cusum, side)
+    P = P.copy()
+    P[0, 0] += shift * shift
+    H = np.array([1.0, 0.0])
+    S = H @ P @ H + R / count
+    gain = P @ H / S
+    theta = theta + gain * shift
+    I_KH = np.eye(NUM_THETA) - np.outer(gain, H)
+    return theta, I_KH @ P @ I_KH.T + np.outer(gain, gain) * R / count
+
+
+def batch_selection(gyro: float, wheels: float, moving: bool, steady: bool, p) -> tuple:
+    """(learn, test) of a batch from its mean gyro less b_g and its calibrated odometric yaw rate
+    ``wheels``: it is learned from while the gyro says the robot stands or drives straight (within
+    straight_yaw_rate), and it tests b_g for a change while the wheels stand still, or say it drives
+    straight (within change_yaw_rate) at a ``steady`` yaw rate (steady_yaw_acceleration) while the gyro
+    stays within straight_yaw_rate + largest_bias_step."""
+    learn = abs(gyro) <= p.straight_yaw_rate
+    if not moving:
+        return learn, True
+    straight = abs(wheels) <= p.change_yaw_rate and steady
+    return learn, straight and abs(gyro) <= p.straight_yaw_rate + p.largest_bias_step
+
+
 def calibration_parameters(state) -> list:
-    """[b_g, D, sigma(b_g), sigma(D), learned batches, rejected batches] of a calibration state."""
-    P = np.asarray(state)[_P].reshape(2, 2)
-    return [*state[_THETA], math.sqrt(P[0, 0]), math.sqrt(P[1, 1]), state[_LEARNED], state[_REJECTED]]
+    """[b_g, D, sigma(b_g), sigma(D), learned batches, rejected batches, bias changes detected] of a
+    calibration state."""
+    P = np.asarray(state)[_P].reshape(NUM_THETA, NUM_THETA)
+    counts = [state[_LEARNED], state[_REJECTED], state[_CHANGES]]
+    return [*state[_THETA], math.sqrt(P[0, 0]), math.sqrt(P[1, 1]), *counts]
 
 
-PARAMETERS_LAYOUT = (("estimate", 2), ("std", 2), ("batches", 2))
+PARAMETERS_LAYOUT = (("estimate", 2), ("std", 2), ("batches", 3))
 """YawRateCalibration's ``parameters`` output (calibration_parameters), in order: (name, size)."""
 CALIBRATED_LAYOUT = (("gyro", 1), ("odometry", 4))
 """YawRateCalibration's ``calibrated`` output, in order: (name, size); diagrams/split.py slices it."""

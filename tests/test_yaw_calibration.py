@@ -8,10 +8,14 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.faults import FaultEvent
 from slipnav.systems.yaw_calibration import (
     YawCalibrationParameters,
     YawRateCalibration,
+    batch_selection,
+    bias_change_test,
     calibrated_gyro,
     calibrated_odometry,
     calibration_parameters,
@@ -60,13 +64,13 @@ def test_standstill_learns_the_bias_alone():
     rng = np.random.default_rng(3)
     gyro = 0.003 + 0.0044 * rng.standard_normal(50)  # the batch means of the gyro's 0.014 rad/s noise
     state = run_batches(yaw_calibration_initial_state(p), [(g, 0.0, 0.0) for g in gyro], p)
-    b, D, sigma_b, sigma_D, learned, rejected = calibration_parameters(state)
+    b, D, sigma_b, sigma_D, learned, rejected, changes = calibration_parameters(state)
     info = 1 / p.initial_bias_std**2 + 50 / p.standstill_measurement_std**2
     assert sigma_b == pytest.approx(info**-0.5, rel=1e-9) and sigma_b < 0.0008
     assert b == pytest.approx(np.sum(gyro) / p.standstill_measurement_std**2 / info, rel=1e-9)
     assert abs(b - 0.003) < 3 * sigma_b
     assert D == 0.0 and sigma_D == pytest.approx(p.initial_radius_difference_std, rel=1e-9)
-    assert (learned, rejected) == (50, 0)
+    assert (learned, rejected, changes) == (50, 0, 0)
     moving = run_batches(yaw_calibration_initial_state(p), [(0.003, 0.0, 1e-3)] * 50, p)
     assert calibration_parameters(moving)[2] > 1.5 * sigma_b  # a counting encoder: measurement_std
 
@@ -88,6 +92,73 @@ def test_gates_keep_failed_data_out():
     spiked = run_batches(learned, [(0.002, 0.4, 1.0)], p)
     np.testing.assert_array_equal(spiked[0:2], theta)
     assert calibration_parameters(spiked)[5] == calibration_parameters(learned)[5] + 1
+
+
+def test_selection_by_both_witnesses():
+    """Learned from: the gyro less b_g within straight_yaw_rate; tested for a bias change: the wheels stand
+    still, or say straight within change_yaw_rate at a steady yaw rate while the gyro stays within the
+    largest step's band."""
+    p = YawCalibrationParameters()
+    assert batch_selection(0.04, 0.0, False, False, p) == (True, True)
+    assert batch_selection(0.5, 0.0, False, False, p) == (False, True)  # standing: the gyro is outvoted
+    assert batch_selection(0.06, 0.1, True, True, p) == (False, True)  # a 0.06 step within the band
+    assert batch_selection(0.06, 0.1, True, False, p) == (False, False)  # the wheels' yaw rate changes
+    assert batch_selection(0.06, 0.2, True, True, p) == (False, False)  # the wheels turn
+    assert batch_selection(0.3, 0.0, True, True, p) == (False, False)  # a slide
+    assert batch_selection(-0.04, 0.3, True, True, p) == (True, False)  # the gyro alone says straight
+
+
+def test_the_wheels_steadiness_spans_batches():
+    """A batch is steady when the calibrated odometric yaw rate changed by at most
+    steady_yaw_acceleration T_C since the previous batch (1.0 x 0.02 = 0.02 rad/s): a turn-in whose
+    wheels lead the gyro by 0.07 rad/s for four batches (Kurt3D) raises no alarm, the same residual at a
+    steady yaw rate does."""
+    p = YawCalibrationParameters()
+    learned = run_batches(yaw_calibration_initial_state(p), [(0.0, 0.0, 1.0)] * 100, p)
+    turn_in = [(g, o, 1.0) for g, o in ((0.0, 0.05), (0.03, 0.1), (0.07, 0.14), (0.1, 0.17), (0.13, 0.2))]
+    state = run_batches(learned, turn_in * 3, p)
+    assert calibration_parameters(state)[6] == 0
+    state = run_batches(learned, [(0.07, 0.0, 1.0)] * 5, p)
+    assert calibration_parameters(state)[6] == 1
+
+
+@pytest.mark.parametrize("moving", [False, True])
+def test_a_bias_step_is_detected_and_learned(moving):
+    """After 100 batches learning b_g = 0.002, the gyro's bias steps by 0.06 (beyond straight_yaw_rate:
+    no batch is learned any more). Every batch's normalised innovation is then 0.06 / sqrt(S) > the
+    clip (4), so the CUSUM reaches h after ceil(h / (4 - 0.5)) batches; the alarm widens b_g's variance
+    by the innovation's square, and that batch's update moves b_g to within 10 % of the step. Moving at
+    one speed, b_g and D v / b cannot be told apart: their sum, the yaw rate the calibration removes,
+    settles on the step."""
+    p = YawCalibrationParameters()
+    v = 1.0 if moving else 0.0
+    learned = run_batches(yaw_calibration_initial_state(p), [(0.002, 0.0, v)] * 100, p)
+    test = bias_change_test(p)
+    assert test.threshold == pytest.approx(10.9, abs=0.1)  # one false alarm per 180000 batches
+    needed = int(np.ceil(test.threshold / (test.clip - test.drift)))
+    state = run_batches(learned, [(0.062, 0.0, v)] * (needed - 1), p)
+    assert calibration_parameters(state)[6] == 0 and state[0] == learned[0]
+    state = run_batches(state, [(0.062, 0.0, v)], p)
+    b, _, sigma_b, _, _, _, changes = calibration_parameters(state)
+    assert changes == 1 and b == pytest.approx(0.062, abs=0.006)
+    settled = run_batches(state, [(0.062, 0.0, v)] * 50, p)
+    assert settled[0] + settled[1] * v / TRACK == pytest.approx(0.062, abs=0.002)
+    assert calibration_parameters(settled)[6] == 1
+
+
+def test_healthy_batches_raise_no_bias_change():
+    """20000 straight batches (400 s of driving) whose residuals are the measurement noise: the CUSUM,
+    set for one false alarm per 180000 batches, raises none, and b_g stays within 3 sigma."""
+    p = YawCalibrationParameters()
+    rng = np.random.default_rng(7)
+    gyro = 0.003 + 0.008 * rng.standard_normal(20000)  # within measurement_std = 0.01
+    state = yaw_calibration_initial_state(p)
+    for g in gyro:
+        for _ in range(N_BATCH):
+            state = yaw_calibration_step(state, g, [1.0, 0.0, 0.0, 0.0], 1.0, False, TRACK, p, T_N, N_BATCH)
+    b, _, sigma_b, _, learned, rejected, changes = calibration_parameters(state)
+    assert changes == 0 and learned == 20000 and rejected == 0
+    assert abs(b - 0.003) < 3 * sigma_b
 
 
 def test_calibrated_signals_and_the_paper_switch():
@@ -153,3 +224,21 @@ def test_radius_difference_and_bias_converge_on_the_corner(right_wheel):
     }
     assert errors["est"] < min(errors["odo"], errors["gyro"])
     assert errors["est"] < 0.01 * float(a["path_length"])
+
+
+@pytest.mark.parametrize(("kind", "value"), [("bias", 0.05), ("ramp", 0.01)])
+def test_gyro_bias_step_and_ramp_while_driving_on_the_square(kind, value):
+    """The closed-loop square with the gyro's bias stepping by 0.05 rad/s, or growing at 0.01 rad/s^2,
+    from 3 s on (while driving): the calibration detects the change (gyro_bias_changes_s), its estimate
+    follows the fault, and the fused final error stays below both baselines' (odometry-only and
+    Gyrodometry; without the change test the fused estimate ends 0.27 m off, Gyrodometry 0.25 m)."""
+    scenario = load_scenario("square")
+    result = run_scenario(scenario, seed=0, faults=[FaultEvent(kind, "gyro", 3.0, 3600.0, value)])
+    a = result.arrays
+    changes = result.summary["gyro_bias_changes_s"]
+    assert changes and changes[0] > 3.0
+    fault = value if kind == "bias" else value * (a["t"][-1] - 3.0)
+    true_bias = a["true_gyro_bias"][-1] + fault
+    assert abs(a["est_gyro_bias"][-1] - true_bias) < (0.005 if kind == "bias" else 0.015)
+    errors = {p: final_position_error(a, p) for p in ("est", "odo", "gyro")}
+    assert errors["est"] < min(errors["odo"], errors["gyro"])

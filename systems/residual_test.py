@@ -1,0 +1,115 @@
+"""One residual test for every channel: residual -> normalised innovation -> test -> decision.
+
+A witness predicts what a channel should read; the residual r = y - y_hat and its predicted variance
+S = var(y) + var(y_hat) give the normalised innovation z = r / sqrt(S), N(0, 1) while the channel and
+its witnesses are healthy. Two tests judge z:
+
+1. a chi-square gate per sample (abrupt faults): z^2 (or the sum of squares of ``dof`` independent
+   innovations) beyond the (1 - false_alarm) quantile of chi-square with ``dof`` degrees of freedom
+   (chi_square_gate);
+2. a two-sided CUSUM (Page's test, slow faults): g+ <- max(0, g+ + z_c - k), g- <- max(0, g- - z_c - k)
+   with z_c = z clipped to +-clip (one outlier moves the sums by at most clip - k, so only a
+   persistent shift reaches the threshold) and an alarm when either sum exceeds h (cusum_step). The
+   drift k is half the shift (in sigma) the test is to detect soonest; h follows from the mean number
+   of healthy samples between false alarms by Siegmund's approximation of the average run length
+   (cusum_threshold). A shift of delta sigma is detected after about (h + 1.166) / (delta - k)
+   samples (at most clip). Each side also counts the samples since it last stood at zero (Page's
+   estimate of the change point) and sums their residuals: on an alarm, cusum_shift is the mean residual
+   since the change, the size of the change in the residual's units.
+"""
+
+import dataclasses as dc
+import math
+
+from pydrake.common.containers import namedview
+from scipy.stats import chi2
+
+CusumState = namedview(
+    "CusumState", ["upper", "lower", "upper_count", "lower_count", "upper_sum", "lower_sum"]
+)
+"""The two one-sided sums g+ (shift up) and g- (shift down), in sigma; per side the samples since it last
+stood at zero and the sum of their residuals (the residual's units)."""
+
+SIEGMUND_CORRECTION = 1.166
+"""Siegmund's boundary correction of the CUSUM's threshold for Gaussian increments (in sigma)."""
+
+
+def chi_square_gate(false_alarm: float, dof: int = 1) -> float:
+    """The gate on the sum of squares of ``dof`` normalised innovations that a healthy channel exceeds
+    with probability ``false_alarm`` (in (0, 1))."""
+    if not 0.0 < false_alarm < 1.0:
+        raise ValueError(f"false_alarm={false_alarm!r} is out of range: allowed (0, 1)")
+    return float(chi2.ppf(1.0 - false_alarm, dof))
+
+
+def cusum_run_length(threshold: float, drift: float) -> float:
+    """Siegmund's approximation of a one-sided CUSUM's mean run length (samples) between false alarms on
+    N(0, 1) increments: (exp(2 k b) - 2 k b - 1) / (2 k^2) with b = h + 1.166."""
+    b = threshold + SIEGMUND_CORRECTION
+    x = 2.0 * drift * b
+    return (math.expm1(x) - x) / (2.0 * drift * drift)
+
+
+def cusum_threshold(run_length: float, drift: float) -> float:
+    """The threshold h (sigma) at which the two-sided CUSUM of drift k raises a false alarm once in
+    ``run_length`` healthy samples on average (each side once in 2 run_length; bisection of
+    cusum_run_length)."""
+    if not (math.isfinite(run_length) and run_length > 1.0):
+        raise ValueError(f"run_length={run_length!r} is out of range: allowed (1, inf) samples")
+    if not (math.isfinite(drift) and drift > 0.0):
+        raise ValueError(f"drift={drift!r} is out of range: allowed (0, inf) sigma")
+    low, high = 0.0, 1.0
+    while cusum_run_length(high, drift) < 2.0 * run_length:
+        high *= 2.0
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if cusum_run_length(middle, drift) < 2.0 * run_length else (low, middle)
+    return high
+
+
+@dc.dataclass(frozen=True)
+class CusumTest:
+    """A two-sided CUSUM on a normalised innovation (module docstring, 2.).
+
+    Args:
+        drift: k, half the shift (sigma) to detect soonest.
+        threshold: h (sigma), from cusum_threshold.
+        clip: |z| beyond this counts as this (sigma), > drift.
+    """
+
+    drift: float
+    threshold: float
+    clip: float
+
+    @classmethod
+    def from_run_length(cls, run_length: float, drift: float, clip: float) -> "CusumTest":
+        """The test raising one false alarm per ``run_length`` healthy samples on average."""
+        if not (math.isfinite(clip) and clip > drift):
+            raise ValueError(f"clip={clip!r} is out of range: allowed ({drift}, inf) sigma")
+        return cls(drift, cusum_threshold(run_length, drift), clip)
+
+
+def cusum_initial_state() -> CusumState:
+    """Both sums at zero."""
+    return CusumState([0.0] * 6)
+
+
+def cusum_step(state: CusumState, z: float, test: CusumTest, residual: float | None = None) -> tuple:
+    """One normalised innovation ``z`` of ``residual`` (default z): returns (the next CusumState, +1 / -1
+    when the upper / lower sum exceeds the threshold, else 0). The sums are not reset here: the caller
+    decides what an alarm changes and restarts the test with cusum_initial_state."""
+    residual = z if residual is None else residual
+    clipped = min(max(z, -test.clip), test.clip)
+    upper = max(0.0, state.upper + clipped - test.drift)
+    lower = max(0.0, state.lower - clipped - test.drift)
+    upper_run = (state.upper_count + 1, state.upper_sum + residual) if upper > 0.0 else (0.0, 0.0)
+    lower_run = (state.lower_count + 1, state.lower_sum + residual) if lower > 0.0 else (0.0, 0.0)
+    alarm = 1 if upper > test.threshold else (-1 if lower > test.threshold else 0)
+    return CusumState([upper, lower, upper_run[0], lower_run[0], upper_run[1], lower_run[1]]), alarm
+
+
+def cusum_shift(state: CusumState, side: int) -> tuple:
+    """(samples since the change point, mean residual since it) of the upper (``side`` +1) or lower (-1)
+    sum; (0, 0) while that sum stands at zero."""
+    count, total = (state.upper_count, state.upper_sum) if side > 0 else (state.lower_count, state.lower_sum)
+    return count, (total / count if count > 0 else 0.0)
