@@ -281,7 +281,7 @@ def _camera(meshcat, a: dict) -> None:
         return
     cx, cy = (xs.min() + xs.max()) / 2, (ys.min() + ys.max()) / 2
     span = max(xs.max() - xs.min(), ys.max() - ys.min(), 10 * float(a["track_width"]))
-    meshcat.SetCameraPose([cx - 0.2 * span, cy - 0.7 * span, 0.75 * span], [cx, cy, 0.0])
+    meshcat.SetCameraPose([cx, cy - 0.8 * span, 0.9 * span], [cx, cy, 0.0])
 
 
 def _loopback_meshcat():
