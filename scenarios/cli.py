@@ -4,7 +4,8 @@
     slipnav run SCENARIO [--out DIR] [--seed N] [--duration S] [--no-slip-control]
                          [--speed-law bounded|constant] [--open-loop] [--tolerances]
                          [--localisation fused|odometry|gyrodometry|truth] [--paper]
-                         [--model MODEL.yaml]
+                         [--model MODEL.yaml] [--animate]
+    slipnav animate RUN.npz [--out RUN.html] [--fps F]
     slipnav accuracy [SCENARIO ...] [--seeds N] [--open-loop] [--paper] [ENGINE]
     slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop] [ENGINE]
     slipnav robustness [SCENARIO ...] [--seeds N] [--calibrated] [ENGINE]
@@ -75,6 +76,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--seed", type=int, default=None, help="noise seed (default: the scenario's)")
     run.add_argument("--duration", type=float, default=None, help="simulated time limit (s)")
     run.add_argument("--no-figures", action="store_true", help="skip the figures")
+    run.add_argument(
+        "--animate",
+        action="store_true",
+        help="also write DIR/<stem>.html: the run as a 3-D animation (slipnav animate)",
+    )
     run.add_argument("--no-slip-control", action="store_true", help="keep the step size at 1")
     run.add_argument(
         "--speed-law",
@@ -105,6 +111,14 @@ def _parser() -> argparse.ArgumentParser:
         metavar="MODEL.yaml",
         help="what navigation and control believe (README: Model files), e.g. one slipnav calibrate wrote; "
         "the plant stays the scenario's",
+    )
+    ani = sub.add_parser(
+        "animate", help="a run's npz as a 3-D animation (Meshcat) in one self-contained HTML file"
+    )
+    ani.add_argument("run", metavar="RUN.npz", help="a run's npz, e.g. runs/corner-seed0.npz")
+    ani.add_argument("--out", default=None, metavar="FILE.html", help="default: RUN.html beside the npz")
+    ani.add_argument(
+        "--fps", type=float, default=30.0, help="frames per second of simulated time (default 30; 1 .. 120)"
     )
     dia = sub.add_parser("diagram", help="write a block diagram (graphviz)")
     dia.add_argument("name", help="navigation, control or closed_loop")
@@ -322,6 +336,11 @@ def _command(args) -> int:
         return 0
     if args.command == "replay":
         return _replay(args)
+    if args.command == "animate":
+        from slipnav.scenarios.animation import animate_file
+
+        print(animate_file(args.run, args.out, args.fps))
+        return 0
     if args.command == "reproduce":
         from slipnav.scenarios.runner import check_output_directory
         from slipnav.studies.reproduce import reproduce
@@ -365,6 +384,7 @@ def _command(args) -> int:
             **_engine(args),
         )
         return 0
+    from slipnav.scenarios.animation import write_run_animation
     from slipnav.scenarios.runner import (
         check_output_directory,
         check_run_options,
@@ -394,6 +414,8 @@ def _command(args) -> int:
     check_output_directory(args.out)
     result = run_scenario(scenario, **options)
     if not _write(write_artifacts, result, args):
+        return 1
+    if args.animate and not _write(lambda r, out, figures: [write_run_animation(r, out)], result, args):
         return 1
     s = result.summary
     print(

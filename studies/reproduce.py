@@ -6,7 +6,9 @@ variants built here (the circle with its wheels in the air, Indiveri Fig. 5). Ev
 returns a ``Reproduced``: the matplotlib Figure, the paper's caption, its quantitative claim, what we
 measured (computed from the runs) and the command that makes the underlying run. ``reproduce`` writes
 ``DIR/reproduce/index.html`` (the figures beside caption, claim and measurement, and the claims table),
-the PNGs (``<key>-<mode>.png``), ``reproduce.json`` (the same as data) and ``lifted_circle.yaml``.
+the PNGs (``<key>-<mode>.png``), the animations of Seyr's corner and square and Indiveri's long path
+(``<run>-<mode>.html``, scenarios/animation.py), ``reproduce.json`` (the same as data) and
+``lifted_circle.yaml``.
 """
 
 from __future__ import annotations
@@ -40,6 +42,8 @@ from slipnav.scenarios.runner import follower_path, run_scenario  # noqa: E402
 from slipnav.systems.mixing import logsig  # noqa: E402
 
 MODES = ("default", "paper")
+ANIMATED = {"corner": "Seyr's corner", "square": "Seyr's square", "long_path": "Indiveri's long path"}
+"""Runs of the set the page links as animations (``<run>-<mode>.html``), with their names on the page."""
 
 LIFTED_EVENTS = """faults:
   - {kind: wheel_lifted, channel: wheel_R, start: 0.0, duration: 3600.0}
@@ -858,13 +862,27 @@ def claims(runs_by_mode: dict) -> list[dict]:
     return rows
 
 
+def write_animations(runs: dict, mode: str, out: FilePath) -> dict:
+    """The runs of ANIMATED in ``mode`` as animations ``out/<run>-<mode>.html`` (scenarios/animation.py);
+    returns {run: file name}."""
+    from slipnav.scenarios.animation import write_animation
+
+    return {
+        name: write_animation(runs[name].arrays, out / f"{name}-{mode}.html", f"{name} ({mode} mode)").name
+        for name in ANIMATED
+    }
+
+
 def _cell(text) -> str:
     return html.escape(str(text))
 
 
-def write_page(out: FilePath, figures: dict, table: list[dict], wall: float, quick: bool) -> FilePath:
-    """index.html: the claims table, then per figure the PNGs of each mode beside caption, claim,
-    measurement and command (written to a temporary file and renamed)."""
+def write_page(
+    out: FilePath, figures: dict, table: list[dict], wall: float, quick: bool, animations=None
+) -> FilePath:
+    """index.html: the links to the animations ({mode: {run: file}}), the claims table, then per figure
+    the PNGs of each mode beside caption, claim, measurement and command (written to a temporary file and
+    renamed)."""
     modes = list(figures)
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>slipnav reproduce</title>",
@@ -874,6 +892,7 @@ def write_page(out: FilePath, figures: dict, table: list[dict], wall: float, qui
         "<h1>Seyr &amp; Jakubek and Indiveri et al. figures recreated on our robots</h1>",
         f"<p>Made by <code>slipnav reproduce{' --quick' if quick else ''}</code> in {wall:.0f} s. Modes: "
         f"{', '.join(modes)} (paper: the equations as printed, README Paper mode). Seed 0.</p>",
+        _animation_links(animations or {}),
         "<h2>Claims</h2><table><tr><th>paper's claim</th>"
         + "".join(f"<th>measured, {m}</th>" for m in modes)
         + "<th>figure</th><th>command</th></tr>",
@@ -911,9 +930,26 @@ def write_page(out: FilePath, figures: dict, table: list[dict], wall: float, qui
     return path
 
 
+def _animation_links(animations: dict) -> str:
+    """One paragraph linking each animated run's pages, one per mode ('' without animations)."""
+    if not animations:
+        return ""
+    runs = [
+        f"{ANIMATED[name]}: "
+        + ", ".join(f"<a href='{files[name]}'>{mode}</a>" for mode, files in animations.items())
+        for name in ANIMATED
+    ]
+    return (
+        "<p id='animations'>Animations (true and fused robot, wheel slip; one HTML file each): "
+        + "; ".join(runs)
+        + ".</p>"
+    )
+
+
 def reproduce(out_dir="runs", quick: bool = False, modes=MODES, stream=None) -> dict:
-    """Make every run, figure and the page: ``out_dir/reproduce/index.html``, ``<key>-<mode>.png``,
-    ``lifted_circle.yaml``. Returns {"index": path, "figures": {mode: [Reproduced]}, "claims": rows,
+    """Make every run, figure, animation and the page: ``out_dir/reproduce/index.html``,
+    ``<key>-<mode>.png``, ``<run>-<mode>.html`` (ANIMATED), ``lifted_circle.yaml``. Returns {"index": path,
+    "figures": {mode: [Reproduced]}, "claims": rows,
     "wall_s": seconds}."""
     import sys
 
@@ -925,7 +961,7 @@ def reproduce(out_dir="runs", quick: bool = False, modes=MODES, stream=None) -> 
     tmp = out / "lifted_circle.yaml.tmp"
     tmp.write_text(lifted_circle_yaml())
     tmp.replace(yaml_path)
-    figures, runs_by_mode = {}, {}
+    figures, runs_by_mode, animations = {}, {}, {}
     for mode in modes:
         runs = make_runs(
             mode,
@@ -936,6 +972,7 @@ def reproduce(out_dir="runs", quick: bool = False, modes=MODES, stream=None) -> 
             ),
         )
         runs_by_mode[mode] = runs
+        animations[mode] = write_animations(runs, mode, out)
         scenario = load_scenario("corner")
         mixing = (paper_mode(scenario) if mode == "paper" else scenario).navigation.mixing
         figures[mode] = figures_for(runs, mode, mixing)
@@ -945,7 +982,7 @@ def reproduce(out_dir="runs", quick: bool = False, modes=MODES, stream=None) -> 
         runs_by_mode[mode] = runs
     table = claims(runs_by_mode)
     wall = time.perf_counter() - start
-    index = write_page(out, figures, table, wall, quick)
+    index = write_page(out, figures, table, wall, quick, animations)
     record = {
         "quick": quick,
         "wall_s": wall,
@@ -964,6 +1001,7 @@ def reproduce(out_dir="runs", quick: bool = False, modes=MODES, stream=None) -> 
             for m, figs in figures.items()
         },
         "claims": table,
+        "animations": animations,
     }
     tmp = out / "reproduce.json.tmp"
     tmp.write_text(json.dumps(record, indent=1))

@@ -182,6 +182,13 @@ def test_reproduce_writes_a_page_referencing_every_figure(tmp_path, capsys):
     lifted = load_scenario(str(out / "lifted_circle.yaml"))
     assert [e.kind for e in lifted.faults] == ["wheel_lifted", "wheel_lifted", "wheel_held", "wheel_pushed"]
     assert "reproduce figures=11" in capsys.readouterr().out
+    # Seyr's corner and square and Indiveri's long path as animations, linked from the page.
+    assert record["animations"] == {
+        "default": {n: f"{n}-default.html" for n in ("corner", "square", "long_path")}
+    }
+    for name, file in record["animations"]["default"].items():
+        assert f"<a href='{file}'>default</a>" in page
+        assert "id='slipnav-legend'" in (out / file).read_text(), name
 
 
 def test_reproduce_into_a_file_is_a_user_error(tmp_path, capsys):
