@@ -20,12 +20,13 @@ readings as studies/faults.fault_onset does; an encoder's reading is its angle, 
 quantisation's 1/sqrt(12) count, so a one-sample spike never is); detection (the faulted channel's health
 code or ``fault`` nonzero from the fault's start on) and its latency from the significant onset (the
 first sample of the first such stretch; negative: flagged before it); isolation (the channels flagged
-first from the start on are the faulted one alone); the fused, odometry-only and Gyrodometry final
-position errors, whether the fused one is <= the better baseline's, the fused final error over the
-reference run's, and the fused RMS and largest position error along the run against the truth
-POSE_DELAY_SAMPLES back. False alarms: the flag onsets (a code turning nonzero) on every health channel
-of the reference runs from the controller's start to the end, per hour of that time. The issue's targets
-(TARGETS) are printed PASS/FAIL beside the figures; the exit status does not change.
+first from the start on are the faulted one alone) and, beside it, how long another channel is flagged;
+the fused, odometry-only and Gyrodometry final position errors, whether the fused one is <= the better
+baseline's, the fused final error over the reference run's, and the fused RMS and largest position error
+along the run against the truth POSE_DELAY_SAMPLES back. False alarms: the flag onsets (a code turning
+nonzero) on every health channel of the reference runs from the controller's start to the end, per hour
+of that time. The issue's targets (TARGETS) are printed PASS/FAIL beside the figures; the exit status
+does not change.
 
 Output (studies/random_faults_report.py): the per-run and per-class tables, the targets, a last line
 ``random faults runs=...``; with ``--out DIR``: DIR/random-faults-reference.csv and DIR/random-faults.csv
@@ -269,6 +270,15 @@ def first_flagged(a: dict, start: float) -> tuple[float, tuple]:
     return float(t[k]), tuple(c for c, i in firsts.items() if i == k)
 
 
+def other_flag_time(a: dict, channel: str, start: float) -> float:
+    """Seconds from ``start`` on during which a channel other than the faulted one is flagged (a healthy
+    channel blamed, however the first flag fell)."""
+    t = np.asarray(a["t"])
+    others = [np.asarray(a[f"health_{c}"]) > 0 for c in health_channels(a) if c != channel]
+    flagged = np.logical_or.reduce(others) if others else np.zeros(len(t), bool)
+    return float(np.sum(flagged & (t >= start - 1e-9)) * (t[1] - t[0])) if len(t) > 1 else 0.0
+
+
 def position_figures(a: dict) -> dict:
     """Final errors of the fused pose and both baselines; the fused RMS and largest error along the run
     against the truth POSE_DELAY_SAMPLES back (m)."""
@@ -299,6 +309,7 @@ def fault_figures(a: dict, job: dict) -> dict:
         "latency_from_start_s": detected_at - job["start"],
         "first_flagged": "+".join(first) or "none",
         "isolated": (first == (job["channel"],)) if first else None,
+        "other_flag_s": other_flag_time(a, job["channel"], job["start"]),
         **figures,
         "fused_le_best_baseline": bool(fused <= best),
         "error_ratio": fused / clean if clean > 0 else math.inf,
@@ -368,6 +379,7 @@ def group_figures(rows: list) -> dict:
         "max_latency_s": max(latencies, default=math.nan),
         "flagged": len(flagged),
         "isolated": sum(bool(r["isolated"]) for r in flagged),
+        "other_blamed": sum(r["other_flag_s"] > 0 for r in rows),
         "fused_le_best_baseline": sum(bool(r["fused_le_best_baseline"]) for r in rows),
         "mean_error_ratio": float(np.mean(ratios)) if ratios else math.nan,
         "max_error_ratio": max(ratios, default=math.nan),

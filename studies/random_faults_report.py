@@ -17,11 +17,12 @@ def _ms(seconds) -> str:
 
 
 def print_rows(rows: list, stream) -> None:
-    """One line per faulted run: the fault, its significance and latency, the first flag, the errors."""
+    """One line per faulted run: the fault, its significance and latency, the channels flagged first and
+    how long others were, the errors."""
     print(
         f"{'scenario':8} {'seed':>4} {'class':10} {'channel':9} {'start':>6} {'dur':>6} {'value':>9} "
-        f"{'sig':>3} {'lat ms':>6} {'first flagged':17} {'fused m':>8} {'odo m':>7} {'gyrodo m':>8} "
-        f"{'ratio':>6} {'rms':>5}",
+        f"{'sig':>3} {'lat ms':>6} {'first flagged':17} {'others s':>8} {'fused m':>8} {'odo m':>7} "
+        f"{'gyrodo m':>8} {'ratio':>6} {'rms':>5}",
         file=stream,
     )
     for r in rows:
@@ -29,9 +30,9 @@ def print_rows(rows: list, stream) -> None:
         print(
             f"{r['scenario']:8} {r['seed']:>4} {r['fault_class']:10} {r['channel']:9} {r['start']:6.3f} "
             f"{duration:>6} {r['value']:9.3g} {'yes' if r['significant'] else 'no':>3} "
-            f"{_ms(r['latency_s']):>6} {r['first_flagged']:17} {r['fused_error_m']:8.4f} "
-            f"{r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} {r['error_ratio']:6.2f} "
-            f"{r['rms_ratio']:5.2f}",
+            f"{_ms(r['latency_s']):>6} {r['first_flagged']:17} {r['other_flag_s']:8.3f} "
+            f"{r['fused_error_m']:8.4f} {r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} "
+            f"{r['error_ratio']:6.2f} {r['rms_ratio']:5.2f}",
             file=stream,
         )
 
@@ -40,14 +41,14 @@ def print_summary(summary: dict, wall: float, stream) -> None:
     """The per-class table, the targets and the last line."""
     print(
         f"{'class':10} {'runs':>4} {'sig':>3} {'in 0.2 s':>8} {'detected':>8} {'median ms':>9} "
-        f"{'max ms':>6} {'isolated':>8} {'<= base':>7} {'ratio':>6} {'max':>6} {'rms':>5}",
+        f"{'max ms':>6} {'isolated':>8} {'blamed':>6} {'<= base':>7} {'ratio':>6} {'max':>6} {'rms':>5}",
         file=stream,
     )
     for name, g in [*summary["classes"].items(), ("all", summary["overall"])]:
         print(
             f"{name:10} {g['runs']:>4} {g['significant']:>3} {g['significant_in_time']:>8} "
             f"{g['detected']:>8} {_ms(g['median_latency_s']):>9} {_ms(g['max_latency_s']):>6} "
-            f"{g['isolated']:>3}/{g['flagged']:<4} {g['fused_le_best_baseline']:>7} "
+            f"{g['isolated']:>3}/{g['flagged']:<4} {g['other_blamed']:>6} {g['fused_le_best_baseline']:>7} "
             f"{g['mean_error_ratio']:6.2f} {g['max_error_ratio']:6.2f} {g['mean_rms_ratio']:5.2f}",
             file=stream,
         )

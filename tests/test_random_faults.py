@@ -295,7 +295,7 @@ def test_fault_figures_by_hand():
         and f["latency_s"] == pytest.approx(0.15)
         and f["latency_from_start_s"] == pytest.approx(0.2)
     )
-    assert (f["first_flagged"], f["isolated"]) == ("accel1_t", False)
+    assert (f["first_flagged"], f["isolated"], f["other_flag_s"]) == ("accel1_t", False, pytest.approx(0.1))
     assert f["fused_error_m"] == pytest.approx(0.005) and f["odometry_error_m"] == pytest.approx(0.006)
     assert f["gyrodometry_error_m"] == pytest.approx(0.004) and not f["fused_le_best_baseline"]
     assert f["rms_m"] == pytest.approx(0.005) and f["max_m"] == pytest.approx(0.005)
@@ -307,11 +307,14 @@ def test_fault_figures_by_hand():
         True,
         pytest.approx(0.3),
     )
-    assert math.isnan(f["latency_s"])
+    assert math.isnan(f["latency_s"]) and f["other_flag_s"] == 0.0
+    a["health_encoder_R"][[0, 2, 8, 9]] = 3  # before the start (0, 0.2 s) and 0.2 s after it
+    assert fault_figures(a, job)["other_flag_s"] == pytest.approx(0.2)
 
 
-def _row(fault_class, significant, latency, detected, isolated, below, ratio, rms):
+def _row(fault_class, significant, latency, detected, isolated, below, ratio, rms, others=0.0):
     return dict(
+        other_flag_s=others,
         fault_class=fault_class,
         significant=significant,
         latency_s=latency,
@@ -326,7 +329,7 @@ def _row(fault_class, significant, latency, detected, isolated, below, ratio, rm
 def test_summary_and_targets_by_hand():
     rows = [
         _row("bias", True, 0.1, True, True, True, 1.0, 1.0),
-        _row("bias", True, 0.3, True, False, True, 5.0, 2.0),
+        _row("bias", True, 0.3, True, False, True, 5.0, 2.0, others=0.5),
         _row("nan", True, math.nan, False, None, False, 2.0, 1.5),
         _row("spike", False, math.nan, True, True, True, 1.0, 1.0),
     ]
@@ -342,7 +345,7 @@ def test_summary_and_targets_by_hand():
         2,
     )
     assert (o["runs"], o["significant"], o["significant_in_time"], o["detected"]) == (4, 3, 1, 3)
-    assert (o["flagged"], o["isolated"], o["fused_le_best_baseline"]) == (3, 2, 3)
+    assert (o["flagged"], o["isolated"], o["other_blamed"], o["fused_le_best_baseline"]) == (3, 2, 1, 3)
     assert (o["false_alarms"], o["fault_free_h"], o["false_alarms_per_h"]) == (1, 1.0, 1.0)
     verdicts = [(t["measured"], t["pass"]) for t in s["targets"]]
     assert verdicts == [
