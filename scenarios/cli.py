@@ -11,6 +11,7 @@
     slipnav robustness [SCENARIO ...] [--seeds N] [--calibrated] [ENGINE]
     slipnav faults [SCENARIO ...] [--seeds N] [--perturbations] [--open-loop] [--tolerances] [--channels C,..]
                    [--kinds K,..] [ENGINE]
+    slipnav faults [SCENARIO ...] --random N [--open-loop] [--tolerances] [ENGINE]
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
@@ -157,10 +158,19 @@ def _parser() -> argparse.ArgumentParser:
     )
     _engine_options(rob, "robustness")
     fau = sub.add_parser(
-        "faults", help="every sensor fault class on every channel: detection, error (benchmark)"
+        "faults",
+        help="every sensor fault class on every channel (or --random N drawn): detection, error (benchmark)",
     )
     fau.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
-    fau.add_argument("--seeds", type=int, default=1, help="number of seeds (default 1)")
+    fau.add_argument("--seeds", type=int, default=None, help="number of seeds (default 1)")
+    fau.add_argument(
+        "--random",
+        type=int,
+        default=None,
+        metavar="N",
+        help="instead of the fixed list: one random fault per seed 0..N-1 and scenario, with fault-free "
+        "references (studies/random_faults.py)",
+    )
     fau.add_argument(
         "--perturbations", action="store_true", help="also the plant perturbations (wheel lifted, held, ...)"
     )
@@ -348,9 +358,12 @@ def _command(args) -> int:
         check_output_directory(args.out)
         reproduce(args.out, quick=args.quick, modes=("default",) if args.quick else ("default", "paper"))
         return 0
+    if args.command == "faults" and args.random is not None:
+        return _random_faults(args)
     if args.command == "faults":
         from slipnav.studies.faults import faults, select_cases
 
+        args.seeds = 1 if args.seeds is None else args.seeds
         _check_study(args)
         channels, kinds = (
             None if v is None else [n.strip() for n in v.split(",") if n.strip()] or [v]
@@ -448,6 +461,38 @@ def _write(write, result, args) -> bool:
     for path in written:
         print(path)
     return True
+
+
+MAX_RANDOM_FAULTS = 10000
+
+
+def _random_faults(args) -> int:
+    """``slipnav faults --random N`` (studies/random_faults.py); the fixed list's options are mistakes."""
+    from slipnav.studies.random_faults import random_faults
+
+    if not 1 <= args.random <= MAX_RANDOM_FAULTS:
+        raise ScenarioError(f"--random={args.random} is out of range: allowed 1 .. {MAX_RANDOM_FAULTS}")
+    given = [
+        option
+        for option, value in (
+            ("--seeds", args.seeds),
+            ("--perturbations", args.perturbations or None),
+            ("--channels", args.channels),
+            ("--kinds", args.kinds),
+        )
+        if value is not None
+    ]
+    if given:
+        raise ScenarioError(
+            f"--random with {', '.join(given)}: allowed --open-loop, --tolerances and the engine's options "
+            "(--random N draws the seeds' faults: classes and channels all)"
+        )
+    args.seeds = args.random
+    _check_study(args)
+    random_faults(
+        args.scenarios, args.random, open_loop=args.open_loop, tolerances=args.tolerances, **_engine(args)
+    )
+    return 0
 
 
 def _check_study(args, duration=None) -> None:

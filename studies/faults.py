@@ -210,13 +210,14 @@ def perturbation_samples(a: dict) -> int:
     return sum(int(np.sum(a[f"perturbation_{c}"] > 0)) for c in PERTURBATION_CHANNELS)
 
 
-def run_job(job: dict, event: FaultEvent):
-    """The job's scenario and seed with ``event``, open loop when the job says so (--open-loop)."""
+def run_job(job: dict, event: FaultEvent | None):
+    """The job's scenario and seed with ``event`` (None: fault-free), open loop when the job says so
+    (--open-loop), on the toleranced robot when it says so (--tolerances)."""
     scenario = load_scenario(job["scenario"])
     return run_scenario(
         scenario,
         seed=job["seed"],
-        faults=[event],
+        faults=[] if event is None else [event],
         open_loop=job.get("open_loop") or None,
         tolerances=bool(job.get("tolerances")),
     )

@@ -11,7 +11,8 @@ kind           the channel reads
 ``dropout``    the value it read just before the fault (frozen)
 ``stuck``      the same, for an encoder (a stuck counter; it resumes with the true count)
 ``bias``       the reading plus ``value`` (rad/s, m/s^2; encoder counts)
-``scale``      the reading times 1 + ``value``; an encoder counts 1 + ``value`` times its increments
+``scale``      the reading times 1 + ``value`` (-2: the sign flipped); an encoder counts 1 + ``value``
+               times its increments
 ``spike``      the reading plus ``value`` at the one sample start <= t_k < start + T_N (duration unused)
 ``saturation`` the reading clipped to +-``value`` (``value`` > 0, the channel's units)
 =============  =========================================================================================
@@ -61,8 +62,8 @@ class FaultEvent:
         start: first time the navigation reads the faulty channel (s), in [0, 3600].
         duration: how long (s), in (0, 3600]; unused by ``spike``.
         value: the bias (rad/s, m/s^2, encoder counts), the ramp's rate (rad/s^2, m/s^3), relative
-            scale change (> -1), spike or saturation level (> 0), the hand's torque (N m) or the push
-            (N); unused by nan, inf, dropout, stuck, wheel_lifted and wheel_held.
+            scale change (-2 flips the sign), spike or saturation level (> 0), the hand's torque (N m)
+            or the push (N); unused by nan, inf, dropout, stuck, wheel_lifted and wheel_held.
     """
 
     kind: str = "nan"
@@ -95,9 +96,7 @@ class FaultEvent:
             )
         _require("start", self.start, 0.0, MAX_FAULT_TIME, closed_low=True)
         _require("duration", self.duration, 0.0, MAX_FAULT_TIME, closed_low=False)
-        if self.kind == "scale":
-            _require("value", self.value, -1.0, math.inf, closed_low=False)
-        elif self.kind == "saturation":
+        if self.kind == "saturation":
             _require("value", self.value, 0.0, math.inf, closed_low=False)
         else:
             _require("value", self.value, -math.inf, math.inf, closed_low=True)

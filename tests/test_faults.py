@@ -67,7 +67,7 @@ GEOMETRY = HealthGeometry(R, R, B, T_N, STEP, (0.02, 0.015), 6.3)
         ({"kind": "stuck", "channel": "gyro"}, "channel"),
         ({"start": -0.1}, "start"),
         ({"duration": 0.0}, "duration"),
-        ({"kind": "scale", "value": -1.0}, "value"),
+        ({"kind": "scale", "value": math.inf}, "value"),
         ({"kind": "saturation", "value": 0.0}, "value"),
         ({"kind": "bias", "value": math.nan}, "value"),
     ],
