@@ -30,12 +30,8 @@ from slipnav.systems.odometry import ODOMETRY_STEP_LAYOUT, Odometry
 from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import (
-    SensorCalibration,
-    SensorCorrection,
-    lateral_replacement_gains,
-)
-from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonitor, payback_window
+from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
+from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector
@@ -158,8 +154,6 @@ def build_navigation_diagram(
             T_N,
             initial.ekf_state()[1],
             geometry.accelerometer_position,
-            payback_window(params.health),
-            lateral_replacement_gains(calibration),
         ),
         "Velocity mixer",
     )
@@ -226,9 +220,6 @@ def build_navigation_diagram(
     b.Connect(learned["estimate"], monitor.GetInputPort("yaw_calibration"))  # the replacements read them
     b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
-    b.Connect(check["rollback_samples"], mixer_block.GetInputPort("rollback_samples"))
-    b.Connect(check["lateral_take_back"], mixer_block.GetInputPort("lateral_take_back"))
-    b.Connect(gain.GetOutputPort("kalman_gain"), mixer_block.GetInputPort("kalman_gain"))
     b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
     b.ExportInput(mixer_block.GetInputPort("external_force"), "external_force")
     b.Connect(zupt["standstill"], mixer_block.GetInputPort("standstill"))

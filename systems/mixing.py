@@ -23,9 +23,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.ekf import ekf_predict
 from slipnav.systems.rates import pt1_step
-from slipnav.systems.sensor_correction import IDENTITY_REPLACEMENT
 from slipnav.systems.sensor_health import pair_rotational_difference
 from slipnav.systems.standstill import zero_velocity_update
 
@@ -672,9 +670,7 @@ def tyre_peak_step(
     The estimate stays within [tyre_peak_min_ratio, tyre_peak_max_ratio] x the nominal a_peak. Nothing
     is learnt from a non-finite sample or while ``learn`` is False: mix_checked passes False while a
     sensor check excludes a channel or the wheels are at rest (wheels_at_rest: a standstill, where the
-    force is the accelerometers' bias, or both wheels locked); what it learnt from the samples a lateral
-    accelerometer had carried a fault before the accelerometer pair blamed it (its partner healthy, the
-    span at most sensor_health.payback_window) is undone on the blaming sample (rolled_back).
+    force is the accelerometers' bias, or both wheels locked).
     The drag is taken at the wheels' speed, as S(15)'s creep takes it (at the body's speed v_t the
     matched square's braking locks read 4 % low instead of 3 %, and the built-ins' matched errors grew
     on 3 seeds).
@@ -709,39 +705,6 @@ def tyre_peak_step(
     nominal = p.tyre_peak_acceleration
     a_peak = min(max(a_peak, held, p.tyre_peak_min_ratio * nominal), p.tyre_peak_max_ratio * nominal)
     return a_peak, force_filtered, held
-
-
-def tyre_peak_history(horizon: int, peak_state) -> np.ndarray:
-    """A ring of the tyre peak's state [a_peak, |a| PT1, held] as it stood before each of the last
-    ``horizon`` samples (tyre_peak_step; all ``peak_state`` at the start), then the next entry's index:
-    what rolled_back restores when the sensor checks blame a lateral accelerometer they had read. The
-    horizon must cover the checks' longest roll-back (sensor_health.payback_window)."""
-    if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
-        raise ValueError(f"tyre peak history horizon={horizon!r} is out of range: allowed an integer >= 1")
-    horizon = int(horizon)
-    return np.array([*(float(v) for v in peak_state)] * horizon + [0.0])
-
-
-def tyre_peak_recorded(history, peak_state) -> None:
-    """Write ``peak_state`` (before this sample) into the ring ``history`` (tyre_peak_history), in place."""
-    position = int(history[-1])
-    history[3 * position : 3 * position + 3] = peak_state
-    history[-1] = (position + 1) % ((len(history) - 1) // 3)
-
-
-def rolled_back(check_state, history, samples: int) -> tuple:
-    """The tyre-model check's state ``check_state`` [F, S, a_peak, |a| PT1, held] after this sample with
-    the tyre peak's part as it stood ``samples`` samples back (in [1, horizon] of ``history``; 0: as it
-    is), before the samples whose accelerations carried a lateral accelerometer's fault until the sensor
-    checks blamed it (sensor_health.navigation_rollback_samples: a lateral sensor the pair blames while
-    its partner is healthy, over the take-back's span, at most payback_window samples); a state without
-    the tyre peak's part (F, S) is returned as it is. Open corner seed 1, accel2_n +5 m/s^2 at the slide:
-    the peak learned 5.72 from its 5 samples against 5.55 without them (nominal 5.49)."""
-    if samples <= 0 or len(check_state) != 5:
-        return tuple(check_state)
-    horizon = (len(history) - 1) // 3
-    index = (int(history[-1]) - min(samples, horizon)) % horizon
-    return (*check_state[0:2], *(float(v) for v in history[3 * index : 3 * index + 3]))
 
 
 def mix_checked(
@@ -839,117 +802,6 @@ def mix_checked(
     return np.array([v_t, v_n, omega, inertial[3], inertial[4]]), check, next_state
 
 
-LATERAL_SHADOW_SIZE = 15
-"""lateral_shadow_step's state: per shadow (the one without accelerometer 1's a_n, then the one without
-accelerometer 2's) its estimate x (v_t, v_n, omega, a_t, a_n) and its tyre-model check's F and S; then
-whether the pair's CUSUM stood above zero after the previous sample (1) or the shadows rest (0)."""
-
-
-def lateral_shadow_step(
-    shadow,
-    take_back,
-    odo,
-    inertial,
-    previous,
-    L,
-    c1: float,
-    c3: float,
-    p: MixingParameters,
-    check_state,
-    T_N: float,
-    inertial_fault: bool = False,
-    encoder_fault: bool = False,
-    external_force: bool = False,
-    replacement_gains=IDENTITY_REPLACEMENT,
-):
-    """The navigation's estimate as it would have run had either lateral accelerometer been replaced
-    from where the pair began to disagree: what the navigation takes when the sensor checks blame one
-    (sensor_health.navigation_lateral_take_back).
-
-    A lateral accelerometer's fault goes into the navigation for the few samples the pair needs to
-    blame it: through S(3)'s mean into the EKF's a_n, which lags its measurement and which S(2)
-    integrates into ^I v_n, and through S(17), whose branch weights the fault itself moves (a bias that
-    lifts |^I a_n| over b2 lowers C2 and hands v_n to the inertial branch). How much of it the estimate
-    holds therefore depends on the whole path. Each shadow re-runs that path sample by sample from the
-    change point: S(2) from its own previous estimate, S(8) with the same gain and measurement except
-    for the replaced sensor (its raw a_n less or plus the disagreement: the other sensor plus S(3)'s
-    rotational difference and the pair's offset, the checks' replacement, through the sensor
-    correction's ``replacement_gains`` into the mean's a_t and a_n), and mix_checked with its own C2
-    (S(13) at its own ^I a_n) and its own tyre-model check (F, S from the navigation's at the change
-    point); odometry, C1, C3 and the identified tyre peak are the navigation's. L y is read off the
-    navigation's own update: ^I x - S(2)(x) + L C S(2)(x).
-
-    Args:
-        shadow: the state after the previous sample (LATERAL_SHADOW_SIZE; zeros at the start).
-        take_back: (disagreement, active, blamed) of this sample (navigation_lateral_take_back).
-        odo, inertial, previous, c1, c3, check_state, inertial_fault, encoder_fault, external_force:
-            the navigation's, as mix_checked takes them (inertial: ^I x_k; previous: x_k-1).
-        L: the EKF's gain of this sample, 5 x 3.
-        replacement_gains: per accelerometer, what a unit change of its raw a_n changes in the
-            (t, n) the EKF reads (IDENTITY_REPLACEMENT without a sensor correction).
-
-    Returns:
-        (the state after this sample, the blamed sensor's shadow [x_k, F_k, S_k] or None).
-    """
-    disagreement, active, blamed = take_back
-    if shadow[14] == 0.0 and active == 0.0 and blamed == 0.0:
-        return shadow, None  # the pair agrees: the shadows rest
-    if active == 0.0 and blamed == 0.0:  # the CUSUM fell back to zero: nothing to take
-        rested = np.array(shadow, float)
-        rested[14] = 0.0
-        return rested, None
-    previous = np.asarray(previous, float)
-    predicted = ekf_predict(previous, T_N)
-    measured = np.asarray(inertial, float) - predicted + L @ predicted[2:5]  # L y
-    starts = shadow[14] == 0.0  # the change point: both start from the navigation's x_k-1, F, S
-    out = np.empty(LATERAL_SHADOW_SIZE)
-    for c, change in ((0, -disagreement), (1, disagreement)):
-        if starts:
-            x, free, curve = previous, check_state[0], check_state[1]
-        else:
-            x, free, curve = (
-                np.asarray(shadow[7 * c : 7 * c + 5], float),
-                shadow[7 * c + 5],
-                shadow[7 * c + 6],
-            )
-        x_predicted = ekf_predict(x, T_N)
-        gain_t, gain_n = replacement_gains[c]
-        replaced = np.array([0.0, 0.5 * gain_t * change, 0.5 * gain_n * change]) - x_predicted[2:5]
-        estimate = x_predicted + measured + L @ replaced
-        own_check = (free, curve, *check_state[2:])
-        mixed, _, state = mix_checked(
-            odo,
-            estimate,
-            c1,
-            mixing_c2(estimate[4], p),
-            c3,
-            x,
-            p,
-            own_check,
-            T_N,
-            inertial_fault,
-            encoder_fault,
-            external_force,
-        )
-        out[7 * c : 7 * c + 5] = mixed
-        out[7 * c + 5 : 7 * c + 7] = state[0:2]
-    out[14] = active
-    taken = out[7 * (int(blamed) - 1) : 7 * int(blamed)].copy() if blamed else None
-    return out, taken
-
-
-def taken_from_shadow(mixed, check_state, taken):
-    """The mixed estimate and the tyre-model check's state after this sample with the lateral part
-    (v_n, ^I a_n) of the shadow ``taken`` (lateral_shadow_step's [x, F, S]; None: as they are): F and S
-    restart from its v_n, as they do from the mixed v_n while an inertial channel is excluded (the
-    blaming sample excludes one)."""
-    if taken is None:
-        return mixed, check_state
-    mixed = np.array(mixed, float)
-    mixed[1], mixed[4] = taken[1], taken[4]
-    return mixed, (float(taken[1]), float(taken[1]), *check_state[2:])
-
-
 def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParameters) -> np.ndarray:
     """S(15)-(17): the mixed estimate [v_t, v_n, omega, ^I a_t, ^I a_n] (without the tyre-model check:
     mix_checked).
@@ -1026,7 +878,6 @@ MIXER_LAYOUT = (
     ("tyre_model_check", 6),
     ("slide_onset", 1),
     ("slide_onset_state", 3),
-    ("lateral_shadow_state", LATERAL_SHADOW_SIZE),
 )
 """VelocityMixer's ``mixing`` output, in order: (name, size); diagrams/split.py slices it."""
 MIXER_START = {name: sum(size for _, size in MIXER_LAYOUT[:i]) for i, (name, _) in enumerate(MIXER_LAYOUT)}
@@ -1037,7 +888,6 @@ TYRE_MODEL_STATE_LAYOUT = (("free_and_curve_v_n", 2), ("tyre_peak", 1), ("peak_b
 """VelocityMixer's ``tyre_model_state`` output, in order: (name, size): F and S, a_peak, the lower
 bound's filter and held value."""
 _ONSET_STATE = slice(MIXER_START["slide_onset_state"], MIXER_START["slide_onset_state"] + 3)
-_SHADOW_STATE = slice(MIXER_START["lateral_shadow_state"], None)
 
 
 class MixerC2C3(LeafSystem):
@@ -1104,9 +954,6 @@ class VelocityMixer(LeafSystem):
         - accelerometers
         - encoder_fault
         - external_force
-        - rollback_samples
-        - kalman_gain
-        - lateral_take_back
         - standstill
         output_ports:
         - mixing
@@ -1119,15 +966,6 @@ class VelocityMixer(LeafSystem):
     - external_force (optional): 1 while the perturbation monitor flags a sideways push on the body
       (perturbation_monitor.sideways_push): v_n is the free integral of the lateral kinematics
       (mix_checked); unconnected: 0.
-    - rollback_samples (optional): on the sample the sensor checks blame a lateral accelerometer they
-      had read, how many samples its fault went in (sensor_health.navigation_rollback_samples): the tyre
-      peak's state after this sample is the one from before them (rolled_back; at most
-      ``tyre_peak_horizon``); unconnected or 0: none.
-    - lateral_take_back (optional): the sensor checks' (disagreement, active, blamed) of this sample
-      (sensor_health.navigation_lateral_take_back), and kalman_gain: the EKF's L of this sample (5 x 3,
-      row-major): two shadows re-run the EKF and S(17) with either lateral accelerometer replaced from
-      where the pair began to disagree, and on the sample the checks blame one the mixed v_n and a_n
-      are its shadow's (lateral_shadow_step, taken_from_shadow); unconnected: no shadows.
     - standstill (optional): 1 while the robot stands (systems/standstill.py): the mixed estimate is
       zero and the check's F and S restart from rest (zero_velocity_update), applied to mix_checked's
       output, with the gain [1, 1] (mixing_gain); unconnected: 0.
@@ -1140,23 +978,17 @@ class VelocityMixer(LeafSystem):
       tyre model, for the EKF's P; tyre_model_check [w, F_k, S_k, a_peak, |a| PT1, held], the free
       integral's weight (tyre_model_check), the free integral and the tyre curve's own side slip after
       this sample (mix_checked), the identified tyre peak and its lower bound's filter and held value
-      (tyre_peak_step; on a rollback_samples sample those from before the blamed samples, rolled_back);
-      slide_onset, 1 while the test holds; slide_onset_state, the test's state after this sample;
-      lateral_shadow_state, the shadows after this sample (LATERAL_SHADOW_SIZE). One vector, one
-      Python call per sample; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+      (tyre_peak_step); slide_onset, 1 while the test holds; slide_onset_state, the test's state after
+      this sample. One vector, one Python call per sample; the navigation diagram slices it with a
+      Demultiplexer (diagrams/split.py).
     - tyre_model_state: the state [F, S, a_peak, |a| PT1, held] (the sensor checks read a_peak).
 
-    Update every T_N: F, S, a_peak with its filter and held value, the slide-onset test's state
-    (state, from SLIDE_ONSET_INITIAL), the lateral shadows (state, zeros at the start), and the ring of
-    the tyre peak's past states (tyre_peak_history).
+    Update every T_N: F, S, a_peak with its filter and held value, and the slide-onset test's state
+    (state, from SLIDE_ONSET_INITIAL).
 
     Args:
         params: MixingParameters. T_N: navigation period (s). initial_v_n: F_-1 = S_-1, the initial
             estimate's v_n (m/s). accelerometer_position: accelerometer 1's nominal (x, y) (m; S(3)).
-        tyre_peak_horizon: samples of the tyre peak's past kept for rollback_samples
-            (sensor_health.payback_window; 0: none, the input is ignored).
-        replacement_gains: the sensor correction's lateral_replacement_gains for the shadows
-            (IDENTITY_REPLACEMENT without one).
     """
 
     def __init__(
@@ -1165,11 +997,8 @@ class VelocityMixer(LeafSystem):
         T_N: float,
         initial_v_n: float,
         accelerometer_position,
-        tyre_peak_horizon: int = 0,
-        replacement_gains=IDENTITY_REPLACEMENT,
     ):
         super().__init__()
-        self._replacement = tuple(tuple(float(v) for v in gains) for gains in replacement_gains)
         self._p, self._T_N = params, T_N
         self._position = (float(accelerometer_position[0]), float(accelerometer_position[1]))
         self._odo = self.DeclareVectorInputPort("odometry", 4)
@@ -1181,17 +1010,10 @@ class VelocityMixer(LeafSystem):
         self._acc = self.DeclareVectorInputPort("accelerometers", 4)
         self._enc_fault = self.DeclareVectorInputPort("encoder_fault", 1)
         self._external = self.DeclareVectorInputPort("external_force", 1)
-        self._rollback = self.DeclareVectorInputPort("rollback_samples", 1)
-        self._gain = self.DeclareVectorInputPort("kalman_gain", 15)
-        self._take_back = self.DeclareVectorInputPort("lateral_take_back", 3)
         self._standstill = self.DeclareVectorInputPort("standstill", 1)
         initial = [initial_v_n, initial_v_n, params.tyre_peak_acceleration, 0.0, 0.0]
         self._check = self.DeclareDiscreteState(initial)
         self._onset_state = self.DeclareDiscreteState([float(v) for v in SLIDE_ONSET_INITIAL])
-        self._shadow = self.DeclareDiscreteState(LATERAL_SHADOW_SIZE)
-        self._history = None
-        if tyre_peak_horizon:
-            self._history = self.DeclareDiscreteState(tyre_peak_history(tyre_peak_horizon, initial[2:5]))
         self.DeclareStateOutputPort("tyre_model_state", self._check)
         self._mixing = self.DeclareVectorOutputPort(
             "mixing", sum(size for _, size in MIXER_LAYOUT), self._calc
@@ -1236,31 +1058,6 @@ class VelocityMixer(LeafSystem):
         standing = self._standstill.HasValue(context) and self._standstill.Eval(context)[0] > 0.5
         if standing:
             mixed, state = zero_velocity_update(mixed, state)
-        shadow = context.get_discrete_state(self._shadow).get_value()
-        if self._take_back.HasValue(context):
-            shadow, taken = lateral_shadow_step(
-                shadow,
-                self._take_back.Eval(context).tolist(),
-                odo,
-                inertial,
-                self._prev.Eval(context).tolist(),
-                self._gain.Eval(context).reshape(5, 3),
-                c1,
-                c3,
-                self._p,
-                check_state,
-                self._T_N,
-                fault,
-                self._enc_fault.Eval(context)[0] > 0.5,
-                pushed,
-                self._replacement,
-            )
-            mixed, state = taken_from_shadow(mixed, state, taken)
-        if self._history is not None and self._rollback.HasValue(context):
-            samples = int(self._rollback.Eval(context)[0])
-            if samples > 0:  # the ring only on a blaming sample
-                history = context.get_discrete_state(self._history).get_value()
-                state = rolled_back(state, history, samples)
         tyre = believed_tyre(self._p, check_state[2])
         gain = mixing_gain(mixed, c1, c2, tyre, check, pushed, standing)
         output.SetFromVector(
@@ -1272,15 +1069,10 @@ class VelocityMixer(LeafSystem):
                 *state,
                 1.0 if onset else 0.0,
                 *onset_state,
-                *shadow,
             ]
         )
 
     def _update(self, context, discrete_state):
         mixing = self._mixing.Eval(context)
-        if self._history is not None:  # the peak's state before this sample
-            before = context.get_discrete_state(self._check).get_value()[2:5]
-            tyre_peak_recorded(discrete_state.get_mutable_value(self._history), before)
         discrete_state.set_value(self._check, mixing[_CHECK_STATE])
-        discrete_state.set_value(self._shadow, mixing[_SHADOW_STATE])
         discrete_state.set_value(self._onset_state, mixing[_ONSET_STATE])

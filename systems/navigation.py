@@ -41,25 +41,19 @@ from slipnav.systems.ekf import (
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.mixing import (
-    LATERAL_SHADOW_SIZE,
     SLIDE_ONSET_INITIAL,
     MixingParameters,
     accelerometer_pair_disagreement,
     believed_tyre,
     c3_residual,
     c3_turn_rate,
-    lateral_shadow_step,
     mix_checked,
     mixer_c1_step,
     mixing_c2,
     mixing_c3,
     mixing_gain,
     push_taken,
-    rolled_back,
     slide_onset_step,
-    taken_from_shadow,
-    tyre_peak_history,
-    tyre_peak_recorded,
 )
 from slipnav.systems.odometry import odometry_step, wheel_radii
 from slipnav.systems.plant import RobotParameters
@@ -68,7 +62,6 @@ from slipnav.systems.sensor_correction import (
     SensorCalibration,
     corrected_accelerometers,
     corrected_gyro,
-    lateral_replacement_gains,
 )
 from slipnav.systems.sensor_health import (
     FORCE_REFERENCE_FIELDS,
@@ -78,10 +71,7 @@ from slipnav.systems.sensor_health import (
     health_check,
     health_constants,
     health_initial_state,
-    navigation_lateral_take_back,
-    navigation_rollback_samples,
     odometry_unusable,
-    payback_window,
     slip_detector_blind,
 )
 from slipnav.systems.sensors import SensorParameters
@@ -264,11 +254,6 @@ class NavigationLoop:
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
-        self.tyre_peak_history = tyre_peak_history(
-            payback_window(params.health), self.tyre_model_state[2:5]
-        )  # for the sensor checks' roll-back (rolled_back)
-        self.lateral_shadow = np.zeros(LATERAL_SHADOW_SIZE)  # lateral_shadow_step's
-        self.replacement_gains = lateral_replacement_gains(self.sensor_calibration)
         self.tyre_model_weight = 0.0  # mix_checked's
         self.inertial_fault = self.encoder_fault = False
         self.pushed = False  # the perturbation monitor's sideways push as the mixer takes it (step)
@@ -360,28 +345,6 @@ class NavigationLoop:
         self.c1_mixed = 0.0 if self.slide_onset else self.c1
         tyre_state = self.tyre_model_state
         mixed = self.velocity_mix(odo, inertial, c2, c3, x, standing)
-        self.lateral_shadow, taken = lateral_shadow_step(
-            self.lateral_shadow,
-            navigation_lateral_take_back(self.health),
-            odo,
-            inertial,
-            x,
-            self.L,
-            self.c1_mixed,
-            c3,
-            mp,
-            tyre_state,
-            T_N,
-            self.inertial_fault,
-            self.encoder_fault,
-            self.pushed,
-            self.replacement_gains,
-        )
-        mixed, self.tyre_model_state = taken_from_shadow(mixed, self.tyre_model_state, taken)
-        self.tyre_model_state = rolled_back(
-            self.tyre_model_state, self.tyre_peak_history, navigation_rollback_samples(self.health)
-        )
-        tyre_peak_recorded(self.tyre_peak_history, tyre_state[2:5])
         row = (
             *self.pose,
             *mixed.tolist(),

@@ -93,23 +93,6 @@ def corrected_accelerometers(calibration: SensorCalibration, readings) -> list[f
     return out
 
 
-IDENTITY_REPLACEMENT = ((0.0, 1.0), (0.0, 1.0))
-"""lateral_replacement_gains without a sensor correction: a unit change of accelerometer i's raw a_n
-changes what the EKF reads of it by (0, 1)."""
-
-
-def lateral_replacement_gains(calibration: SensorCalibration | None) -> tuple:
-    """Per accelerometer, what a unit change of its raw a_n changes in the (t, n) that
-    corrected_accelerometers gives (it is linear): R(-gamma_i) (0, 1) / (1 + s_i); IDENTITY_REPLACEMENT
-    without a calibration or with one that corrects no gain (mixing.lateral_shadow_step's
-    replacement_gains)."""
-    if calibration is None or calibration.is_identity():
-        return IDENTITY_REPLACEMENT
-    first = corrected_accelerometers(calibration, (0.0, 1.0, 0.0, 0.0))
-    second = corrected_accelerometers(calibration, (0.0, 0.0, 0.0, 1.0))
-    return (first[0], first[1]), (second[2], second[3])
-
-
 class SensorCorrection(LeafSystem):
     """Removes the model's sensor gains and misalignments from every sample (module docstring):
     stateless, direct feedthrough.

@@ -65,30 +65,7 @@ offset learned while both agreed (pair_offset_update, a Kalman filter that weigh
 the two sensors' bias difference, 0.08 m/s^2 on the corner, would otherwise shift the mean by half); an
 encoder advances by v_pred T_N / r (the other
 wheel and the gyro), else by its last increment. A stuck encoder's travel missed before the detection is
-added then; the first increment after an exclusion (it spans the gap) is never used. A lateral
-accelerometer the pair blames was read until then, and what it put in is taken back. A two-sided CUSUM
-of the pair's offset-free disagreement (drift half the pair's bound; pair_cusum_step) marks where the
-pair began to disagree (Page's change-point estimate); every sample the checks hand the navigation that
-disagreement and whether the CUSUM stands above zero, and on the blaming sample which sensor they
-blamed (navigation_lateral_take_back). The navigation's velocity mixer keeps two shadows, from the
-change point on, of its own estimate with either sensor replaced (the other one plus S(3)'s rotational
-difference and the pair's offset: the sensor's raw a_n less or plus the disagreement, through the
-model's sensor correction), re-running the EKF and S(17) with their own C2 and tyre-model check
-(mixing.lateral_shadow_step), and on the blame takes the blamed sensor's shadow's v_n and a_n. How
-much of a fault the estimate holds depends on the whole path: the EKF's a_n lags its measurement, and
-a bias that lifts |^I a_n| over b2 moves S(17)'s weight to the inertial branch, which is back on the
-model branch once the sensor is replaced. A take-back of T_N/2 x the excess in ^I v_n (the previous
-release) therefore left v_n 4 mm/s past the outage's in the corner's slide (median over 10 seeds; 16.5
-mm/s had gone in) and kept 23.8 of 24.3 mm/s on the square's straight; the shadow leaves it within 2
-mm/s and 1 mm/s of the run where the channel is lost (open corner seed 1, square seed 0:
-tests/test_faults.py). The CUSUM runs only while the wheels turn (at rest the navigation holds v_n:
-nothing went in) and the gyro is trusted (the rotational terms from the wheels' yaw rate are no
-evidence), and nothing is taken back for a change point more than PAYBACK_WINDOW consistency_samples
-back. The tangential axes get no take-back: the odometry (C1) has already taken most of their excess
-out of v_t, and a take-back there counted it twice (the open square's tangential biases, 3.8 -> 7.0 and
-4.5 -> 11.0 mm). The same sample tells the navigation how many samples back the change began
-(navigation_rollback_samples): the tyre peak the velocity mixer identifies had learned from their
-accelerations too, and goes back to its state from before them (mixing.rolled_back).
+added then; the first increment after an exclusion (it spans the gap) is never used.
 
 An excluded analog channel is re-admitted when within its jump bound of its replacement (the gyro for a block
 of gyro_readmission_samples in a row whose summed difference is within gyro_readmission_fraction of the
@@ -458,25 +435,7 @@ _GAIN_POS = _GAIN + 2 * GAIN_SLOTS
 _GAIN_RING = _GAIN_POS + 2
 # The variance of the pair's learned offset (t, n; pair_offset_update).
 _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
-# The lateral (n) pair's two-sided CUSUM of the disagreement (up, down) and the samples since both sides
-# last stood at zero (pair_cusum_step); then this sample's take-back for the navigation: the samples it
-# reaches back (the tyre peak's roll-back), the offset-free disagreement as the CUSUM took it (0: not
-# taken), whether the CUSUM stands above zero after it, and the lateral sensor blamed (0, 1, 2).
-_CUSUM = _OFFSET_VAR + 2
-_CUSUM_COUNT = _CUSUM + 2
-_ROLLBACK = _CUSUM_COUNT + 1
-_TAKE_BACK = _ROLLBACK + 1
-STATE_SIZE = _TAKE_BACK + 3
-PAYBACK_WINDOW = 4
-"""A lateral disagreement that built up over more than this many consistency_samples before the pair
-blamed a sensor is no step the take-back can place (a 15-sample average passes its bound after
-15 ln 3 = 16 samples for a step 1.5 times the bound, after 60 only for one within 2 % of it): none then."""
-
-
-def payback_window(p: SensorHealthParameters) -> int:
-    """The most samples a take-back (the lateral shadows, the tyre peak's roll-back) reaches back:
-    PAYBACK_WINDOW x consistency_samples."""
-    return PAYBACK_WINDOW * int(p.consistency_samples)
+STATE_SIZE = _OFFSET_VAR + 2
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -602,8 +561,6 @@ def health_check(
             if codes[c]:
                 out[c] = ref[c] if math.isfinite(ref[c]) else 0.0
             ref[c] = out[c]
-        s[_ROLLBACK] = 0.0
-        s[_TAKE_BACK : _TAKE_BACK + 3] = 0.0
         return s, out, codes
     ref, last, repeat, hold, excl = s[_REF], s[_LAST], s[_REPEAT], s[_HOLD], s[_EXCL]
     ring_pos = int(s[_RING_POS])
@@ -873,9 +830,6 @@ def health_check(
     fast_known = known and excl[4] == 0.0
     for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
         s[_OFFSET_VAR + axis] += 2.0 * g.accel_drift_density**2 * g.T_N
-    # How far back a lateral sensor excluded on this sample had put its fault in
-    span = pair_cusum_span(s, PAYBACK_WINDOW * p.consistency_samples)
-    s[_TAKE_BACK] = 0.0
     if _all_in(codes[0:4], (0, INCONSISTENT)):
         for c in range(4):
             deviation[c] += (raw[c] - a_kin[c % 2] - deviation[c]) / p.consistency_samples
@@ -940,33 +894,16 @@ def health_check(
                 for c in pair_of:
                     hold[c] = 0.0
                     codes[c] = 0 if codes[c] == INCONSISTENT else codes[c]
-            # Stepped only while the navigation integrates a_n (the wheels turn: at rest it holds v_n)
-            # and the gyro's omega' makes the rotational terms (not the wheels' yaw rate)
-            if axis == 1 and (hold[1] != 0.0 or hold[3] != 0.0 or not fast_known or not moving):
-                pair_cusum_reset(s)
-            elif axis == 1:
-                pair_cusum_step(s, offset_free, 0.5 * limit)
-                s[_TAKE_BACK] = offset_free if math.isfinite(offset_free) else 0.0
     else:  # an axis out of the pair for its own fault: the gain test's window is stale when it returns
         pair_gain_reset(s)
-        pair_cusum_reset(s)
     s[_W + 3] = v_o
 
     # Analog output: the reading, else its redundant estimate (the reference carried along).
-    s[_ROLLBACK] = 0.0
-    s[_TAKE_BACK + 1] = 1.0 if s[_CUSUM] > 0.0 or s[_CUSUM + 1] > 0.0 else 0.0
-    s[_TAKE_BACK + 2] = 0.0
     for c in range(5):
         if codes[c] == 0:
             out[c] = ref[c] = raw[c]
             excl[c] = 0.0
             continue
-        if (c == 1 or c == 3) and codes[c] == INCONSISTENT and excl[c] == 0.0 and codes[c ^ 2] == 0:
-            # Blamed by the pair, trusted until now: what it put into the navigation since the pair
-            # began to disagree is taken back there (navigation_lateral_take_back; the blame's hold has
-            # already restarted the CUSUM), and what the tyre peak learned from it undone
-            s[_ROLLBACK] = span
-            s[_TAKE_BACK + 2] = float(c // 2 + 1) if span > 0.0 else 0.0
         # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
         excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
         if c == 4 and codes[4] == SATURATED:
@@ -984,57 +921,6 @@ def health_check(
         out[4] += s[_G_PAY_RATE]
         s[_G_PAY_LEFT] -= 1.0
     return s, out, codes
-
-
-@jitable
-def pair_cusum_step(s, disagreement: float, drift: float):
-    """Page's two-sided CUSUM of the lateral pair's offset-free ``disagreement`` (m/s^2) less ``drift``
-    per sample (half the pair's bound): each side's statistic in s[_CUSUM + side] (0: up, 1: down), and
-    in s[_CUSUM_COUNT] the samples since both last stood at zero, where the change began (Page 1954;
-    the earlier of the two sides' change points, from which the navigation's shadows run). A
-    non-finite sample restarts both."""
-    if not math.isfinite(disagreement):
-        pair_cusum_reset(s)
-        return
-    for side in range(2):
-        statistic = s[_CUSUM + side] + (disagreement if side == 0 else -disagreement) - drift
-        s[_CUSUM + side] = statistic if statistic > 0.0 else 0.0
-    s[_CUSUM_COUNT] = s[_CUSUM_COUNT] + 1.0 if s[_CUSUM] > 0.0 or s[_CUSUM + 1] > 0.0 else 0.0
-
-
-@jitable
-def pair_cusum_reset(s):
-    """Both sides of the lateral pair's CUSUM at zero (pair_cusum_step)."""
-    s[_CUSUM] = s[_CUSUM + 1] = s[_CUSUM_COUNT] = 0.0
-
-
-@jitable
-def pair_cusum_span(s, window: int) -> float:
-    """The samples since the lateral pair began to disagree: since both sides of the CUSUM last stood
-    at zero (0 when neither is above zero now, or when that is more than ``window`` samples back)."""
-    count = s[_CUSUM_COUNT]
-    return count if count <= window else 0.0
-
-
-def navigation_lateral_take_back(state) -> tuple:
-    """What the navigation's lateral shadows read on this sample (health_check's state ``state``;
-    mixing.lateral_shadow_step): (disagreement, active, blamed). disagreement: the lateral pair's
-    offset-free a_n1 - a_n2 - (S(3)'s rotational difference) as the CUSUM took it (m/s^2; 0 when it
-    took none); active: 1 while the CUSUM stands above zero after this sample (the pair may be
-    disagreeing since its last zero); blamed: 1 or 2 on the sample the pair blames that lateral
-    sensor, trusted until then with its partner healthy, within PAYBACK_WINDOW consistency_samples of
-    the CUSUM's change point (the navigation then takes the shadow that replaced it from there); else
-    0."""
-    return float(state[_TAKE_BACK]), float(state[_TAKE_BACK + 1]), float(state[_TAKE_BACK + 2])
-
-
-def navigation_rollback_samples(state) -> int:
-    """How many samples back the navigation's tyre peak is rolled (health_check's state ``state``): on
-    the sample the pair blames a lateral sensor, the samples since the CUSUM's change point
-    (navigation_lateral_take_back), whose accelerations carried the fault before the check caught it
-    (the velocity mixer restores the tyre peak's state from before them: mixing.rolled_back, the
-    VelocityMixer's rollback_samples input); 0 on every other sample."""
-    return int(state[_ROLLBACK])
 
 
 @jitable
@@ -1333,8 +1219,6 @@ HEALTH_STEP_LAYOUT = (
     ("inertial_fault", 1),
     ("encoder_fault", 1),
     ("sensor_fault", 1),
-    ("rollback_samples", 1),
-    ("lateral_take_back", 3),
 )
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
@@ -1412,9 +1296,6 @@ class SensorHealthMonitor(LeafSystem):
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
-      rollback_samples: how many samples back the velocity mixer restores its tyre peak's state
-      (navigation_rollback_samples; 0: none); lateral_take_back: [disagreement, active, blamed], what
-      the velocity mixer's lateral shadows read (navigation_lateral_take_back).
       One vector, so that one Python call per sample computes them all; the navigation diagram slices
       it with a Demultiplexer (diagrams/split.py).
 
@@ -1469,8 +1350,6 @@ class SensorHealthMonitor(LeafSystem):
             *out,
             *codes,
             *flags,
-            navigation_rollback_samples(state),
-            *navigation_lateral_take_back(state),
         ]
 
     def _update(self, context, discrete_state):

@@ -127,17 +127,17 @@ def test_a_run_whose_estimate_becomes_non_finite_stops_with_status_3(tmp_path, m
     writes its artifact up to there, says why in the summary and on stderr, and exits with status 3."""
     from slipnav.systems import mixing
 
-    real, calls = mixing.taken_from_shadow, [0]
+    real, calls = mixing.mix_checked, [0]
 
     def broken(*args):
         calls[0] += 1
-        out, state = real(*args)
+        out, check, state = real(*args)
         if calls[0] > 1000:
             out = np.array(out, float)
             out[0] = math.nan
-        return out, state
+        return out, check, state
 
-    monkeypatch.setattr(mixing, "taken_from_shadow", broken)  # the VelocityMixer calls it once a sample
+    monkeypatch.setattr(mixing, "mix_checked", broken)  # the VelocityMixer calls it once a sample
     assert main(["run", "corner", "--out", str(tmp_path), "--no-figures"]) == 3
     err = capsys.readouterr().err
     assert err.startswith("slipnav: error: corner stopped early: the navigation estimate became non-finite")
