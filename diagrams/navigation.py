@@ -10,8 +10,8 @@ import numpy as np
 from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import LogVectorOutput
 from slipnav.diagrams.split import split_port
+from slipnav.systems.baselines import Baselines
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
-from slipnav.systems.gyrodometry import Gyrodometry
 from slipnav.systems.mixing import (
     C2C3_STEP_LAYOUT,
     MIXER_LAYOUT,
@@ -84,6 +84,8 @@ def build_navigation_diagram(
     of the tangential accelerometers from the optional ``motor_currents`` input (None: none).
     ``external_force`` (optional; unconnected: none): the perturbation monitor's sideways push, which
     leaves v_n to the lateral kinematics (VelocityMixer); add_perturbation_monitor connects it.
+    The baselines (odometry-only and Gyrodometry, systems/baselines.py) read the raw encoders and gyro,
+    not the checked ones.
 
     .. pydrake_system::
 
@@ -160,12 +162,18 @@ def build_navigation_diagram(
     mixer = split_port(b, mixer_block.GetOutputPort("mixing"), MIXER_LAYOUT, "Velocity mixer's signals")
     sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
     pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
-    odo_pose = add(PoseIntegrator(T_N, initial.pose), "Odometry dead reckoning")
-    gyrodometry = add(Gyrodometry(params.gyrodometry, T_N, initial.pose), "Gyrodometry")
+    baselines = add(
+        Baselines(
+            params.gyrodometry, wheel_radius, track_width, T_N, initial.pose, initial.speed, calibration
+        ),
+        "Baselines",
+    )
 
     b.ExportInput(monitor.GetInputPort("accelerometers"), "accelerometers")
     b.ExportInput(monitor.GetInputPort("gyro"), "gyro")
     b.ExportInput(monitor.GetInputPort("encoders"), "encoders")
+    b.ConnectInput("encoders", baselines.GetInputPort("encoders"))  # the raw sensors
+    b.ConnectInput("gyro", baselines.GetInputPort("gyro"))
     b.Connect(check["encoders"], odometry_block.GetInputPort("encoders"))
 
     acc, gyro, raw_odo = (
@@ -190,7 +198,7 @@ def build_navigation_diagram(
     b.Connect(check["encoders"], standstill.GetInputPort("encoders"))
     zupt = split_port(b, standstill.GetOutputPort("step"), STANDSTILL_STEP_LAYOUT, "Standstill's signals")
     acc = zupt["accelerometers"]  # less the biases: what every later block reads
-    odo = calibrated["odometry"]  # what the fusion reads; the baselines read raw_odo
+    odo = calibrated["odometry"]  # what the fusion reads; the calibration reads raw_odo
     b.Connect(acc, ekf.GetInputPort("accelerometers"))
     b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
     b.Connect(raw_odo, yaw_calibration.GetInputPort("odometry"))
@@ -227,9 +235,6 @@ def build_navigation_diagram(
     b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P
     b.Connect(mixer["body_velocity"], sideslip.GetInputPort("body_velocity"))
     b.Connect(mixer["body_velocity"], pose.GetInputPort("body_velocity"))
-    b.Connect(odometry["body_velocity"], odo_pose.GetInputPort("body_velocity"))
-    b.Connect(raw_odo, gyrodometry.GetInputPort("odometry"))
-    b.Connect(gyro, gyrodometry.GetInputPort("gyro"))
 
     b.ExportOutput(pose.GetOutputPort("pose"), "pose")
     b.ExportOutput(mixer["mixed_estimate"], "mixed_estimate")
@@ -241,8 +246,8 @@ def build_navigation_diagram(
     b.ExportOutput(mixer["tyre_model_check"], "tyre_model_check")
     b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")
     b.ExportOutput(raw_odo, "odometry")
-    b.ExportOutput(odo_pose.GetOutputPort("pose"), "odometry_pose")
-    b.ExportOutput(gyrodometry.GetOutputPort("pose"), "gyrodometry_pose")
+    b.ExportOutput(baselines.GetOutputPort("odometry_pose"), "odometry_pose")
+    b.ExportOutput(baselines.GetOutputPort("gyrodometry_pose"), "gyrodometry_pose")
     b.ExportOutput(check["inertial_fault"], "inertial_fault")
     b.ExportOutput(check["encoder_fault"], "encoder_fault")
     b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")

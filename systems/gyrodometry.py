@@ -11,8 +11,6 @@ rate's PT1 (rate_time_constant); the increments themselves are still the sample'
 import dataclasses as dc
 import math
 
-import numpy as np
-from pydrake.systems.framework import LeafSystem
 from slipnav.systems.rates import pt1_step
 
 
@@ -74,47 +72,3 @@ def gyrodometry_step(
         e = p.drift_rate * e + (1.0 - p.drift_rate) * (d_gyro - d_odo)
         theta += d_odo
     return [x, y, theta, e, rate]
-
-
-class Gyrodometry(LeafSystem):
-    """Gyrodometry baseline (Indiveri Algorithm 1) every T_N.
-
-    .. pydrake_system::
-
-        name: Gyrodometry
-        input_ports:
-        - odometry
-        - gyro
-        output_ports:
-        - pose
-        - drift
-
-    - odometry: [^O v_t, ^O omega, v_R, v_L]; gyro: checked [omega].
-    - pose: [x, y, theta] (state); drift: learned gyro drift e (rad per sample).
-
-    State also: the PT1 of the odometric yaw rate (gyrodometry_step).
-    """
-
-    def __init__(self, params: GyrodometryParameters, T_N: float, initial_pose=(0.0, 0.0, 0.0)):
-        super().__init__()
-        self._p, self._T_N = params, T_N
-        self._odo = self.DeclareVectorInputPort("odometry", 4)
-        self._gyro = self.DeclareVectorInputPort("gyro", 1)
-        self._pose = self.DeclareDiscreteState(np.asarray(initial_pose, float))
-        self._drift = self.DeclareDiscreteState(1)
-        self._rate = self.DeclareDiscreteState(1)
-        self.DeclareStateOutputPort("pose", self._pose)
-        self.DeclareStateOutputPort("drift", self._drift)
-        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
-
-    def _update(self, context, discrete_state):
-        odo = self._odo.Eval(context).tolist()
-        # The groups read and written in place (one call each).
-        pose = discrete_state.get_mutable_value(self._pose)
-        drift = discrete_state.get_mutable_value(self._drift)
-        rate = discrete_state.get_mutable_value(self._rate)
-        state = [*pose.tolist(), *drift.tolist(), *rate.tolist()]
-        gyro = self._gyro.Eval(context).tolist()[0]
-        new = gyrodometry_step(state, odo[0], odo[1], gyro, self._p, self._T_N)
-        pose[:] = new[0:3]
-        drift[0], rate[0] = new[3], new[4]

@@ -30,6 +30,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
+from slipnav.systems.baselines import BaselineState, baselines_step
 from slipnav.systems.ekf import (
     EkfParameters,
     ekf_covariance_update,
@@ -39,7 +40,7 @@ from slipnav.systems.ekf import (
     ekf_prior_covariance,
 )
 from slipnav.systems.faults import SENSOR_CHANNELS
-from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
+from slipnav.systems.gyrodometry import GyrodometryParameters
 from slipnav.systems.mixing import (
     SLIDE_ONSET_INITIAL,
     MixingParameters,
@@ -249,8 +250,7 @@ class NavigationLoop:
         self.c1, self.dv_held, self.dv_sum, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0, 0.0
         self.pose = list(initial.pose)
         self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
-        self.odo_pose = list(initial.pose)
-        self.gyro_state = [*initial.pose, 0.0, 0.0]
+        self.baselines = BaselineState(initial.pose, initial.speed)  # on the raw sensors
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
@@ -350,8 +350,8 @@ class NavigationLoop:
             *mixed.tolist(),
             self.alpha,
             self.v_track,
-            *self.odo_pose,
-            *self.gyro_state[0:3],
+            *self.baselines.odometry_pose,
+            *self.baselines.gyrodometry[0:3],
             self.c1,
             c2,
             c3,
@@ -373,9 +373,15 @@ class NavigationLoop:
         gain = mixing_gain(mixed, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
         self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
-        self.odo_pose = pose_step(self.odo_pose, odo_raw[0], 0.0, odo_raw[1], T_N)
-        self.gyro_state = gyrodometry_step(
-            self.gyro_state, odo_raw[0], odo_raw[1], g, self.params.gyrodometry, T_N
+        baselines_step(
+            self.baselines,
+            raw[5:7],
+            raw[4],
+            self.wheel_radius,
+            self.track_width,
+            self.params.gyrodometry,
+            T_N,
+            self.sensor_calibration,
         )
         fault = fault_imu > 0.5 or fault_enc > 0.5
         self.calibration = yaw_calibration_step(

@@ -18,7 +18,7 @@ PAPER_NAMES = {
         "Velocity mixer",
         "Side-slip angle",
         "Pose integration",
-        "Gyrodometry",
+        "Baselines",
     ],
     "control": [
         "Lyapunov path follower",

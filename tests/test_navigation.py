@@ -604,6 +604,29 @@ def test_gyrodometry_through_encoder_quantisation():
     assert finals[0.0][3] / T_N == pytest.approx(rotation + bias, rel=0.05)  # the curve taken for drift
 
 
+def test_the_baselines_read_the_raw_sensors():
+    """Straight at 1 m/s with the right encoder stuck for 50 samples and the gyro NaN for 20: the fused
+    estimate reads the checked (replaced) signals and stays straight, the odometry-only baseline reads
+    the stuck count, v_R = 0, and turns by -v T_N / b per sample (50 x -0.002 / 0.068 = -1.47 rad) until
+    the counter resumes and its first increment carries the missed travel back; Gyrodometry reads the
+    raw gyro, holding its last finite reading (0) through the NaN, and keeps its heading (the baseline
+    odometry's spin is above c1: the gyro's turn)."""
+    N, v, r, b = 400, 1.0, 0.015, 0.068
+    theta = np.arange(1, N + 1) * v * T_N / r
+    enc = np.column_stack([theta, theta])
+    enc[100:150, 0] = enc[99, 0]  # stuck, then resumes with the true count
+    rng = np.random.default_rng(2)  # the data sheet's noise: no exact repeat reads as stuck
+    gyro = 0.014 * rng.standard_normal(N)
+    gyro[200:220] = np.nan
+    acc = 0.06 * rng.standard_normal((N, 4))
+    out = navigation_loop(acc, gyro, enc, NavigationParameters(), r, b, T_N, 0.02)
+    assert out["odo_phi"][150] == pytest.approx(-50 * v * T_N / b, rel=0.03)  # the stuck samples' turn
+    assert abs(out["odo_phi"][-1]) < 1e-9  # the resumed increment turns it back
+    assert np.max(np.abs(out["est_phi"])) < 0.01 and np.max(np.abs(out["gyro_phi"])) < 0.01
+    assert np.all(np.isfinite(out["gyro_phi"]))  # the NaN gyro held
+    assert out["health_encoder_R"][100:150].any() and out["health_gyro"][200:220].all()
+
+
 def test_sensor_checks_off_hold_and_flag_non_finite_samples_only():
     """navigation.health.enabled = False: the paper's guard only, NaN/inf held at the last value."""
     off = SensorHealthParameters(enabled=False)
