@@ -167,7 +167,10 @@ def _integrate(t, v, omega, pose0):
 # Size limits: checked from the segments alone, before any array is allocated.
 
 MAX_TRAJECTORY_SAMPLES = 5_000_000
-"""Samples of the trajectory generator's 0.1 ms grid (500 s of trajectory, ~200 MB while building)."""
+"""Samples of the trajectory generator's 0.1 ms grid for one repetition (500 s, ~200 MB while building;
+the repetitions are built one after the other)."""
+MAX_TRAJECTORY_DURATION = 14_400.0
+"""The longest trajectory, all repetitions (s): 4 h, 720,000 samples at T_C = 20 ms."""
 MAX_PATH_SAMPLES = 2_000_000
 """Samples of a path's 1 mm grid (2 km of path)."""
 
@@ -190,9 +193,15 @@ def trajectory_extent(config: TrajectoryConfig) -> tuple[float, float]:
 
 
 def check_trajectory_size(config: TrajectoryConfig) -> None:
-    """Reject a trajectory whose 0.1 ms generator grid would exceed MAX_TRAJECTORY_SAMPLES or whose path
-    would exceed MAX_PATH_SAMPLES."""
+    """Reject a trajectory one repetition of which on the 0.1 ms generator grid would exceed
+    MAX_TRAJECTORY_SAMPLES, whose repetitions last beyond MAX_TRAJECTORY_DURATION or whose path would
+    exceed MAX_PATH_SAMPLES."""
     duration, length = trajectory_extent(config)
+    if duration > MAX_TRAJECTORY_DURATION:
+        raise TrajectoryError(
+            f"trajectory: the repetitions take {duration:.4g} s: allowed up to {MAX_TRAJECTORY_DURATION:g} s"
+        )
+    duration /= max(int(config.repeat), 1)  # the generator's grid holds one repetition at a time
     if length / _PATH_STEP > MAX_PATH_SAMPLES:  # the closed loop follows its path on the 1 mm grid
         raise TrajectoryError(
             f"trajectory: the segments are {length:.4g} m long ({length / _PATH_STEP:.3g} samples of the "
@@ -200,7 +209,7 @@ def check_trajectory_size(config: TrajectoryConfig) -> None:
         )
     if duration / _FINE_STEP > MAX_TRAJECTORY_SAMPLES:
         raise TrajectoryError(
-            f"trajectory: the segments take {duration:.4g} s ({duration / _FINE_STEP:.3g} samples of the "
+            f"trajectory: one repetition takes {duration:.4g} s ({duration / _FINE_STEP:.3g} samples of the "
             f"{_FINE_STEP * 1e3:g} ms generator grid): allowed up to "
             f"{MAX_TRAJECTORY_SAMPLES * _FINE_STEP:g} s"
         )
@@ -270,68 +279,75 @@ def build_trajectory(config: TrajectoryConfig, T_C: float, pose0=(0.0, 0.0, 0.0)
         raise TrajectoryError(
             f"trajectory.initial_speed={config.initial_speed!r} is out of range: allowed [0, inf)"
         )
-    pieces_t, pieces_v, pieces_w, pieces_k, pieces_s = [], [], [], [], []
     t0, s0, v0 = 0.0, 0.0, float(config.initial_speed)
+    pose, samples = tuple(pose0), []
     for rep in range(config.repeat):
-        for i, seg in enumerate(config.segments):
-            where = f"trajectory.segments[{i}] ({type(seg).__name__})" + (
-                f", repetition {rep + 1}" if config.repeat > 1 else ""
-            )
-            if isinstance(seg, (SpotTurn, Pause)):
-                T = _positive(where, "duration", seg.duration)
-                if v0 != 0.0:
-                    raise TrajectoryError(f"{where}: needs the robot at rest; entry speed is {v0} m/s")
-                tau = np.linspace(0.0, T, max(int(math.ceil(T / _FINE_STEP)), 2) + 1)
-                angle = math.radians(seg.angle_deg) if isinstance(seg, SpotTurn) else 0.0
-                w = (angle / T) * (1.0 - np.cos(2.0 * math.pi * tau / T))
-                v = np.zeros_like(tau)
-                kappa = np.full_like(tau, math.copysign(math.inf, angle) if angle else 0.0)
-                s = np.full_like(tau, s0)
-                v1 = 0.0
-            else:
-                length, curvature = _geometry(seg, where)
-                T, v_of, s_of, v1 = _speed_law(seg, v0, length, where)
-                tau = np.linspace(0.0, T, max(int(math.ceil(T / _FINE_STEP)), 2) + 1)
-                v = v_of(tau)
-                s_local = np.clip(s_of(tau), 0.0, length)
-                kappa = curvature(s_local)
-                w = v * kappa
-                s = s0 + s_local
-                s0 += length
-            pieces_t.append(t0 + tau)
-            pieces_v.append(v)
-            pieces_w.append(w)
-            pieces_k.append(kappa)
-            pieces_s.append(s)
-            t0 += tau[-1]
-            v0 = v1
-    t = np.concatenate(pieces_t)
-    v = np.concatenate(pieces_v)
-    w = np.concatenate(pieces_w)
-    x, y, phi = _integrate(t, v, w, pose0)
-    kappa = np.concatenate(pieces_k)
-    s = np.concatenate(pieces_s)
-    # Sample at T_C; at a segment joint the later piece wins (np.interp on a non-decreasing grid).
+        (t, v, w, kappa, s), v0 = _repetition(config, rep, t0, s0, v0)
+        x, y, phi = _integrate(t, v, w, pose)
+        last = rep == config.repeat - 1
+        samples.append(_sampled(t, v, w, kappa, s, x, y, phi, T_C, last))
+        t0, s0, pose = t[-1], s[-1], (x[-1], y[-1], phi[-1])
+    tc, x, y, phi, v, w, kappa, s = (np.concatenate(column) for column in zip(*samples, strict=True))
+    return Trajectory(T_C=T_C, t=tc, x=x, y=y, phi=phi, v=v, omega=w, kappa=kappa, s=s)
+
+
+def _repetition(config: TrajectoryConfig, rep: int, t0: float, s0: float, v0: float) -> tuple:
+    """The 0.1 ms grid of repetition ``rep`` from time t0 (s), arc length s0 (m) and entry speed v0
+    (m/s): ((t, v, omega, kappa, s), the exit speed)."""
+    pieces_t, pieces_v, pieces_w, pieces_k, pieces_s = [], [], [], [], []
+    for i, seg in enumerate(config.segments):
+        where = f"trajectory.segments[{i}] ({type(seg).__name__})" + (
+            f", repetition {rep + 1}" if config.repeat > 1 else ""
+        )
+        if isinstance(seg, (SpotTurn, Pause)):
+            T = _positive(where, "duration", seg.duration)
+            if v0 != 0.0:
+                raise TrajectoryError(f"{where}: needs the robot at rest; entry speed is {v0} m/s")
+            tau = np.linspace(0.0, T, max(int(math.ceil(T / _FINE_STEP)), 2) + 1)
+            angle = math.radians(seg.angle_deg) if isinstance(seg, SpotTurn) else 0.0
+            w = (angle / T) * (1.0 - np.cos(2.0 * math.pi * tau / T))
+            v = np.zeros_like(tau)
+            kappa = np.full_like(tau, math.copysign(math.inf, angle) if angle else 0.0)
+            s = np.full_like(tau, s0)
+            v1 = 0.0
+        else:
+            length, curvature = _geometry(seg, where)
+            T, v_of, s_of, v1 = _speed_law(seg, v0, length, where)
+            tau = np.linspace(0.0, T, max(int(math.ceil(T / _FINE_STEP)), 2) + 1)
+            v = v_of(tau)
+            s_local = np.clip(s_of(tau), 0.0, length)
+            kappa = curvature(s_local)
+            w = v * kappa
+            s = s0 + s_local
+            s0 += length
+        pieces_t.append(t0 + tau)
+        pieces_v.append(v)
+        pieces_w.append(w)
+        pieces_k.append(kappa)
+        pieces_s.append(s)
+        t0 += tau[-1]
+        v0 = v1
+    columns = (pieces_t, pieces_v, pieces_w, pieces_k, pieces_s)
+    return tuple(np.concatenate(column) for column in columns), v0
+
+
+def _sampled(t, v, w, kappa, s, x, y, phi, T_C: float, last: bool) -> tuple:
+    """One repetition's fine grid sampled at the k T_C in [t[0], t[-1]) (the last repetition: up to
+    the first k T_C at or after t[-1], where v holds its final value): (t, x, y, phi, v, omega, kappa,
+    s). At a segment joint the later piece wins (np.interp on a non-decreasing grid)."""
+    first = int(math.ceil(t[0] / T_C - 1e-9))
     n = int(math.floor(t[-1] / T_C + 1e-9)) + 1
-    tc = np.arange(n) * T_C
-    if tc[-1] < t[-1] - 1e-12:
+    tc = np.arange(first, n) * T_C
+    if last and tc[-1] < t[-1] - 1e-12:
         tc = np.append(tc, n * T_C)
+    elif not last and tc[-1] >= t[-1] - 1e-9:
+        tc = tc[:-1]  # the joint's sample is the next repetition's
     idx = np.clip(np.searchsorted(t, tc, side="right") - 1, 0, len(t) - 1)
 
     def at(a):
         return np.interp(tc, t, a)
 
-    return Trajectory(
-        T_C=T_C,
-        t=tc,
-        x=at(x),
-        y=at(y),
-        phi=at(phi),
-        v=np.where(tc > t[-1], v[-1], at(v)),
-        omega=at(w),
-        kappa=kappa[idx],
-        s=at(s),
-    )
+    return tc, at(x), at(y), at(phi), np.where(tc > t[-1], v[-1], at(v)), at(w), kappa[idx], at(s)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -411,14 +427,17 @@ def trajectory_along_path(path: Path, speed: float, T_C: float) -> Trajectory:
 
 
 def trajectory_path(config: TrajectoryConfig, pose0=(0.0, 0.0, 0.0)) -> Path:
-    """The geometric path of a trajectory (its rolling segments, repeated), for the path follower."""
+    """The geometric path of a trajectory (its rolling segments, repeated), for the path follower; a
+    Pause adds no path (the trajectory's arc length stands still during it)."""
     segments = []
     for _ in range(config.repeat):
         for i, seg in enumerate(config.segments):
-            if isinstance(seg, (SpotTurn, Pause)):
+            if isinstance(seg, Pause):
+                continue
+            if isinstance(seg, SpotTurn):
                 raise TrajectoryError(
-                    f"trajectory.segments[{i}] ({type(seg).__name__}): the closed loop follows the "
-                    "trajectory's path with a path follower, which needs rolling segments (CosineTurn, Arc)"
+                    f"trajectory.segments[{i}] (SpotTurn): the closed loop follows the trajectory's path "
+                    "with a path follower, which needs rolling segments (CosineTurn, Arc) or a Pause"
                 )
             segments.append(dc.replace(seg, v_end=None, v_peak=None))
     return build_path(PathConfig(segments=segments), pose0)

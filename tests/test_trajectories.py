@@ -17,7 +17,10 @@ from slipnav.scenarios.trajectories import (
     TrajectoryError,
     build_path,
     build_trajectory,
+    check_trajectory_size,
     trajectory_along_path,
+    trajectory_extent,
+    trajectory_path,
 )
 
 
@@ -102,3 +105,43 @@ def test_bad_segments_name_the_segment(segments, message):
 def test_path_rejects_timed_segments():
     with pytest.raises(TrajectoryError, match=r"path.segments\[0\].*Straight, Arc and CosineTurn"):
         build_path(PathConfig(segments=[SpotTurn()]))
+
+
+def test_repetitions_are_built_one_after_the_other():
+    """A repeated lap (the square, then about 1 s at rest) is built a repetition at a time: the T_C grid runs
+    on without a gap or a double sample at the joints, each lap repeats the first one moved by the first
+    lap's end pose, the arc length goes on, and the closed loop's path skips the Pause (4.1 m a lap)."""
+    square = load_scenario("square").trajectory
+    rolling = trajectory_extent(square)[0]
+    pause = 0.02 * math.ceil(rolling / 0.02) - rolling + 1.0  # a lap of whole control periods
+    lap = [*square.segments, Pause(duration=pause)]
+    one = build_trajectory(TrajectoryConfig(segments=lap), 0.02)
+    three = build_trajectory(TrajectoryConfig(segments=lap, repeat=3), 0.02)
+    np.testing.assert_allclose(np.diff(three.t), 0.02, atol=1e-9)
+    n = len(one.t) - 1  # the single lap's grid ends on its own last sample
+    assert len(three.t) in (3 * n + 1, 3 * n + 2)
+    for k in (1, 2):
+        part = slice(k * n, (k + 1) * n)
+        np.testing.assert_allclose(three.v[part], one.v[:n], atol=1e-9)
+        np.testing.assert_allclose(three.omega[part], one.omega[:n], atol=1e-9)
+        np.testing.assert_allclose(three.s[part], one.s[:n] + k * one.s[-1], atol=1e-9)
+        # the lap turns by 2 pi: each one is the first moved by its end point, 0.1 m along x
+        np.testing.assert_allclose(three.x[part], one.x[:n] + k * one.x[-1], atol=1e-9)
+        np.testing.assert_allclose(three.y[part], one.y[:n] + k * one.y[-1], atol=1e-9)
+        np.testing.assert_allclose(three.phi[part], one.phi[:n] + k * one.phi[-1], atol=1e-9)
+    path = trajectory_path(TrajectoryConfig(segments=lap, repeat=3))
+    assert path.length == pytest.approx(3 * one.s[-1], abs=3e-3)
+    with pytest.raises(TrajectoryError, match=r"SpotTurn.*or a Pause"):
+        rolling = [Straight(1.0, v_end=1.0), Straight(1.0, v_end=0.0)]
+        trajectory_path(TrajectoryConfig(segments=[*rolling, SpotTurn()]))
+
+
+def test_a_trajectory_longer_than_four_hours_is_refused():
+    """Four hours of repetitions at most (MAX_TRAJECTORY_DURATION); one repetition's 0.1 ms grid at most
+    MAX_TRAJECTORY_SAMPLES (500 s)."""
+    lap = [Straight(1.0, v_end=1.0), Straight(1.0, v_end=0.0), Pause(duration=58.0)]  # 62 s a lap
+    check_trajectory_size(TrajectoryConfig(segments=lap, repeat=232))  # 4 h less 16 s
+    with pytest.raises(TrajectoryError, match=r"allowed up to 14400 s"):
+        check_trajectory_size(TrajectoryConfig(segments=lap, repeat=233))
+    with pytest.raises(TrajectoryError, match=r"one repetition takes 504 s .*allowed up to 500 s"):
+        check_trajectory_size(TrajectoryConfig(segments=[*lap[:2], Pause(duration=500.0)], repeat=2))
