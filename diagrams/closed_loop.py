@@ -94,12 +94,13 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
             control.path,
             robot.wheel_speed_limit,
             robot.track_width,
-            control.follower.epsilon,
+            control.follower,
             control.speed_law,
         )
     )
     saturator.set_name("Wheel-speed saturator")
     b.ExportInput(follower.GetInputPort("estimated_pose"), "estimated_pose")
+    b.ConnectInput("estimated_pose", saturator.GetInputPort("estimated_pose"))  # I(24)'s V1 of this instant
     b.ExportInput(follower.GetInputPort("estimated_speed"), "estimated_speed")
     b.Connect(follower.GetOutputPort("lyapunov_value"), saturator.GetInputPort("lyapunov_value"))
     b.Connect(follower.GetOutputPort("virtual_target"), saturator.GetInputPort("virtual_target"))

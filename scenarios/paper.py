@@ -161,6 +161,13 @@ DEVIATIONS = (
         lambda s: dc.replace(s, slip_control=dc.replace(s.slip_control, delayed_step_size=False)),
     ),
     Deviation(
+        "speed_law_delay",
+        "I(24) on V1 of the follower's previous update (one T_C late)",
+        "I(24): u(t) of V1(t)",
+        "follower.delayed_speed_law: false",
+        lambda s: dc.replace(s, follower=dc.replace(s.follower, delayed_speed_law=False)),
+    ),
+    Deviation(
         "estimated_speed",
         "I(15)-(16) with the estimated speed v_t",
         "I(15)-(16): the commanded u",

@@ -27,6 +27,7 @@ from slipnav.systems.path_follower import (
     check_path_curvature,
     follower_step,
     saturate_wheel_speeds,
+    speed_law,
 )
 from slipnav.systems.perturbation_monitor import (
     FORCE_CHANNELS,
@@ -223,6 +224,7 @@ def run_plain_loop(
         )
 
         if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K
+            pose_k, v_t_k = localised(nav_row, x)
             if trajectory_mode:
                 pace = delta  # delta_K-1 (delayed_step_size), else delta_K below
                 if control.slip_control:
@@ -242,11 +244,12 @@ def run_plain_loop(
                 u = 0.0
             elif control.speed_law == "constant":
                 u = 0.5 * p.wheel_speed_limit
-            else:
+            elif control.follower.delayed_speed_law:
                 u = bounded_speed(
                     follower[3], path.curvature(s), p.wheel_speed_limit, half, control.follower.epsilon
                 )
-            pose_k, v_t_k = localised(nav_row, x)
+            else:
+                u = speed_law(pose_k, s, path, control.follower, p.wheel_speed_limit, half)[0]
             follower = follower_step(s, pose_k, u, path, control.follower, half, T_C, v_t_k)
         t2 = clock()
         spent["control"] += t2 - t1

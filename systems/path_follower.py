@@ -39,6 +39,9 @@ class PathFollowerParameters:
             law's time, 0.03 -> 57 %, 0.05 -> 53 % with a smaller path error).
         use_estimated_speed: I(15)-(16) read the robot's estimated speed (the navigation's v_t), the
             speed of I(11)-(12); false: the commanded u, as printed (the same u as I(18)-(19)).
+        delayed_speed_law: I(24) at t_K reads V1 of the follower's previous update (t_K-1, one T_C
+            late). False: V1 of the pose and virtual target of t_K, the instant whose errors the commands
+            act on, as I(24) prints u(t) of V1(t).
     """
 
     gamma: float = 0.5
@@ -47,17 +50,17 @@ class PathFollowerParameters:
     k3: float = 0.5
     epsilon: float = 0.05
     use_estimated_speed: bool = True
+    delayed_speed_law: bool = True
 
     def __post_init__(self):
         for name in ("gamma", "k1", "k2", "epsilon"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"follower.{name}={v!r} is out of range: allowed (0, inf)")
-        if not isinstance(self.use_estimated_speed, bool):
-            raise ValueError(
-                f"follower.use_estimated_speed={self.use_estimated_speed!r} is out of range: "
-                "allowed true, false"
-            )
+        for name in ("use_estimated_speed", "delayed_speed_law"):
+            if not isinstance(getattr(self, name), bool):
+                value = getattr(self, name)
+                raise ValueError(f"follower.{name}={value!r} is out of range: allowed true, false")
         if not (math.isfinite(self.k3) and 0.0 <= self.k3 < math.pi / 2):
             raise ValueError(f"follower.k3={self.k3!r} is out of range: allowed [0, pi/2)")
 
@@ -119,6 +122,16 @@ def bounded_speed(V1: float, kappa: float, V_m: float, half_track: float, epsilo
     if V1 >= epsilon:
         return 0.5 * V_m
     return V_m / (1.0 + half_track * abs(kappa))
+
+
+def speed_law(pose, s: float, path, p: PathFollowerParameters, V_m: float, half_track: float):
+    """I(24) at a control instant: (u, V1) with V1 of I(14) from ``pose`` and the virtual target ``s`` of
+    the same instant (the errors I(15)-(16) act on at that instant), delta for u > 0 (I(24)'s u is
+    positive): I(24) as printed, u(t) of V1(t), sampled at T_C."""
+    s1, y1, theta = frenet_errors(pose, path.pose(s))
+    delta, _ = approach_angle(y1, 1.0, p.k3)
+    V1 = lyapunov_value(s1, y1, theta, delta, p.gamma)
+    return bounded_speed(V1, path.curvature(s), V_m, half_track, p.epsilon), V1
 
 
 def saturate_wheel_speeds(v_R: float, v_L: float, V_m: float):
@@ -252,27 +265,37 @@ class WheelSpeedSaturator(LeafSystem):
         name: WheelSpeedSaturator
         input_ports:
         - lyapunov_value
+        - estimated_pose
         - virtual_target
         - wheel_speed_command
         output_ports:
         - speed
         - saturated_command
 
-    - speed: u from V1 and kappa_r(s) of the follower's last update (direct feedthrough), I(24); with
-      ``law="constant"`` u = V_m/2 throughout.
+    - speed: u of I(24) and kappa_r(s) of the follower's virtual target s (direct feedthrough). V1: the
+      follower's ``lyapunov_value`` of its last update (``delayed_speed_law``, one T_C late), or
+      (``delayed_speed_law`` false) speed_law's V1 from the pose the follower reads, at this instant.
+      With ``law="constant"`` u = V_m/2 throughout; 0 once s reaches the path's end.
     - saturated_command: the follower's [v_R, v_L] scaled so that neither exceeds V_m.
+
+    Args:
+        path: the follower's path. V_m: wheel-speed bound (m/s). track_width: m. params:
+        PathFollowerParameters (epsilon, delayed_speed_law; gamma, k3 for V1). law: ``bounded``
+        (I(24)) or ``constant``.
     """
 
-    def __init__(self, path, V_m: float, track_width: float, epsilon: float, law: str = "bounded"):
+    def __init__(self, path, V_m: float, track_width: float, params: PathFollowerParameters, law="bounded"):
         super().__init__()
         if law not in ("bounded", "constant"):
             raise ValueError(f"speed law {law!r} is unknown: allowed 'bounded', 'constant'")
-        self._path, self._V_m, self._half, self._eps, self._law = path, V_m, 0.5 * track_width, epsilon, law
+        self._path, self._V_m, self._half, self._p, self._law = path, V_m, 0.5 * track_width, params, law
         self._V1 = self.DeclareVectorInputPort("lyapunov_value", 1)
+        self._pose = self.DeclareVectorInputPort("estimated_pose", 3)
         self._s = self.DeclareVectorInputPort("virtual_target", 1)
         self._cmd = self.DeclareVectorInputPort("wheel_speed_command", 2)
+        V1_source = self._V1 if params.delayed_speed_law else self._pose
         self.DeclareVectorOutputPort(
-            "speed", 1, self._calc_speed, prerequisites_of_calc={self._V1.ticket(), self._s.ticket()}
+            "speed", 1, self._calc_speed, prerequisites_of_calc={V1_source.ticket(), self._s.ticket()}
         )
         self.DeclareVectorOutputPort(
             "saturated_command", 2, self._calc_command, prerequisites_of_calc={self._cmd.ticket()}
@@ -284,11 +307,12 @@ class WheelSpeedSaturator(LeafSystem):
             output.SetFromVector([0.0])
         elif self._law == "constant":
             output.SetFromVector([0.5 * self._V_m])
+        elif self._p.delayed_speed_law:
+            kappa, V1 = self._path.curvature(s), self._V1.Eval(context)[0]
+            output.SetFromVector([bounded_speed(V1, kappa, self._V_m, self._half, self._p.epsilon)])
         else:
-            kappa = self._path.curvature(s)
-            output.SetFromVector(
-                [bounded_speed(self._V1.Eval(context)[0], kappa, self._V_m, self._half, self._eps)]
-            )
+            pose = self._pose.Eval(context)
+            output.SetFromVector([speed_law(pose, s, self._path, self._p, self._V_m, self._half)[0]])
 
     def _calc_command(self, context, output):
         output.SetFromVector(saturate_wheel_speeds(*self._cmd.Eval(context), self._V_m))

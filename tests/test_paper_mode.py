@@ -42,6 +42,7 @@ def test_paper_mode_sets_every_switch_and_keeps_the_rest():
     assert math.isinf(m.gyro_turn_rate) and nav.standstill.enabled is False
     assert nav.gyrodometry.rate_time_constant == 0.0
     assert p.slip_control.delayed_step_size is False and p.follower.use_estimated_speed is False
+    assert p.follower.delayed_speed_law is False
     # The rest is the scenario's: tuning the papers give no number for, and T_N, T_C = the papers' 2, 20 ms.
     default = load_scenario("corner")
     assert (m.b1, m.a1, m.p, m.q2) == (default.navigation.mixing.b1, 150.0, 0.5, 0.99)
@@ -69,6 +70,7 @@ def default_untouched(scenario) -> bool:
         and m.delta_v_running_integral
         and scenario.slip_control.delayed_step_size
         and scenario.follower.use_estimated_speed
+        and scenario.follower.delayed_speed_law
     )
 
 
@@ -194,6 +196,30 @@ def test_i16_with_the_commanded_speed():
     assert step[0] == pytest.approx(0.014, abs=1e-15)
 
 
+def test_i24_reads_v1_of_the_same_instant():
+    """I(24) on a straight path (kappa_r = 0), Kurt3D's V_m = 4.1 m/s, b = 0.2 m, epsilon = 0.05: the
+    robot at s = 1 m, 0.2 m left of the path, heading along it: delta = -0.5 tanh(0.2) = -0.0986877, V1 =
+    0.2^2 / 2 + delta^2 / (2 * 0.5) = 0.0297393 < epsilon -> u = V_m = 4.1 m/s at once (paper mode). The
+    follower's V1 of the previous update, 0.06 >= epsilon, sets u = V_m/2 = 2.05 m/s (default)."""
+    from slipnav.systems.path_follower import WheelSpeedSaturator, speed_law
+
+    path = build_path(PathConfig(segments=[Straight(length=5.0)]))
+    paper = PathFollowerParameters(delayed_speed_law=PAPER.follower.delayed_speed_law)
+    assert speed_law((1.0, 0.2, 0.0), 1.0, path, paper, 4.1, 0.2) == pytest.approx((4.1, 0.0297393), abs=1e-7)
+
+    def u(params):
+        block = WheelSpeedSaturator(path, 4.1, 0.4, params)
+        context = block.CreateDefaultContext()
+        for name, value in (("lyapunov_value", [0.06]), ("estimated_pose", [1.0, 0.2, 0.0])):
+            block.GetInputPort(name).FixValue(context, value)
+        block.GetInputPort("virtual_target").FixValue(context, [1.0])
+        block.GetInputPort("wheel_speed_command").FixValue(context, [0.0, 0.0])
+        return block.GetOutputPort("speed").Eval(context)[0]
+
+    assert u(paper) == 4.1
+    assert u(PathFollowerParameters()) == 2.05
+
+
 def test_run_paper_writes_the_paper_stem_and_summary(tmp_path, capsys):
     assert (
         main(["run", "corner", "--paper", "--duration", "0.2", "--no-figures", "--out", str(tmp_path)]) == 0
@@ -206,10 +232,11 @@ def test_run_paper_writes_the_paper_stem_and_summary(tmp_path, capsys):
 
 def test_paper_effects_variants():
     """The study runs the default, paper mode and each deviation alone; the control ones closed loop only."""
-    from slipnav.studies.paper_effects import scenario_of, variants
+    from slipnav.studies.paper_effects import CONTROL_DEVIATIONS, scenario_of, variants
 
     assert variants(False)[:2] == ["default", "paper"] and len(variants(False)) == 2 + len(DEVIATIONS)
-    assert "only step_size_delay" not in variants(True) and len(variants(True)) == len(DEVIATIONS)
+    assert "only step_size_delay" not in variants(True)
+    assert len(variants(True)) == 2 + len(DEVIATIONS) - len(CONTROL_DEVIATIONS)
     alone = scenario_of("corner", "only creep")
     assert not alone.navigation.mixing.odometry_slip_compensation and not alone.paper
     assert alone.navigation.mixing.dv_memory == 0.7  # the rest stays the default
