@@ -3,12 +3,17 @@ Lapierre & Pascoal), the wheel-speed bounded speed law I(24) and a curvature-pre
 
 Notation: Indiveri's b is half the wheel distance; here ``half_track = track_width / 2``.
 
-Speeds: I(11)-(12) describe the errors' dynamics with the robot's actual speed, so I(15)-(16) use the
-estimated speed (the navigation's v_t); the speed law's u sets the wheel commands I(18)-(19). On the
-kinematic unicycle of the paper both are the same; on a robot that cannot realise a speed step at once
-(Kurt3D near V_m) using the command in I(16) lets the virtual target run ahead, V1 stays above epsilon
-and I(24) chatters at V_m/2.
-``follower.use_estimated_speed = false`` (paper mode) puts the commanded u in I(15)-(16) as printed.
+Which speed u (ambiguous in the print). The paper writes one symbol u for the robot's linear speed of
+I(3) (from the velocities of wheels "assumed to roll perfectly"), the speed of I(11)-(12), the u of the
+law I(15)-(16), the u of the commands I(18)-(19) and the u that I(24) chooses. On its kinematic unicycle
+(ideal actuators, §I) they are one signal. On a robot whose speed v lags the command u they part, and
+the print does not say which of them I(15)-(16) read. Here I(15)-(16) read the robot's speed (the
+localisation's v_t) and I(18)-(19) the command u of I(24), in both modes: only then does I(17), the
+derivative of V1 along I(11)-(13), hold. With the command u in I(15)-(16) as well, dV1/dt gains
+(v - u) (s1 cos theta + y1 sin theta) plus a heading term through delta_dot: a robot slower than u lets
+the virtual target lead (s1 < 0), V1 grows, and I(24)'s switch on V1 = epsilon becomes a sliding
+surface, crossed every few T_C (Kurt3D: V_m/2 <-> V_m, the robot held near V_m/2;
+tests/test_analysis.py). ``follower.use_estimated_speed = false`` runs that single-u reading.
 
 Sign of the approach angle: with y1 positive to the left of the path (I(12): dy1/dt = ... + u sin theta),
 assumption iii) of I(14), y1 u sin(delta) <= 0, holds for delta = -sign(u) k3 tanh(y1); the paper's
@@ -37,8 +42,9 @@ class PathFollowerParameters:
             the wheel speeds: with 0.01 the navigation noise kept V1 above epsilon half of the time, and
             each crossing switches u between V_m/2 and full speed (long path: 0.01 -> 78 % of the constant
             law's time, 0.03 -> 57 %, 0.05 -> 53 % with a smaller path error).
-        use_estimated_speed: I(15)-(16) read the robot's estimated speed (the navigation's v_t), the
-            speed of I(11)-(12); false: the commanded u, as printed (the same u as I(18)-(19)).
+        use_estimated_speed: I(15)-(16) read the robot's speed (the localisation's v_t), the speed of
+            I(11)-(12), under which I(17) holds (module docstring); false: the command u of I(24), the
+            same u as I(18)-(19) (the print's one symbol read as one signal).
         delayed_speed_law: I(24) at t_K reads V1 of the follower's previous update (t_K-1, one T_C
             late). False: V1 of the pose and virtual target of t_K, the instant whose errors the commands
             act on, as I(24) prints u(t) of V1(t).
@@ -175,7 +181,7 @@ class LyapunovPathFollower(LeafSystem):
         - path_point
 
     - estimated_pose: navigation pose [x, y, phi] (never the true one).
-    - estimated_speed: navigation v_t, the u of I(15)-(16).
+    - estimated_speed: the localisation's v_t (m/s), the robot's speed: the u of I(15)-(16).
     - speed: commanded u of I(24) (or of the trajectory mode), the u of I(18)-(19).
     - wheel_speed_command: [v_R, v_L] of I(18)-(19), held over T_C (before saturation).
     - lyapunov_value: V1 of I(14) at the last update. virtual_target: s. frenet_errors: [s1, y1, theta].
@@ -244,8 +250,8 @@ def follower_step(
 ):
     """One T_C sample of the follower: returns the next state in FollowerState order.
 
-    I(15)-(16) use ``u_measured`` (the robot's estimated speed; ``None`` or ``p.use_estimated_speed``
-    false: the command u, as printed), I(18)-(19) u.
+    I(15)-(16) use ``u_measured`` (the robot's speed; ``None`` or ``p.use_estimated_speed`` false: the
+    command u), I(18)-(19) u.
     """
     s1, y1, theta = frenet_errors(pose, path.pose(s))
     kappa = path.curvature(s)

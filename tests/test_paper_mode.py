@@ -41,8 +41,8 @@ def test_paper_mode_sets_every_switch_and_keeps_the_rest():
     assert math.isinf(m.tyre_peak_acceleration) and m.q2_inertial == 1.0
     assert math.isinf(m.gyro_turn_rate) and nav.standstill.enabled is False
     assert nav.gyrodometry.rate_time_constant == 0.0
-    assert p.slip_control.delayed_step_size is False and p.follower.use_estimated_speed is False
-    assert p.follower.delayed_speed_law is False
+    assert p.slip_control.delayed_step_size is False and p.follower.delayed_speed_law is False
+    assert p.follower.use_estimated_speed is True  # I(15)-(16) on the robot's speed: I(17) holds
     # The rest is the scenario's: tuning the papers give no number for, and T_N, T_C = the papers' 2, 20 ms.
     default = load_scenario("corner")
     assert (m.b1, m.a1, m.p, m.q2) == (default.navigation.mixing.b1, 150.0, 0.5, 0.99)
@@ -184,16 +184,18 @@ def test_s22_step_size_acts_at_once():
     assert pace(False, 0.01) == 1.0  # between control instants: the step size set at t_K (here none yet)
 
 
-def test_i16_with_the_commanded_speed():
-    """I(16): s_dot = u cos(theta) + k1 s1 with the commanded u = 1 m/s: the robot 0.1 m ahead of the
-    virtual target on a straight path, theta = 0, k1 = 2: s_dot = 1 + 0.2 = 1.2, s_+ = 1.2 * 0.02 = 0.024;
-    with the estimated speed 0.5 m/s (default): 0.7, 0.014. I(18)-(19) use u in both."""
+def test_i16_with_the_robots_speed():
+    """I(16): s_dot = u cos(theta) + k1 s1 with u the robot's speed 0.5 m/s (paper mode and default; the
+    command u = 1 m/s goes into I(18)-(19)): the robot 0.1 m ahead of the virtual target on a straight
+    path, theta = 0, k1 = 2: s_dot = 0.5 + 0.2 = 0.7, s_+ = 0.7 * 0.02 = 0.014, and the commands u +- b *
+    (kappa s_dot + theta_dot) = 1 +- 0 = 1 m/s. With the command in I(16) too (use_estimated_speed false):
+    s_dot = 1.2, s_+ = 0.024."""
     path = build_path(PathConfig(segments=[Straight(length=5.0)]))
-    paper = PathFollowerParameters(use_estimated_speed=PAPER.follower.use_estimated_speed)
-    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, paper, 0.034, 0.02, u_measured=0.5)
+    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, PAPER.follower, 0.034, 0.02, u_measured=0.5)
+    assert step[0] == pytest.approx(0.014, abs=1e-15) and step[1:3] == [1.0, 1.0]
+    single_u = PathFollowerParameters(use_estimated_speed=False)
+    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, single_u, 0.034, 0.02, 0.5)
     assert step[0] == pytest.approx(0.024, abs=1e-15)
-    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, PathFollowerParameters(), 0.034, 0.02, 0.5)
-    assert step[0] == pytest.approx(0.014, abs=1e-15)
 
 
 def test_i24_reads_v1_of_the_same_instant():
