@@ -165,6 +165,13 @@ DEVIATIONS = (
         lambda s: dc.replace(s, slip_control=dc.replace(s.slip_control, delayed_step_size=False)),
     ),
     Deviation(
+        "s22_inputs",
+        "S(22) on C1_K-1 and alpha_K-1: the navigation as it stood before its sample k (one T_C late)",
+        "S(22): C1_K and alpha_K of batch K",
+        "slip_control.after_navigation: true",
+        lambda s: dc.replace(s, slip_control=dc.replace(s.slip_control, after_navigation=True)),
+    ),
+    Deviation(
         "speed_law_delay",
         "I(24) on V1 of the follower's previous update (one T_C late)",
         "I(24): u(t) of V1(t)",

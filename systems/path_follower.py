@@ -195,6 +195,7 @@ class LyapunovPathFollower(LeafSystem):
         params: PathFollowerParameters. path: scenarios.trajectories.Path-like (pose(s), curvature(s),
         length). track_width: m. T_C: s. s0: initial virtual target. start_time: the first update (s, a
         multiple of T_C): until then the commands are zero and the robot stands (standstill_time).
+        offset: the updates' delay after each t_K (s, in [0, T_C); StepSizeParameters.after_navigation).
     """
 
     def __init__(
@@ -205,6 +206,7 @@ class LyapunovPathFollower(LeafSystem):
         T_C: float,
         s0=0.0,
         start_time: float = 0.0,
+        offset: float = 0.0,
     ):
         super().__init__()
         check_path_curvature(path.max_abs_curvature, track_width)
@@ -228,7 +230,7 @@ class LyapunovPathFollower(LeafSystem):
             prerequisites_of_calc={self.xd_ticket()},
         )
         self._start = start_time
-        self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(T_C, offset, self._update)
 
     def _update(self, context, discrete_state):
         if context.get_time() < self._start - 1e-9:

@@ -184,6 +184,35 @@ def test_s22_step_size_acts_at_once():
     assert pace(False, 0.01) == 1.0  # between control instants: the step size set at t_K (here none yet)
 
 
+def test_s22_reads_c1_and_alpha_of_the_same_instant():
+    """S(22): delta_K = min(max(delta_K-1 (delta_min + min(C1_K, logsig(a4 (|alpha_K| - b4))) (q_delta -
+    delta_min)), delta_min), delta_max,K) with C1_K and alpha_K of batch K, which the navigation computes
+    at t_K (logged from row k + 1 on; row k holds C1_K-1, alpha_K-1). Corner, closed loop, 3 s: every
+    delta_K of paper mode is S(22) of C1_K and alpha_K to the last bit, and misses it with C1_K-1,
+    alpha_K-1 (slip control acts: the step size is cut); the default reads C1_K-1, alpha_K-1."""
+    from slipnav.scenarios.runner import run_scenario
+    from slipnav.systems.slip_control import step_size
+
+    def misses(scenario):
+        """Largest |logged delta_K - S(22)| with the inputs of row k + 1 (this batch) and of row k."""
+        a, p = run_scenario(scenario, duration=3.0).arrays, scenario.slip_control
+        k0 = round(float(a["start_time"]) / T_N)
+        rows = range(k0, len(a["t"]) - 1, 10)
+        worst = {0: 0.0, 1: 0.0}
+        for K, k in enumerate(rows):
+            for shift in worst:
+                j, lag = k + shift, K - a["progress"][k]
+                delta = step_size(a["step_size"][k], a["C1"][j], a["est_alpha"][j], lag, p)
+                worst[shift] = max(worst[shift], abs(delta - a["step_size"][k + 1]))
+        assert min(a["step_size"]) == p.delta_min
+        return worst
+
+    paper = misses(PAPER)
+    assert paper[1] == 0.0 and paper[0] > 0.05
+    default = misses(load_scenario("corner"))
+    assert default[0] == 0.0 and default[1] > 0.05
+
+
 def test_i16_with_the_robots_speed():
     """I(16): s_dot = u cos(theta) + k1 s1 with u the robot's speed 0.5 m/s (paper mode and default; the
     command u = 1 m/s goes into I(18)-(19)): the robot 0.1 m ahead of the virtual target on a straight
