@@ -56,6 +56,20 @@ CONTROL_OUTPUTS = ("wheel_speed_command", "V1", "virtual_target", "frenet_errors
 TRAJECTORY_OUTPUTS = ("step_size", "progress")
 
 
+def control_offset(control: ControlSettings, rates: SampleRates, robot: RobotParameters) -> float:
+    """The control blocks' delay after each t_K (s): half the shorter of T_N and the robot's speed-loop
+    period in trajectory mode with ``step_size.after_navigation``, else 0.
+
+    The navigation's blocks update at t_K; blocks updating at the same instant read their outputs as
+    they stood before (Drake's discrete updates). Updating half a sample later, the control reads what
+    the navigation computed at t_K (C1_K, alpha_K, the pose) and nothing else has moved: the sensors and
+    the discrete plant update at T_N multiples only, the continuous plant's speed loop at its period's,
+    so the command reaches the robot at the same sample as without the offset (t_K + T_N)."""
+    if control.mode != "trajectory" or not control.step_size.after_navigation:
+        return 0.0
+    return 0.5 * min(rates.T_N, robot.speed_loop_period)
+
+
 def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: RobotParameters):
     """The control blocks as one Diagram, acting on the navigation estimate.
 
@@ -83,9 +97,15 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
         raise ValueError(f"mode={control.mode!r} is unknown: allowed 'trajectory', 'max_speed'")
     b = DiagramBuilder()
     check_start_time(control.start_time, rates.T_C, "control.start_time")
+    offset = control_offset(control, rates, robot)
     follower = b.AddSystem(
         LyapunovPathFollower(
-            control.follower, control.path, robot.track_width, rates.T_C, start_time=control.start_time
+            control.follower,
+            control.path,
+            robot.track_width,
+            rates.T_C,
+            start_time=control.start_time,
+            offset=offset,
         )
     )
     follower.set_name("Lyapunov path follower")
@@ -94,12 +114,13 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
             control.path,
             robot.wheel_speed_limit,
             robot.track_width,
-            control.follower.epsilon,
+            control.follower,
             control.speed_law,
         )
     )
     saturator.set_name("Wheel-speed saturator")
     b.ExportInput(follower.GetInputPort("estimated_pose"), "estimated_pose")
+    b.ConnectInput("estimated_pose", saturator.GetInputPort("estimated_pose"))  # I(24)'s V1 of this instant
     b.ExportInput(follower.GetInputPort("estimated_speed"), "estimated_speed")
     b.Connect(follower.GetOutputPort("lyapunov_value"), saturator.GetInputPort("lyapunov_value"))
     b.Connect(follower.GetOutputPort("virtual_target"), saturator.GetInputPort("virtual_target"))
@@ -110,7 +131,9 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
     b.ExportOutput(follower.GetOutputPort("frenet_errors"), "frenet_errors")
     if control.mode == "trajectory":
         step = b.AddSystem(
-            StepSizeController(control.step_size, rates.T_C, control.slip_control, control.start_time)
+            StepSizeController(
+                control.step_size, rates.T_C, control.slip_control, control.start_time, offset
+            )
         )
         step.set_name("Step-size controller")
         interpolator = b.AddSystem(TrajectoryInterpolator(control.trajectory, control.step_size))

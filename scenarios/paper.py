@@ -5,6 +5,10 @@ printed equations back to the print, on top of the scenario (scenario key ``pape
 --paper``, ``slipnav accuracy --paper``). Everything else (robot, trajectory, seeds, the tuning the papers
 give no number for) stays the scenario's. The papers' own tuning, T_N = 2 ms and T_C = 20 ms (S §IV), is
 the default already. DEVIATIONS is the table of README "Paper mode", one row per switch.
+
+Where the print is ambiguous, paper mode takes the reading the papers' own derivations need and the
+default shares it: I(15)-(16) read the robot's speed, the u of I(11)-(12), under which I(17) holds
+(systems/path_follower.py; ``follower.use_estimated_speed: false`` runs the command u there instead).
 """
 
 import dataclasses as dc
@@ -161,11 +165,18 @@ DEVIATIONS = (
         lambda s: dc.replace(s, slip_control=dc.replace(s.slip_control, delayed_step_size=False)),
     ),
     Deviation(
-        "estimated_speed",
-        "I(15)-(16) with the estimated speed v_t",
-        "I(15)-(16): the commanded u",
-        "follower.use_estimated_speed: false",
-        lambda s: dc.replace(s, follower=dc.replace(s.follower, use_estimated_speed=False)),
+        "s22_inputs",
+        "S(22) on C1_K-1 and alpha_K-1: the navigation as it stood before its sample k (one T_C late)",
+        "S(22): C1_K and alpha_K of batch K",
+        "slip_control.after_navigation: true",
+        lambda s: dc.replace(s, slip_control=dc.replace(s.slip_control, after_navigation=True)),
+    ),
+    Deviation(
+        "speed_law_delay",
+        "I(24) on V1 of the follower's previous update (one T_C late)",
+        "I(24): u(t) of V1(t)",
+        "follower.delayed_speed_law: false",
+        lambda s: dc.replace(s, follower=dc.replace(s.follower, delayed_speed_law=False)),
     ),
 )
 """Every extension and deviation, in the order of README's Paper mode table."""

@@ -13,7 +13,7 @@ import math
 import time
 
 import numpy as np
-from slipnav.diagrams.closed_loop import ControlSettings
+from slipnav.diagrams.closed_loop import ControlSettings, control_offset
 from slipnav.systems.faults import (
     apply_sensor_faults,
     check_fault_events,
@@ -27,6 +27,7 @@ from slipnav.systems.path_follower import (
     check_path_curvature,
     follower_step,
     saturate_wheel_speeds,
+    speed_law,
 )
 from slipnav.systems.perturbation_monitor import (
     FORCE_CHANNELS,
@@ -155,17 +156,13 @@ def run_plain_loop(
         calibration,
         p,
     )
-    # Control (build_control_diagram).
-    path, half = control.path, 0.5 * p.track_width
-    check_path_curvature(path.max_abs_curvature, p.track_width)
-    follower = [0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0]  # FollowerState
-    trajectory_mode = control.mode == "trajectory"
-    if trajectory_mode:
-        tr = control.trajectory
-        table = np.column_stack([tr.x, tr.y, tr.phi, tr.v, tr.s])
-        table_end = float(len(table) - 1)
-    delta, progress = 1.0, 0.0
-    localised = localisation_reader(control.localisation)
+    # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
+    ctrl = PlainControl(control, p, T_C)
+    after = control_offset(control, rates, p) > 0.0
+
+    def instant(j):
+        """K if sample j is a control instant t_K, else None."""
+        return (j - k_start) // n if j >= k_start and (j - k_start) % n == 0 else None
 
     out = np.empty((num_steps, len(PLAIN_LOOP_KEYS)))
     clock = time.perf_counter
@@ -190,7 +187,9 @@ def run_plain_loop(
         nav_row = nav.step(meas_acc, meas_gyro, meas_enc, meas_current, sideways_push(monitor))
         t1 = clock()
         spent["navigation"] += t1 - t0
-        s = follower[0]
+        if after and instant(k - 1) is not None:  # t_K + offset: the navigation's outputs after sample k
+            ctrl.step(instant(k - 1), nav_row, x)
+        follower = ctrl.follower
         command = saturate_wheel_speeds(follower[1], follower[2], p.wheel_speed_limit)
         out[k] = (
             *x,
@@ -199,9 +198,9 @@ def run_plain_loop(
             *meas_enc,
             *command,
             follower[3],
-            s,
-            delta,
-            progress,
+            follower[0],
+            ctrl.delta,
+            ctrl.progress,
             *nav_row,
             *monitor[-4:],
             *monitor[-6:-4],
@@ -222,32 +221,8 @@ def run_plain_loop(
             nav.slide_onset,
         )
 
-        if k >= k_start and (k - k_start) % n == 0:  # control instant: pre-update values of t_K
-            if trajectory_mode:
-                pace = delta  # delta_K-1 (delayed_step_size), else delta_K below
-                if control.slip_control:
-                    c1, alpha = nav_row[LOOP_KEYS.index("C1")], nav_row[LOOP_KEYS.index("est_alpha")]
-                    delta = step_size(delta, c1, alpha, (k - k_start) // n - progress, control.step_size)
-                else:
-                    delta = 1.0
-                if not control.step_size.delayed_step_size:
-                    pace = delta
-                if progress >= table_end:
-                    u = 0.0
-                else:
-                    ref = interpolate(table, progress)
-                    u = max(pace * ref[3] + control.step_size.k_s * (ref[4] - s), 0.0)
-                progress += delta
-            elif s >= path.length:
-                u = 0.0
-            elif control.speed_law == "constant":
-                u = 0.5 * p.wheel_speed_limit
-            else:
-                u = bounded_speed(
-                    follower[3], path.curvature(s), p.wheel_speed_limit, half, control.follower.epsilon
-                )
-            pose_k, v_t_k = localised(nav_row, x)
-            follower = follower_step(s, pose_k, u, path, control.follower, half, T_C, v_t_k)
+        if not after and instant(k) is not None:  # control instant: pre-update values of t_K
+            ctrl.step(instant(k), nav_row, x)
         t2 = clock()
         spent["control"] += t2 - t1
         internal, meas_acc, gyro, meas_enc = sensor_update(internal, x, acc, noise[k], sensor_params, T_N)
@@ -264,6 +239,58 @@ def run_plain_loop(
     if timings is not None:
         timings.update(spent)
     return {key: out[:, i].copy() for i, key in enumerate(PLAIN_LOOP_KEYS)}
+
+
+class PlainControl:
+    """build_control_diagram's blocks at a control instant, and their state between instants: the
+    follower (FollowerState), the step size delta and progress Pi (trajectory mode)."""
+
+    def __init__(self, control: ControlSettings, robot: RobotParameters, T_C: float):
+        self.control, self.robot, self.T_C = control, robot, T_C
+        self.half = 0.5 * robot.track_width
+        check_path_curvature(control.path.max_abs_curvature, robot.track_width)
+        self.follower = [0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0]  # FollowerState
+        self.delta, self.progress = 1.0, 0.0
+        self.localised = localisation_reader(control.localisation)
+        if control.mode == "trajectory":
+            tr = control.trajectory
+            self.table = np.column_stack([tr.x, tr.y, tr.phi, tr.v, tr.s])
+            self.table_end = float(len(self.table) - 1)
+
+    def step(self, K: int, nav_row, x) -> None:
+        """Control instant K from the navigation's row and the plant's state the blocks read."""
+        control, p, s = self.control, self.robot, self.follower[0]
+        path, V_m = control.path, p.wheel_speed_limit
+        pose_k, v_t_k = self.localised(nav_row, x)
+        if control.mode == "trajectory":
+            u = self._trajectory_speed(K, nav_row, s)
+        elif s >= path.length:
+            u = 0.0
+        elif control.speed_law == "constant":
+            u = 0.5 * V_m
+        elif control.follower.delayed_speed_law:
+            u = bounded_speed(self.follower[3], path.curvature(s), V_m, self.half, control.follower.epsilon)
+        else:
+            u = speed_law(pose_k, s, path, control.follower, V_m, self.half)[0]
+        self.follower = follower_step(s, pose_k, u, path, control.follower, self.half, self.T_C, v_t_k)
+
+    def _trajectory_speed(self, K: int, nav_row, s: float) -> float:
+        """S(22)-(25) and the interpolator's speed command; advances delta and Pi."""
+        control = self.control
+        pace = self.delta  # delta_K-1 (delayed_step_size), else delta_K below
+        if control.slip_control:
+            c1, alpha = nav_row[LOOP_KEYS.index("C1")], nav_row[LOOP_KEYS.index("est_alpha")]
+            self.delta = step_size(self.delta, c1, alpha, K - self.progress, control.step_size)
+        else:
+            self.delta = 1.0
+        if not control.step_size.delayed_step_size:
+            pace = self.delta
+        u = 0.0
+        if self.progress < self.table_end:
+            ref = interpolate(self.table, self.progress)
+            u = max(pace * ref[3] + control.step_size.k_s * (ref[4] - s), 0.0)
+        self.progress += self.delta
+        return u
 
 
 def localisation_reader(source: str):

@@ -21,7 +21,7 @@ from slipnav.scenarios.paper import DEVIATIONS, one_deviation, paper_mode
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.sweep import run_jobs
 
-CONTROL_DEVIATIONS = ("step_size_delay", "estimated_speed")
+CONTROL_DEVIATIONS = ("step_size_delay", "s22_inputs", "speed_law_delay")
 """Deviations of the controller: no effect open loop."""
 
 

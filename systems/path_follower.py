@@ -3,12 +3,17 @@ Lapierre & Pascoal), the wheel-speed bounded speed law I(24) and a curvature-pre
 
 Notation: Indiveri's b is half the wheel distance; here ``half_track = track_width / 2``.
 
-Speeds: I(11)-(12) describe the errors' dynamics with the robot's actual speed, so I(15)-(16) use the
-estimated speed (the navigation's v_t); the speed law's u sets the wheel commands I(18)-(19). On the
-kinematic unicycle of the paper both are the same; on a robot that cannot realise a speed step at once
-(Kurt3D near V_m) using the command in I(16) lets the virtual target run ahead, V1 stays above epsilon
-and I(24) chatters at V_m/2.
-``follower.use_estimated_speed = false`` (paper mode) puts the commanded u in I(15)-(16) as printed.
+Which speed u (ambiguous in the print). The paper writes one symbol u for the robot's linear speed of
+I(3) (from the velocities of wheels "assumed to roll perfectly"), the speed of I(11)-(12), the u of the
+law I(15)-(16), the u of the commands I(18)-(19) and the u that I(24) chooses. On its kinematic unicycle
+(ideal actuators, §I) they are one signal. On a robot whose speed v lags the command u they part, and
+the print does not say which of them I(15)-(16) read. Here I(15)-(16) read the robot's speed (the
+localisation's v_t) and I(18)-(19) the command u of I(24), in both modes: only then does I(17), the
+derivative of V1 along I(11)-(13), hold. With the command u in I(15)-(16) as well, dV1/dt gains
+(v - u) (s1 cos theta + y1 sin theta) plus a heading term through delta_dot: a robot slower than u lets
+the virtual target lead (s1 < 0), V1 grows, and I(24)'s switch on V1 = epsilon becomes a sliding
+surface, crossed every few T_C (Kurt3D: V_m/2 <-> V_m, the robot held near V_m/2;
+tests/test_analysis.py). ``follower.use_estimated_speed = false`` runs that single-u reading.
 
 Sign of the approach angle: with y1 positive to the left of the path (I(12): dy1/dt = ... + u sin theta),
 assumption iii) of I(14), y1 u sin(delta) <= 0, holds for delta = -sign(u) k3 tanh(y1); the paper's
@@ -37,8 +42,12 @@ class PathFollowerParameters:
             the wheel speeds: with 0.01 the navigation noise kept V1 above epsilon half of the time, and
             each crossing switches u between V_m/2 and full speed (long path: 0.01 -> 78 % of the constant
             law's time, 0.03 -> 57 %, 0.05 -> 53 % with a smaller path error).
-        use_estimated_speed: I(15)-(16) read the robot's estimated speed (the navigation's v_t), the
-            speed of I(11)-(12); false: the commanded u, as printed (the same u as I(18)-(19)).
+        use_estimated_speed: I(15)-(16) read the robot's speed (the localisation's v_t), the speed of
+            I(11)-(12), under which I(17) holds (module docstring); false: the command u of I(24), the
+            same u as I(18)-(19) (the print's one symbol read as one signal).
+        delayed_speed_law: I(24) at t_K reads V1 of the follower's previous update (t_K-1, one T_C
+            late). False: V1 of the pose and virtual target of t_K, the instant whose errors the commands
+            act on, as I(24) prints u(t) of V1(t).
     """
 
     gamma: float = 0.5
@@ -47,17 +56,17 @@ class PathFollowerParameters:
     k3: float = 0.5
     epsilon: float = 0.05
     use_estimated_speed: bool = True
+    delayed_speed_law: bool = True
 
     def __post_init__(self):
         for name in ("gamma", "k1", "k2", "epsilon"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"follower.{name}={v!r} is out of range: allowed (0, inf)")
-        if not isinstance(self.use_estimated_speed, bool):
-            raise ValueError(
-                f"follower.use_estimated_speed={self.use_estimated_speed!r} is out of range: "
-                "allowed true, false"
-            )
+        for name in ("use_estimated_speed", "delayed_speed_law"):
+            if not isinstance(getattr(self, name), bool):
+                value = getattr(self, name)
+                raise ValueError(f"follower.{name}={value!r} is out of range: allowed true, false")
         if not (math.isfinite(self.k3) and 0.0 <= self.k3 < math.pi / 2):
             raise ValueError(f"follower.k3={self.k3!r} is out of range: allowed [0, pi/2)")
 
@@ -121,6 +130,16 @@ def bounded_speed(V1: float, kappa: float, V_m: float, half_track: float, epsilo
     return V_m / (1.0 + half_track * abs(kappa))
 
 
+def speed_law(pose, s: float, path, p: PathFollowerParameters, V_m: float, half_track: float):
+    """I(24) at a control instant: (u, V1) with V1 of I(14) from ``pose`` and the virtual target ``s`` of
+    the same instant (the errors I(15)-(16) act on at that instant), delta for u > 0 (I(24)'s u is
+    positive): I(24) as printed, u(t) of V1(t), sampled at T_C."""
+    s1, y1, theta = frenet_errors(pose, path.pose(s))
+    delta, _ = approach_angle(y1, 1.0, p.k3)
+    V1 = lyapunov_value(s1, y1, theta, delta, p.gamma)
+    return bounded_speed(V1, path.curvature(s), V_m, half_track, p.epsilon), V1
+
+
 def saturate_wheel_speeds(v_R: float, v_L: float, V_m: float):
     """Scale both commands by V_m / max(|v_R|, |v_L|) when that exceeds V_m: the commanded curvature
     (v_R - v_L)/(v_R + v_L) is preserved (I(5)), only the speed is reduced."""
@@ -162,7 +181,7 @@ class LyapunovPathFollower(LeafSystem):
         - path_point
 
     - estimated_pose: navigation pose [x, y, phi] (never the true one).
-    - estimated_speed: navigation v_t, the u of I(15)-(16).
+    - estimated_speed: the localisation's v_t (m/s), the robot's speed: the u of I(15)-(16).
     - speed: commanded u of I(24) (or of the trajectory mode), the u of I(18)-(19).
     - wheel_speed_command: [v_R, v_L] of I(18)-(19), held over T_C (before saturation).
     - lyapunov_value: V1 of I(14) at the last update. virtual_target: s. frenet_errors: [s1, y1, theta].
@@ -176,6 +195,7 @@ class LyapunovPathFollower(LeafSystem):
         params: PathFollowerParameters. path: scenarios.trajectories.Path-like (pose(s), curvature(s),
         length). track_width: m. T_C: s. s0: initial virtual target. start_time: the first update (s, a
         multiple of T_C): until then the commands are zero and the robot stands (standstill_time).
+        offset: the updates' delay after each t_K (s, in [0, T_C); StepSizeParameters.after_navigation).
     """
 
     def __init__(
@@ -186,6 +206,7 @@ class LyapunovPathFollower(LeafSystem):
         T_C: float,
         s0=0.0,
         start_time: float = 0.0,
+        offset: float = 0.0,
     ):
         super().__init__()
         check_path_curvature(path.max_abs_curvature, track_width)
@@ -209,7 +230,7 @@ class LyapunovPathFollower(LeafSystem):
             prerequisites_of_calc={self.xd_ticket()},
         )
         self._start = start_time
-        self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(T_C, offset, self._update)
 
     def _update(self, context, discrete_state):
         if context.get_time() < self._start - 1e-9:
@@ -231,8 +252,8 @@ def follower_step(
 ):
     """One T_C sample of the follower: returns the next state in FollowerState order.
 
-    I(15)-(16) use ``u_measured`` (the robot's estimated speed; ``None`` or ``p.use_estimated_speed``
-    false: the command u, as printed), I(18)-(19) u.
+    I(15)-(16) use ``u_measured`` (the robot's speed; ``None`` or ``p.use_estimated_speed`` false: the
+    command u), I(18)-(19) u.
     """
     s1, y1, theta = frenet_errors(pose, path.pose(s))
     kappa = path.curvature(s)
@@ -252,27 +273,37 @@ class WheelSpeedSaturator(LeafSystem):
         name: WheelSpeedSaturator
         input_ports:
         - lyapunov_value
+        - estimated_pose
         - virtual_target
         - wheel_speed_command
         output_ports:
         - speed
         - saturated_command
 
-    - speed: u from V1 and kappa_r(s) of the follower's last update (direct feedthrough), I(24); with
-      ``law="constant"`` u = V_m/2 throughout.
+    - speed: u of I(24) and kappa_r(s) of the follower's virtual target s (direct feedthrough). V1: the
+      follower's ``lyapunov_value`` of its last update (``delayed_speed_law``, one T_C late), or
+      (``delayed_speed_law`` false) speed_law's V1 from the pose the follower reads, at this instant.
+      With ``law="constant"`` u = V_m/2 throughout; 0 once s reaches the path's end.
     - saturated_command: the follower's [v_R, v_L] scaled so that neither exceeds V_m.
+
+    Args:
+        path: the follower's path. V_m: wheel-speed bound (m/s). track_width: m. params:
+        PathFollowerParameters (epsilon, delayed_speed_law; gamma, k3 for V1). law: ``bounded``
+        (I(24)) or ``constant``.
     """
 
-    def __init__(self, path, V_m: float, track_width: float, epsilon: float, law: str = "bounded"):
+    def __init__(self, path, V_m: float, track_width: float, params: PathFollowerParameters, law="bounded"):
         super().__init__()
         if law not in ("bounded", "constant"):
             raise ValueError(f"speed law {law!r} is unknown: allowed 'bounded', 'constant'")
-        self._path, self._V_m, self._half, self._eps, self._law = path, V_m, 0.5 * track_width, epsilon, law
+        self._path, self._V_m, self._half, self._p, self._law = path, V_m, 0.5 * track_width, params, law
         self._V1 = self.DeclareVectorInputPort("lyapunov_value", 1)
+        self._pose = self.DeclareVectorInputPort("estimated_pose", 3)
         self._s = self.DeclareVectorInputPort("virtual_target", 1)
         self._cmd = self.DeclareVectorInputPort("wheel_speed_command", 2)
+        V1_source = self._V1 if params.delayed_speed_law else self._pose
         self.DeclareVectorOutputPort(
-            "speed", 1, self._calc_speed, prerequisites_of_calc={self._V1.ticket(), self._s.ticket()}
+            "speed", 1, self._calc_speed, prerequisites_of_calc={V1_source.ticket(), self._s.ticket()}
         )
         self.DeclareVectorOutputPort(
             "saturated_command", 2, self._calc_command, prerequisites_of_calc={self._cmd.ticket()}
@@ -284,11 +315,12 @@ class WheelSpeedSaturator(LeafSystem):
             output.SetFromVector([0.0])
         elif self._law == "constant":
             output.SetFromVector([0.5 * self._V_m])
+        elif self._p.delayed_speed_law:
+            kappa, V1 = self._path.curvature(s), self._V1.Eval(context)[0]
+            output.SetFromVector([bounded_speed(V1, kappa, self._V_m, self._half, self._p.epsilon)])
         else:
-            kappa = self._path.curvature(s)
-            output.SetFromVector(
-                [bounded_speed(self._V1.Eval(context)[0], kappa, self._V_m, self._half, self._eps)]
-            )
+            pose = self._pose.Eval(context)
+            output.SetFromVector([speed_law(pose, s, self._path, self._p, self._V_m, self._half)[0]])
 
     def _calc_command(self, context, output):
         output.SetFromVector(saturate_wheel_speeds(*self._cmd.Eval(context), self._V_m))

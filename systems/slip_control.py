@@ -46,6 +46,12 @@ class StepSizeParameters:
             the previous control instant (its state: one T_C late). False: delta_K, computed at t_K from
             C1 and alpha in force, paces the reference at once, as S(22), (24), (25) print (x_ref at
             Pi_K + i delta_K).
+        after_navigation: the control's instant t_K follows the navigation's sample k, as a program
+            that runs the navigation first and then the control: S(22) reads C1_K and alpha_K of the
+            batch that ends at t_K (S(12), S(19)), the follower the pose and v_t the navigation holds
+            after that sample; the command reaches the robot when it does without (diagrams.closed_loop
+            control_offset). False: the control reads the navigation as it stood before its sample k,
+            C1_K-1 and alpha_K-1 of the previous batch (one T_C late). Trajectory mode only.
     """
 
     delta_min: float = 0.75
@@ -58,6 +64,7 @@ class StepSizeParameters:
     d_delta: float = -0.5
     k_s: float = 2.0
     delayed_step_size: bool = True
+    after_navigation: bool = False
 
     def __post_init__(self):
         checks = (
@@ -70,11 +77,10 @@ class StepSizeParameters:
             ("c_delta", math.isfinite(self.c_delta), "finite"),
             ("k_s", self.k_s >= 0.0, "[0, inf)"),
         )
-        if not isinstance(self.delayed_step_size, bool):
-            raise ValueError(
-                f"slip_control.delayed_step_size={self.delayed_step_size!r} is out of range: "
-                "allowed true, false"
-            )
+        for name in ("delayed_step_size", "after_navigation"):
+            if not isinstance(getattr(self, name), bool):
+                value = getattr(self, name)
+                raise ValueError(f"slip_control.{name}={value!r} is out of range: allowed true, false")
         for name, ok, allowed in checks:
             if not ok:
                 raise ValueError(
@@ -133,14 +139,22 @@ class StepSizeController(LeafSystem):
       (``delayed_step_size``, default; then a state output port), or delta_K of S(22) computed at t_K
       from the inputs (direct feedthrough; the state between control instants), as printed.
 
-    Update at t_K = K T_C: delta_K from delta_K-1, C1 and alpha (S(22)) bounded by S(23) on K - Pi_K,
-    then Pi_K+1 = Pi_K + delta_K (S(24)). ``enabled=False`` keeps delta = 1 (Pi_K = K): slip control off.
-    K counts from ``start_time`` (s, a multiple of T_C; the robot stands until then).
+    Update at t_K = K T_C (+ ``offset``): delta_K from delta_K-1, C1 and alpha (S(22)) bounded by S(23)
+    on K - Pi_K, then Pi_K+1 = Pi_K + delta_K (S(24)). ``enabled=False`` keeps delta = 1 (Pi_K = K):
+    slip control off. K counts from ``start_time`` (s, a multiple of T_C; the robot stands until then).
+    ``offset`` (s, in [0, T_C)): the update's delay after t_K (StepSizeParameters.after_navigation).
     """
 
-    def __init__(self, params: StepSizeParameters, T_C: float, enabled: bool = True, start_time: float = 0.0):
+    def __init__(
+        self,
+        params: StepSizeParameters,
+        T_C: float,
+        enabled: bool = True,
+        start_time: float = 0.0,
+        offset: float = 0.0,
+    ):
         super().__init__()
-        self._p, self._T_C, self._enabled, self._start = params, T_C, enabled, start_time
+        self._p, self._T_C, self._enabled, self._start = params, T_C, enabled, start_time + offset
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._alpha = self.DeclareVectorInputPort("side_slip_angle", 1)
         self._delta = self.DeclareDiscreteState([1.0])
@@ -151,10 +165,10 @@ class StepSizeController(LeafSystem):
             self.DeclareStateOutputPort("pace", self._delta)
         else:
             self.DeclareVectorOutputPort("pace", 1, self._calc_pace)
-        self.DeclarePeriodicDiscreteUpdateEvent(T_C, 0.0, self._update)
+        self.DeclarePeriodicDiscreteUpdateEvent(T_C, offset, self._update)
 
     def _control_instant(self, context) -> int | None:
-        """K at a control instant t_K = start + K T_C, else None."""
+        """K at a control instant t_K + offset = start + offset + K T_C, else None."""
         t = context.get_time()
         if t < self._start - 1e-9:
             return None

@@ -222,3 +222,118 @@ def test_linearised_and_nonlinear_responses_agree_for_small_perturbations():
             # The difference is second order in the perturbation.
             assert np.linalg.norm(x_nl - x_lin) < 5.0 * scale**2 + 1e-12, (scale, k)
         assert np.linalg.norm(x_nl) < 0.5 * np.linalg.norm(x0)  # and both decay
+
+
+# --- Indiveri I(24): when the speed law's switch slides (issue 48) ------------------------------------
+
+
+def straight_line_loop(follower, seconds: float, T_N=0.002, T_C=0.02, time_step=0.0005):
+    """Indiveri's follower and I(24) every T_C on a 60 m straight path around Kurt3D's plant (plant_advance:
+    its PI speed loop at 100 Hz, the motors' current and voltage limits, the tyres), from rest, localised
+    by the plant's own pose and speed (no navigation), the command acting from the next T_N sample as in
+    the closed loop. Per control instant: [t, u of I(24), robot speed v, V1, s1]."""
+    from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
+    from slipnav.systems.path_follower import bounded_speed, follower_step, saturate_wheel_speeds, speed_law
+    from slipnav.systems.plant import kurt3d, plant_advance
+
+    robot, path = kurt3d(), build_path(PathConfig(segments=[Straight(length=60.0)]))
+    V_m, half = robot.wheel_speed_limit, 0.5 * robot.track_width
+    n, sub = round(T_C / T_N), round(T_N / time_step)
+    x, loop, command = [0.0] * 10, [0.0] * 4, (0.0, 0.0)
+    state = [0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0]  # FollowerState
+    rows = []
+    for K in range(round(seconds / T_C)):
+        if follower.delayed_speed_law:
+            u = bounded_speed(state[3], 0.0, V_m, half, follower.epsilon)
+        else:
+            u = speed_law(x[0:3], state[0], path, follower, V_m, half)[0]
+        state = follower_step(state[0], x[0:3], u, path, follower, half, T_C, x[3])
+        rows.append((K * T_C, u, x[3], state[3], state[4]))
+        for i in range(n):
+            x, loop, _ = plant_advance(x, loop, command, (K * n + i) * sub, sub, time_step, robot)
+            command = saturate_wheel_speeds(state[1], state[2], V_m)
+    return np.array(rows)
+
+
+def branch_switches(u, V_m=4.1) -> int:
+    """How often I(24) changes branch (u = V_m/2 <-> V_m on a straight path)."""
+    high = u > 0.75 * V_m
+    return int(np.sum(high[1:] != high[:-1]))
+
+
+def test_i16_map_fixed_point_decides_whether_the_i24_switch_slides():
+    """The follower's T_C map on a straight path (kappa_r = 0, y1 = theta = 0, so V1 = s1^2/2), the robot
+    moving at v over the sample: s1+ = (1 - k1 T_C) s1 - T_C (u16 - v) (I(11) with I(16)), u16 the speed
+    I(16) reads. Fixed point s1* = -(u16 - v)/k1, multiplier 1 - k1 T_C = 0.96: stable.
+
+    u16 = the robot's speed v: s1* = 0 whatever u and v; on the surface V1 = epsilon both branches of I(24)
+    contract V1 (factor 0.96^2): the surface is crossed downwards only, I(24) switches once (I(17) in
+    discrete time). u16 = the command u: s1* = -(u - v)/k1, and V1* = (u - v)^2 / (2 k1^2) >= epsilon
+    once the robot lags the command by k1 sqrt(2 epsilon) = 0.632 m/s; on the surface (s1 = -sqrt(2
+    epsilon), the target ahead) the V_m branch raises V1 while v < V_m - 0.632 = 3.47 m/s and the V_m/2
+    branch lowers it while v > V_m/2 - 0.632 = 1.42 m/s: between, both point at the surface, a sliding
+    mode, which the sampled switch runs as chattering at T_C."""
+    from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
+    from slipnav.systems.path_follower import PathFollowerParameters, follower_step
+
+    path, T_C, V_m = build_path(PathConfig(segments=[Straight(length=20.0)])), 0.02, 4.1
+    robots_speed, command = PathFollowerParameters(), PathFollowerParameters(use_estimated_speed=False)
+    eps, k1 = robots_speed.epsilon, robots_speed.k1
+    s1_surface = -math.sqrt(2.0 * eps)
+
+    def next_s1(p, s1, u, v, s=5.0):
+        s_next = follower_step(s, (s + s1, 0.0, 0.0), u, path, p, 0.2, T_C, u_measured=v)[0]
+        return s + s1 + v * T_C - s_next
+
+    for v in np.linspace(0.5, 4.1, 10):
+        for u in (0.5 * V_m, V_m):
+            for p, u16 in ((robots_speed, v), (command, u)):
+                expected = (1.0 - k1 * T_C) * s1_surface - T_C * (u16 - v)
+                assert next_s1(p, s1_surface, u, v) == pytest.approx(expected, abs=1e-12)
+            assert next_s1(robots_speed, s1_surface, u, v) ** 2 / 2 < 0.93 * eps  # 0.96^2 = 0.92
+        rises = next_s1(command, s1_surface, V_m, v) ** 2 / 2 > eps
+        falls = next_s1(command, s1_surface, 0.5 * V_m, v) ** 2 / 2 < eps
+        band = 0.5 * V_m - k1 * math.sqrt(2 * eps) < v < V_m - k1 * math.sqrt(2 * eps)
+        assert (rises and falls) == band, v
+    s1 = 0.0  # the map's fixed point under the command: the robot at V_m/2, I(24) at V_m
+    for _ in range(500):
+        s1 = next_s1(command, s1, V_m, 0.5 * V_m)
+    assert s1 == pytest.approx(-(0.5 * V_m) / k1, rel=1e-6)  # s1* = -1.025 m: V1* = 0.525 >> epsilon
+    assert s1**2 / 2 == pytest.approx(0.5253125, rel=1e-5)
+
+
+def test_commanded_speed_in_i16_slides_on_the_switching_surface_on_kurt3d():
+    """The chattering of the single-u reading (I(16) on the command u) explained on Kurt3D's plant: from
+    rest I(24) picks V_m at once (V1 = 0), the robot cannot follow (2 x 90 W: about 4 m/s^2 from rest,
+    less with speed), the target runs ahead and V1 reaches epsilon within 0.12 s. Then the loop slides:
+    s1 stays at -sqrt(2 epsilon) = -0.316 m, the mean u exceeds the robot's speed by the equivalent
+    control's k1 sqrt(2 epsilon) = 0.632 m/s (the target's mean s_dot = u + k1 s1 equals v), and the
+    branch changes almost every T_C. The speed loop brakes harder than the motors accelerate at the top of
+    their range, so the robot holds near V_m/2 (measured 2.05 m/s, 173 switches in 6 s): the ~50 % time
+    saving cannot come. (Indiveri's long path, closed loop, seed 0: 1267 switches, 99 % of the constant
+    law's time.)"""
+    from slipnav.systems.path_follower import PathFollowerParameters
+
+    p = PathFollowerParameters(use_estimated_speed=False, delayed_speed_law=False)
+    t, u, v, V1, s1 = straight_line_loop(p, 6.0).T
+    assert V1[t <= 0.12].max() >= p.epsilon
+    assert branch_switches(u) >= 150
+    sliding = t >= 3.0
+    assert np.mean(s1[sliding]) == pytest.approx(-math.sqrt(2 * p.epsilon), rel=0.05)
+    assert np.mean(u[sliding] - v[sliding]) == pytest.approx(p.k1 * math.sqrt(2 * p.epsilon), rel=0.05)
+    assert np.max(v) < 0.53 * 4.1
+
+
+def test_paper_mode_speed_law_switches_once_on_kurt3d():
+    """Paper mode's follower (I(15)-(16) on the robot's speed, I(24) on V1 of the same instant) on the
+    same plant: V1 stays below 1 % of epsilon (the target never leads: s1* = 0), I(24) stays on V_m
+    without a single switch, and Kurt3D reaches 0.95 V_m in 1.64 s, as fast as its motors allow. Fails
+    on the single-u reading (test above)."""
+    from slipnav.scenarios.paper import paper_mode
+
+    p = paper_mode(load_scenario("long_path")).follower
+    t, u, v, V1, _ = straight_line_loop(p, 6.0).T
+    assert branch_switches(u) <= 1
+    assert np.max(V1[1:]) < 0.01 * p.epsilon
+    assert t[np.argmax(v >= 0.95 * 4.1)] < 1.7
+    assert np.all(u[2:] == 4.1)

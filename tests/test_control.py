@@ -240,10 +240,11 @@ def follow_on_a_unicycle(path, pose0, robot, duration):
     gains = PathFollowerParameters()
     follower = b.AddSystem(LyapunovPathFollower(gains, path, robot.track_width, T_C))
     saturator = b.AddSystem(
-        WheelSpeedSaturator(path, robot.wheel_speed_limit, robot.track_width, gains.epsilon)
+        WheelSpeedSaturator(path, robot.wheel_speed_limit, robot.track_width, gains)
     )
     plant = b.AddSystem(KinematicUnicycle(robot.track_width, pose0))
-    b.Connect(plant.get_output_port(0), follower.GetInputPort("estimated_pose"))
+    for block in (follower, saturator):
+        b.Connect(plant.get_output_port(0), block.GetInputPort("estimated_pose"))
     for name in ("speed", "estimated_speed"):
         b.Connect(saturator.GetOutputPort("speed"), follower.GetInputPort(name))
     for name in ("lyapunov_value", "virtual_target", "wheel_speed_command"):

@@ -41,7 +41,8 @@ def test_paper_mode_sets_every_switch_and_keeps_the_rest():
     assert math.isinf(m.tyre_peak_acceleration) and m.q2_inertial == 1.0
     assert math.isinf(m.gyro_turn_rate) and nav.standstill.enabled is False
     assert nav.gyrodometry.rate_time_constant == 0.0
-    assert p.slip_control.delayed_step_size is False and p.follower.use_estimated_speed is False
+    assert p.slip_control.delayed_step_size is False and p.follower.delayed_speed_law is False
+    assert p.follower.use_estimated_speed is True  # I(15)-(16) on the robot's speed: I(17) holds
     # The rest is the scenario's: tuning the papers give no number for, and T_N, T_C = the papers' 2, 20 ms.
     default = load_scenario("corner")
     assert (m.b1, m.a1, m.p, m.q2) == (default.navigation.mixing.b1, 150.0, 0.5, 0.99)
@@ -69,6 +70,7 @@ def default_untouched(scenario) -> bool:
         and m.delta_v_running_integral
         and scenario.slip_control.delayed_step_size
         and scenario.follower.use_estimated_speed
+        and scenario.follower.delayed_speed_law
     )
 
 
@@ -182,16 +184,71 @@ def test_s22_step_size_acts_at_once():
     assert pace(False, 0.01) == 1.0  # between control instants: the step size set at t_K (here none yet)
 
 
-def test_i16_with_the_commanded_speed():
-    """I(16): s_dot = u cos(theta) + k1 s1 with the commanded u = 1 m/s: the robot 0.1 m ahead of the
-    virtual target on a straight path, theta = 0, k1 = 2: s_dot = 1 + 0.2 = 1.2, s_+ = 1.2 * 0.02 = 0.024;
-    with the estimated speed 0.5 m/s (default): 0.7, 0.014. I(18)-(19) use u in both."""
+def test_s22_reads_c1_and_alpha_of_the_same_instant():
+    """S(22): delta_K = min(max(delta_K-1 (delta_min + min(C1_K, logsig(a4 (|alpha_K| - b4))) (q_delta -
+    delta_min)), delta_min), delta_max,K) with C1_K and alpha_K of batch K, which the navigation computes
+    at t_K (logged from row k + 1 on; row k holds C1_K-1, alpha_K-1). Corner, closed loop, 3 s: every
+    delta_K of paper mode is S(22) of C1_K and alpha_K to the last bit, and misses it with C1_K-1,
+    alpha_K-1 (slip control acts: the step size is cut); the default reads C1_K-1, alpha_K-1."""
+    from slipnav.scenarios.runner import run_scenario
+    from slipnav.systems.slip_control import step_size
+
+    def misses(scenario):
+        """Largest |logged delta_K - S(22)| with the inputs of row k + 1 (this batch) and of row k."""
+        a, p = run_scenario(scenario, duration=3.0).arrays, scenario.slip_control
+        k0 = round(float(a["start_time"]) / T_N)
+        rows = range(k0, len(a["t"]) - 1, 10)
+        worst = {0: 0.0, 1: 0.0}
+        for K, k in enumerate(rows):
+            for shift in worst:
+                j, lag = k + shift, K - a["progress"][k]
+                delta = step_size(a["step_size"][k], a["C1"][j], a["est_alpha"][j], lag, p)
+                worst[shift] = max(worst[shift], abs(delta - a["step_size"][k + 1]))
+        assert min(a["step_size"]) == p.delta_min
+        return worst
+
+    paper = misses(PAPER)
+    assert paper[1] == 0.0 and paper[0] > 0.05
+    default = misses(load_scenario("corner"))
+    assert default[0] == 0.0 and default[1] > 0.05
+
+
+def test_i16_with_the_robots_speed():
+    """I(16): s_dot = u cos(theta) + k1 s1 with u the robot's speed 0.5 m/s (paper mode and default; the
+    command u = 1 m/s goes into I(18)-(19)): the robot 0.1 m ahead of the virtual target on a straight
+    path, theta = 0, k1 = 2: s_dot = 0.5 + 0.2 = 0.7, s_+ = 0.7 * 0.02 = 0.014, and the commands u +- b *
+    (kappa s_dot + theta_dot) = 1 +- 0 = 1 m/s. With the command in I(16) too (use_estimated_speed false):
+    s_dot = 1.2, s_+ = 0.024."""
     path = build_path(PathConfig(segments=[Straight(length=5.0)]))
-    paper = PathFollowerParameters(use_estimated_speed=PAPER.follower.use_estimated_speed)
-    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, paper, 0.034, 0.02, u_measured=0.5)
+    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, PAPER.follower, 0.034, 0.02, u_measured=0.5)
+    assert step[0] == pytest.approx(0.014, abs=1e-15) and step[1:3] == [1.0, 1.0]
+    single_u = PathFollowerParameters(use_estimated_speed=False)
+    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, single_u, 0.034, 0.02, 0.5)
     assert step[0] == pytest.approx(0.024, abs=1e-15)
-    step = follower_step(0.0, (0.1, 0.0, 0.0), 1.0, path, PathFollowerParameters(), 0.034, 0.02, 0.5)
-    assert step[0] == pytest.approx(0.014, abs=1e-15)
+
+
+def test_i24_reads_v1_of_the_same_instant():
+    """I(24) on a straight path (kappa_r = 0), Kurt3D's V_m = 4.1 m/s, b = 0.2 m, epsilon = 0.05: the
+    robot at s = 1 m, 0.2 m left of the path, heading along it: delta = -0.5 tanh(0.2) = -0.0986877, V1 =
+    0.2^2 / 2 + delta^2 / (2 * 0.5) = 0.0297393 < epsilon -> u = V_m = 4.1 m/s at once (paper mode). The
+    follower's V1 of the previous update, 0.06 >= epsilon, sets u = V_m/2 = 2.05 m/s (default)."""
+    from slipnav.systems.path_follower import WheelSpeedSaturator, speed_law
+
+    path = build_path(PathConfig(segments=[Straight(length=5.0)]))
+    paper = PathFollowerParameters(delayed_speed_law=PAPER.follower.delayed_speed_law)
+    assert speed_law((1.0, 0.2, 0.0), 1.0, path, paper, 4.1, 0.2) == pytest.approx((4.1, 0.0297393), abs=1e-7)
+
+    def u(params):
+        block = WheelSpeedSaturator(path, 4.1, 0.4, params)
+        context = block.CreateDefaultContext()
+        for name, value in (("lyapunov_value", [0.06]), ("estimated_pose", [1.0, 0.2, 0.0])):
+            block.GetInputPort(name).FixValue(context, value)
+        block.GetInputPort("virtual_target").FixValue(context, [1.0])
+        block.GetInputPort("wheel_speed_command").FixValue(context, [0.0, 0.0])
+        return block.GetOutputPort("speed").Eval(context)[0]
+
+    assert u(paper) == 4.1
+    assert u(PathFollowerParameters()) == 2.05
 
 
 def test_run_paper_writes_the_paper_stem_and_summary(tmp_path, capsys):
@@ -206,10 +263,11 @@ def test_run_paper_writes_the_paper_stem_and_summary(tmp_path, capsys):
 
 def test_paper_effects_variants():
     """The study runs the default, paper mode and each deviation alone; the control ones closed loop only."""
-    from slipnav.studies.paper_effects import scenario_of, variants
+    from slipnav.studies.paper_effects import CONTROL_DEVIATIONS, scenario_of, variants
 
     assert variants(False)[:2] == ["default", "paper"] and len(variants(False)) == 2 + len(DEVIATIONS)
-    assert "only step_size_delay" not in variants(True) and len(variants(True)) == len(DEVIATIONS)
+    assert "only step_size_delay" not in variants(True)
+    assert len(variants(True)) == 2 + len(DEVIATIONS) - len(CONTROL_DEVIATIONS)
     alone = scenario_of("corner", "only creep")
     assert not alone.navigation.mixing.odometry_slip_compensation and not alone.paper
     assert alone.navigation.mixing.dv_memory == 0.7  # the rest stays the default

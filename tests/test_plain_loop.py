@@ -43,10 +43,10 @@ SLIDE_ONSET_ON = dc.replace(_SQUARE, mixing=dc.replace(_SQUARE.mixing, slide_ons
         ("square", 2.0, {}, {"localisation": "odometry"}),  # the follower on odometry-only
         ("circle", 2.0, {}, {"localisation": "gyrodometry"}),
         ("corner", 2.0, {}, {"localisation": "truth"}),  # on the plant's state
-        ("corner", 2.0, {}, {"paper": True}),  # paper mode: S(11) printed, delta_K at once, I(16) with u
+        ("corner", 2.0, {}, {"paper": True}),  # paper mode: S(11) printed, delta_K at once
         # the checks off (paper mode): a NaN encoder reaches the odometry, which holds, and S(11) skips it
         ("corner", 2.0, {}, {"paper": True, "faults": [FaultEvent("nan", "encoder_L", 1.5, 0.1)]}),
-        ("circle", 1.0, {}, {"paper": True}),  # max_speed mode in paper mode
+        ("circle", 1.0, {}, {"paper": True}),  # max_speed mode in paper mode: I(24) on V1 of the instant
         # the per-sample slide-onset test on (C1 = 0 in S(15) from a lock's first sample; off by default)
         ("square", 2.5, {}, {"navigation": SLIDE_ONSET_ON}),
     ],
