@@ -16,6 +16,7 @@
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
     slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
+    slipnav import phil-turtlebot TRIAL_DIR [--out DIR] [--model MODEL.yaml] [--resample interpolate|hold]
     slipnav calibrate SESSION.yaml [--out DIR]
     slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--logs] [--out DIR]
     slipnav reproduce [--out DIR] [--quick]
@@ -195,6 +196,18 @@ def _parser() -> argparse.ArgumentParser:
     )
     rep.add_argument("--out", default="runs", help="output directory (default: runs)")
     rep.add_argument("--no-figures", action="store_true", help="skip the figures")
+    imp = sub.add_parser("import", help="a real robot's logs as a sensor log, ground truth and model")
+    imp.add_argument("adapter", help="the logs' kind: phil-turtlebot (TurtleBot 2, navX, Vicon)")
+    imp.add_argument("trial", metavar="TRIAL_DIR", help="the folder of one recording's files")
+    imp.add_argument("--out", default="runs", help="output directory (default: runs)")
+    imp.add_argument(
+        "--model", default=None, help="model YAML (default: the adapter's data sheet); its T_N is the grid's"
+    )
+    imp.add_argument(
+        "--resample",
+        default="interpolate",
+        help="streams onto the T_N grid: interpolate (default) or hold",
+    )
     cal = sub.add_parser("calibrate", help="identify the robot's parameters from calibration manoeuvres")
     cal.add_argument(
         "session",
@@ -346,6 +359,11 @@ def _command(args) -> int:
         return 0
     if args.command == "replay":
         return _replay(args)
+    if args.command == "import":
+        from slipnav.scenarios.importers import import_command
+
+        import_command(args.adapter, args.trial, args.out, args.model, args.resample)
+        return 0
     if args.command == "animate":
         from slipnav.scenarios.animation import animate_file
 
