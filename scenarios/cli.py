@@ -17,6 +17,7 @@
     slipnav bench [SCENARIO] [--repeat N]
     slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
     slipnav import phil-turtlebot TRIAL_DIR [--out DIR] [--model MODEL.yaml] [--resample interpolate|hold]
+    slipnav evaluate LOG.csv|RUN.npz --truth TRUTH.csv [--model MODEL.yaml] [--out DIR]
     slipnav calibrate SESSION.yaml [--out DIR]
     slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--logs] [--out DIR]
     slipnav reproduce [--out DIR] [--quick]
@@ -208,6 +209,11 @@ def _parser() -> argparse.ArgumentParser:
         default="interpolate",
         help="streams onto the T_N grid: interpolate (default) or hold",
     )
+    eva = sub.add_parser("evaluate", help="fused, odometry-only and Gyrodometry against a ground truth")
+    eva.add_argument("log", metavar="LOG", help="sensor log (.csv, replayed first) or a run or replay npz")
+    eva.add_argument("--truth", required=True, help="ground-truth CSV t,x,y,yaw,quality (slipnav import)")
+    eva.add_argument("--model", default=None, help="model YAML of a sensor log (default as slipnav replay)")
+    eva.add_argument("--out", default="runs", help="output directory (default: runs)")
     cal = sub.add_parser("calibrate", help="identify the robot's parameters from calibration manoeuvres")
     cal.add_argument(
         "session",
@@ -363,6 +369,11 @@ def _command(args) -> int:
         from slipnav.scenarios.importers import import_command
 
         import_command(args.adapter, args.trial, args.out, args.model, args.resample)
+        return 0
+    if args.command == "evaluate":
+        from slipnav.scenarios.evaluate import evaluate_command
+
+        evaluate_command(args.log, args.truth, args.out, args.model)
         return 0
     if args.command == "animate":
         from slipnav.scenarios.animation import animate_file
