@@ -4,7 +4,7 @@ odometry-only and Gyrodometry of a replayed sensor log against a ground truth (d
 LOG is a sensor log (``.csv``: replayed first, as ``slipnav replay --no-figures`` does, its npz and
 summary written beside the evaluation) or a replay's or run's artifact (``.npz``). TRUTH is a ground-truth
 CSV (``t,x,y,yaw,quality``, t on the log's clock; ``slipnav import`` writes one). Per estimate, on the
-log's samples the truth covers (the truth linearly interpolated, its unseen rows left out):
+log's samples the truth covers (the truth linearly interpolated between seen rows, outages left out):
 
 - the estimate is first aligned on its start pose (the rigid motion that puts its first pose on the
   truth's); nothing else is fitted;
@@ -37,8 +37,9 @@ RPE_DISTANCE = 1.0
 RPE_TIME = 10.0
 SLIP_C1 = 0.75
 """C1 below this is read as slip (Seyr's mixing trusts the wheels less)."""
-TRUTH_GAP = 0.1
-"""s: log samples farther than this from a seen truth row on either side are left out."""
+TRUTH_GAP_ROWS = 2.5
+"""A log sample is judged where the seen truth rows around it are at most this many of the truth's median
+row intervals apart (one unseen row is bridged, a longer outage is not)."""
 
 
 class EvaluationError(ScenarioError):
@@ -88,14 +89,16 @@ def read_truth(path) -> dict:
 
 def truth_on(t, truth: dict) -> tuple[np.ndarray, np.ndarray]:
     """(poses (N, 3) x, y, yaw of the truth at ``t``, covered (N,) bool): linear interpolation (yaw
-    unwrapped) between seen rows no more than TRUTH_GAP from the instant."""
+    unwrapped) between the seen rows around each instant, where they are at most TRUTH_GAP_ROWS median
+    row intervals apart."""
     tt = truth["t"]
     yaw = np.unwrap(truth["yaw"])
     pose = np.column_stack(
         [np.interp(t, tt, truth["x"]), np.interp(t, tt, truth["y"]), np.interp(t, tt, yaw)]
     )
     k = np.clip(np.searchsorted(tt, t), 1, len(tt) - 1)
-    covered = (t >= tt[0]) & (t <= tt[-1]) & (t - tt[k - 1] <= TRUTH_GAP) & (tt[k] - t <= TRUTH_GAP)
+    gap = TRUTH_GAP_ROWS * float(np.median(np.diff(tt)))
+    covered = (t >= tt[0]) & (t <= tt[-1]) & (tt[k] - tt[k - 1] <= gap)
     return pose, covered
 
 

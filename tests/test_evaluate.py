@@ -83,6 +83,8 @@ def test_evaluate_writes_tum_json_and_figure_from_an_npz(tmp_path, capsys):
     fused, odo = result["estimates"]["fused"], result["estimates"]["odometry"]
     assert fused["ate_m"] == 0.0 and odo["final_error_m"] == pytest.approx(0.1 * 19.0, abs=0.001)
     assert result["truth"]["end_s"] == pytest.approx(19.0 - 0.01, abs=0.003)
+    # the truth's 50 ms outage at 3 s (5 median rows) is left out, as is the time after its end
+    assert result["truth"]["covered_share"] == pytest.approx((18.99 - 0.05) / 20.0, abs=0.001)
     h = result["health"]
     assert h["channels"] == {"encoder_R": 0.0, "gyro": pytest.approx(2.0 / 20.0, abs=1e-3)}
     assert h["any_health_channel"] == h["fault"] and h["C1_below_0.75"] == pytest.approx(0.25, abs=1e-3)
