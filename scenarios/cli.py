@@ -16,7 +16,8 @@
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
     slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
-    slipnav import phil-turtlebot TRIAL_DIR [--out DIR] [--model MODEL.yaml] [--resample interpolate|hold]
+    slipnav import phil-turtlebot|norlab-warthog DIR [--out DIR] [--model MODEL.yaml]
+                   [--resample interpolate|hold]
     slipnav evaluate LOG.csv|RUN.npz --truth TRUTH.csv [--model MODEL.yaml] [--out DIR]
     slipnav calibrate SESSION.yaml [--out DIR]
     slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--logs] [--out DIR]
@@ -198,7 +199,10 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", default="runs", help="output directory (default: runs)")
     rep.add_argument("--no-figures", action="store_true", help="skip the figures")
     imp = sub.add_parser("import", help="a real robot's logs as a sensor log, ground truth and model")
-    imp.add_argument("adapter", help="the logs' kind: phil-turtlebot (TurtleBot 2, navX, Vicon)")
+    imp.add_argument(
+        "adapter",
+        help="the logs' kind: phil-turtlebot (TurtleBot 2, navX, Vicon), norlab-warthog (Warthog, RTK)",
+    )
     imp.add_argument("trial", metavar="TRIAL_DIR", help="the folder of one recording's files")
     imp.add_argument("--out", default="runs", help="output directory (default: runs)")
     imp.add_argument(

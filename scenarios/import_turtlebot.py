@@ -381,6 +381,7 @@ def import_trial(trial_dir, model_path=None, resample: str = "interpolate") -> I
         "adapter": "phil-turtlebot",
         "name": name,
         "files": {k: str(v) for k, v in files.items()},
+        "truth_source": f"Vicon export {files['vicon']}, the axle centre (truth_offset)",
         "clocks": {
             "kobuki": {
                 "first_stamp_unix_s": est["starts"]["kobuki_unix_s"],
@@ -427,3 +428,17 @@ def import_trial(trial_dir, model_path=None, resample: str = "interpolate") -> I
         "log": {k: grid[k] for k in ("T_N_s", "rows", "duration_s", "resampling")},
     }
     return ImportResult(name=name, log=log, truth=table, model=model, model_text=text, report=report)
+
+
+def summary(r: dict) -> str:
+    """One line of what the import estimated (slipnav import prints it)."""
+    c, o = r["clocks"], r["truth_offset"]
+    return (
+        f"{r['name']}: {r['log']['rows']} rows at T_N {r['log']['T_N_s']:g} s ({r['log']['resampling']}); "
+        f"lags behind Vicon: wheels {1000 * c['kobuki']['lag_behind_vicon_s']:.1f} ms, IMU "
+        f"{1000 * c['navx']['lag_behind_vicon_s']:.1f} ms; gyro {r['gyro']['yaw_axis']}; "
+        f"{r['accelerometer']['mapping']} (fit {r['accelerometer']['fitted_angle_deg']:.1f} deg); truth "
+        f"forward axis at {o['forward_axis_in_object_frame_deg']:.2f} deg, axle centre "
+        f"{1000 * o['axle_centre_horizontal_distance_m']:.1f} mm beside and "
+        f"{-1000 * o['axle_centre_in_object_frame_m'][2]:.0f} mm below the object's origin"
+    )

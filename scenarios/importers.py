@@ -8,7 +8,8 @@ axes, the truth's frame; scenarios/alignment.py) and returns an ImportResult: th
 ``<name>.truth.csv`` (``t,x,y,yaw,quality``; ``slipnav evaluate --truth`` reads it) and
 ``<name>.import.json`` (what was estimated).
 
-Adapters: ``phil-turtlebot`` (scenarios/import_turtlebot.py).
+Adapters: ``phil-turtlebot`` (scenarios/import_turtlebot.py), ``norlab-warthog``
+(scenarios/import_warthog.py).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.model import ModelError, RobotModel, load_model, model_text
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, write_text_atomically
 
-ADAPTERS = ("phil-turtlebot",)
+ADAPTERS = ("phil-turtlebot", "norlab-warthog")
 RESAMPLING = ("interpolate", "hold")
 
 
@@ -113,7 +114,7 @@ def write_import(result: ImportResult, out_dir) -> list[FilePath]:
         write_text_atomically(stem.with_name(f"{result.name}.model.yaml"), [result.model_text]),
         write_text_atomically(
             stem.with_name(f"{result.name}.truth.csv"),
-            [truth_text(result.truth, result.report["files"]["vicon"])],
+            [truth_text(result.truth, result.report["truth_source"])],
         ),
         write_text_atomically(
             stem.with_name(f"{result.name}.import.json"), [json.dumps(result.report, indent=2) + "\n"]
@@ -128,21 +129,12 @@ def import_command(adapter: str, trial_dir, out_dir, model_path=None, resample="
     from slipnav.scenarios.runner import check_output_directory
 
     check_output_directory(out_dir)
-    from slipnav.scenarios.import_turtlebot import import_trial
-
-    result = import_trial(trial_dir, model_path, resample)
+    if adapter == "phil-turtlebot":
+        from slipnav.scenarios import import_turtlebot as module
+    else:
+        from slipnav.scenarios import import_warthog as module
+    result = module.import_trial(trial_dir, model_path, resample)
     for path in write_import(result, out_dir):
         print(path)
-    r = result.report
-    c, o = r["clocks"], r["truth_offset"]
-    print(
-        f"{result.name}: {r['log']['rows']} rows at T_N {r['log']['T_N_s']:g} s ({r['log']['resampling']}); "
-        "lags "
-        f"behind Vicon: wheels {1000 * c['kobuki']['lag_behind_vicon_s']:.1f} ms, IMU "
-        f"{1000 * c['navx']['lag_behind_vicon_s']:.1f} ms; gyro {r['gyro']['yaw_axis']}; "
-        f"{r['accelerometer']['mapping']} (fit {r['accelerometer']['fitted_angle_deg']:.1f} deg); truth "
-        f"forward axis at {o['forward_axis_in_object_frame_deg']:.2f} deg, axle centre "
-        f"{1000 * o['axle_centre_horizontal_distance_m']:.1f} mm beside and "
-        f"{-1000 * o['axle_centre_in_object_frame_m'][2]:.0f} mm below the object's origin"
-    )
+    print(module.summary(result.report))
     return result

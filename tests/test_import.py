@@ -162,7 +162,7 @@ def test_import_command_line(tmp_path, capsys):
 @pytest.mark.parametrize(
     "argv, phrase",
     [
-        (["import", "warthog", "."], "ADAPTER='warthog' is unknown: allowed phil-turtlebot"),
+        (["import", "warthog", "."], "ADAPTER='warthog' is unknown: allowed phil-turtlebot, norlab-warthog"),
         (["import", "phil-turtlebot", "/nonexistent"], "TRIAL_DIR='/nonexistent' is not a folder"),
         (["import", "phil-turtlebot", "."], "holds 0 files kobuki_data_*.csv: allowed one"),
         (["import", "phil-turtlebot", str(TURTLEBOT), "--resample", "cubic"], "--resample='cubic'"),
@@ -172,3 +172,32 @@ def test_import_mistakes_exit_2_with_one_line(argv, phrase, capsys, tmp_path):
     assert main([*argv, "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("slipnav: error: ") and phrase in err and err.count("\n") == 1
+
+
+WARTHOG = DATASETS / "norlab-warthog-doughnut"
+
+
+@pytest.mark.skipif(
+    not WARTHOG.is_dir(),
+    reason=f"the Warthog dataset is not at {WARTHOG} (../shared/datasets beside the repository)",
+)
+def test_warthog_import_finds_the_antennas_and_replays_without_accelerometers():
+    import datetime as dt
+
+    from slipnav.scenarios.import_warthog import gps_minus_utc, import_trial
+
+    assert gps_minus_utc(dt.date(2022, 9, 8)) == 18 and gps_minus_utc(dt.date(2016, 1, 1)) == 17
+    result = import_trial(WARTHOG)
+    r = result.report
+    assert r["gyro"]["yaw_axis"] == "+z" and r["clocks"]["gyro"]["yaw_rate_correlation"] > 0.99
+    assert 0.0 < r["clocks"]["gyro"]["lag_behind_gnss_s"] < 0.3
+    t = r["truth"]
+    assert (
+        0.6 < t["baseline_m"] < 1.0 and t["mounting_angle_spread_deg"] < 5.0 and t["epochs_all_fixed"] > 2000
+    )
+    assert r["files"]["middle"].endswith("reach_raw_202209081406.pos")
+    c = result.log.columns
+    assert np.all(np.isnan(c["acc1_t"])) and np.all(c["enc_L"] == np.round(c["enc_L"]))
+    short = SensorLog({k: v[:2500] for k, v in c.items()}, dict(result.log.metadata))  # 5 s
+    replayed = replay_log(short, result.model, "short")
+    assert np.isfinite(replayed.arrays["est_x"]).all() and np.isfinite(replayed.arrays["gyro_x"]).all()
