@@ -16,6 +16,9 @@
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
     slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
+    slipnav import phil-turtlebot|norlab-warthog DIR [--out DIR] [--model MODEL.yaml]
+                   [--resample interpolate|hold]
+    slipnav evaluate LOG.csv|RUN.npz --truth TRUTH.csv [--model MODEL.yaml] [--out DIR]
     slipnav calibrate SESSION.yaml [--out DIR]
     slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--logs] [--out DIR]
     slipnav reproduce [--out DIR] [--quick]
@@ -195,6 +198,26 @@ def _parser() -> argparse.ArgumentParser:
     )
     rep.add_argument("--out", default="runs", help="output directory (default: runs)")
     rep.add_argument("--no-figures", action="store_true", help="skip the figures")
+    imp = sub.add_parser("import", help="a real robot's logs as a sensor log, ground truth and model")
+    imp.add_argument(
+        "adapter",
+        help="the logs' kind: phil-turtlebot (TurtleBot 2, navX, Vicon), norlab-warthog (Warthog, RTK)",
+    )
+    imp.add_argument("trial", metavar="TRIAL_DIR", help="the folder of one recording's files")
+    imp.add_argument("--out", default="runs", help="output directory (default: runs)")
+    imp.add_argument(
+        "--model", default=None, help="model YAML (default: the adapter's data sheet); its T_N is the grid's"
+    )
+    imp.add_argument(
+        "--resample",
+        default="interpolate",
+        help="streams onto the T_N grid: interpolate (default) or hold",
+    )
+    eva = sub.add_parser("evaluate", help="fused, odometry-only and Gyrodometry against a ground truth")
+    eva.add_argument("log", metavar="LOG", help="sensor log (.csv, replayed first) or a run or replay npz")
+    eva.add_argument("--truth", required=True, help="ground-truth CSV t,x,y,yaw,quality (slipnav import)")
+    eva.add_argument("--model", default=None, help="model YAML of a sensor log (default as slipnav replay)")
+    eva.add_argument("--out", default="runs", help="output directory (default: runs)")
     cal = sub.add_parser("calibrate", help="identify the robot's parameters from calibration manoeuvres")
     cal.add_argument(
         "session",
@@ -346,6 +369,16 @@ def _command(args) -> int:
         return 0
     if args.command == "replay":
         return _replay(args)
+    if args.command == "import":
+        from slipnav.scenarios.importers import import_command
+
+        import_command(args.adapter, args.trial, args.out, args.model, args.resample)
+        return 0
+    if args.command == "evaluate":
+        from slipnav.scenarios.evaluate import evaluate_command
+
+        evaluate_command(args.log, args.truth, args.out, args.model)
+        return 0
     if args.command == "animate":
         from slipnav.scenarios.animation import animate_file
 
