@@ -205,6 +205,8 @@ def build_navigation_diagram(
     b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))
     b.Connect(check["inertial_fault"], yaw_calibration.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], yaw_calibration.GetInputPort("encoder_fault"))
+    if params.standstill.enabled:  # a rest the detector confirms (else the wheels' alone)
+        b.Connect(zupt["standstill"], yaw_calibration.GetInputPort("standstill"))
     b.Connect(calibrated["gyro"], ekf.GetInputPort("gyro"))
     b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
     b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))

@@ -197,16 +197,16 @@ def check_trajectory_size(config: TrajectoryConfig) -> None:
     MAX_TRAJECTORY_SAMPLES, whose repetitions last beyond MAX_TRAJECTORY_DURATION or whose path would
     exceed MAX_PATH_SAMPLES."""
     duration, length = trajectory_extent(config)
-    if duration > MAX_TRAJECTORY_DURATION:
-        raise TrajectoryError(
-            f"trajectory: the repetitions take {duration:.4g} s: allowed up to {MAX_TRAJECTORY_DURATION:g} s"
-        )
-    duration /= max(int(config.repeat), 1)  # the generator's grid holds one repetition at a time
     if length / _PATH_STEP > MAX_PATH_SAMPLES:  # the closed loop follows its path on the 1 mm grid
         raise TrajectoryError(
             f"trajectory: the segments are {length:.4g} m long ({length / _PATH_STEP:.3g} samples of the "
             f"{_PATH_STEP * 1e3:g} mm path grid): allowed up to {MAX_PATH_SAMPLES * _PATH_STEP:g} m"
         )
+    if duration > MAX_TRAJECTORY_DURATION:
+        raise TrajectoryError(
+            f"trajectory: the repetitions take {duration:.4g} s: allowed up to {MAX_TRAJECTORY_DURATION:g} s"
+        )
+    duration /= max(int(config.repeat), 1)  # the generator's grid holds one repetition at a time
     if duration / _FINE_STEP > MAX_TRAJECTORY_SAMPLES:
         raise TrajectoryError(
             f"trajectory: one repetition takes {duration:.4g} s ({duration / _FINE_STEP:.3g} samples of the "

@@ -384,8 +384,9 @@ class NavigationLoop:
             self.sensor_calibration,
         )
         fault = fault_imu > 0.5 or fault_enc > 0.5
+        rest = standing if self.params.standstill.enabled else None  # the detector's, else the wheels'
         self.calibration = yaw_calibration_step(
-            self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n
+            self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n, rest
         )
         self.c3_residual, self.c3_turn_rate = residual, turn
         self.standstill = standstill_step(

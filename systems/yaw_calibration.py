@@ -30,10 +30,15 @@ the gyro by the wheels' differential slip that every yaw acceleration and the sh
 geometry; turns are the gyro's (C3 S(14)).
 
 A change of the gyro's bias (a step, or a drift faster than its random walk) is judged by one test on
-the filter's normalised innovation z = (gyro - omega_o - H theta) / sqrt(S) (systems/residual_test.py):
-a two-sided CUSUM over the batches that both witnesses allow, the wheels standing still or saying the
-robot drives straight at a steady yaw rate (change_yaw_rate, steady_yaw_acceleration), and the gyro
-within the band of the largest bias step. On an alarm the N batches since the CUSUM's change point
+the filter's innovation (systems/residual_test.py): a two-sided CUSUM over the batches that both
+witnesses allow, the wheels saying the robot drives straight (change_yaw_rate) with wheels and gyro
+steady since the previous batch (steady_yaw_acceleration) and the gyro within the band of the largest
+bias step, or a rest the standstill detector confirms (a batch without encoder counts the detector does
+not confirm is neither learned from nor tested: the counts lag a turn's start or end), where D's
+uncertainty adds less to the innovation than the noise does ((v/b)^2 P_DD <= R: until the radius
+difference is learned, a residual at speed may be D's). The innovation is
+normalised by the larger of its predicted S and the variance the healthy tested batches show
+(noise_batches), and clipped at change_clip. On an alarm the N batches since the CUSUM's change point
 measure the change (their mean residual m): b_g's variance widens by m^2 and the mean updates it with
 R / N (bias_change_update). The learning gate (straight_yaw_rate, innovation_gate) keeps reading the gyro
 less the new b_g. A healthy stream raises one false alarm per change_run_length tested batches.
@@ -80,18 +85,26 @@ class YawCalibrationParameters:
             robot drives straight enough for the bias-change test (rad/s): 0.15, the path follower's
             corrections on a straight; the tyres' differential slip at that rate (10-15 %) stays within
             the batch's measurement_std.
-        steady_yaw_acceleration: the change of the calibrated odometric yaw rate from the previous batch
-            to this one, per second, below which the wheels' yaw rate is steady enough for the change test
-            (rad/s^2): 1.0, four of Tinyphoon's encoder counts per batch; while the yaw rate changes the
-            body's lags the wheels' by the tyres' slip (Kurt3D's turn-in: 0.07 rad/s for 4 batches).
+        steady_yaw_acceleration: the change of the calibrated odometric yaw rate and of the gyro's mean from
+            the previous batch to this one, per second, below which both are steady enough for the change
+            test (rad/s^2): 2.0, eight of Tinyphoon's encoder counts per batch; while the yaw rate changes
+            the body's lags the wheels' by the tyres' slip (Kurt3D's turn-in: 0.07 rad/s for 4 batches)
+            and by the streams' relative lag (a real robot's loggers).
         largest_bias_step: the largest change of the gyro bias the change test follows (rad/s): 0.15; a
             moving batch is tested only while the gyro less b_g stays within straight_yaw_rate +
             largest_bias_step (a body that turns while its wheels do not is sliding).
         change_run_length: mean number of tested batches between false alarms of the bias-change test
             (a CUSUM of the normalised innovation, systems/residual_test.py): 180000, one per hour.
-        change_drift: the CUSUM's drift k (sigma): 0.5, soonest for a shift of one innovation sigma; |z|
-            beyond innovation_gate counts as innovation_gate there, so that a few batches of a slide
-            cannot raise the alarm that a persistent bias change raises.
+        change_drift: the CUSUM's drift k (sigma): 0.5, soonest for a shift of one innovation sigma.
+        noise_batches: the observed variance of the tested batches' innovations averages over this many of
+            them (within innovation_gate: a change does not feed it): 100, 2 s of tested batches. The
+            test normalises by the larger of it and the predicted S: a robot whose gyro and wheels agree
+            less well than measurement_std says raises no alarm for that (Mehra's innovation-based
+            adaptive estimate).
+        change_clip: |z| beyond this counts as this in the CUSUM (sigma): 2.5, so that an alarm needs
+            h / (change_clip - change_drift) tested batches at least (5.5, 0.11 s at T_C = 20 ms): a
+            turn's start or end, where a real robot's body and wheels disagree for 60-80 ms, raises none;
+            a persistent bias change does.
     """
 
     enabled: bool = True
@@ -109,6 +122,8 @@ class YawCalibrationParameters:
     largest_bias_step: float = 0.15
     change_run_length: float = 180000.0
     change_drift: float = 0.5
+    change_clip: float = 2.5
+    noise_batches: float = 100.0
 
     def __post_init__(self):
         if not isinstance(self.enabled, bool):
@@ -131,10 +146,14 @@ class YawCalibrationParameters:
                 f"yaw_calibration.change_run_length={self.change_run_length!r} is out of range: allowed "
                 "(1, inf) batches"
             )
-        if not self.innovation_gate > self.change_drift:
+        if not (math.isfinite(self.noise_batches) and self.noise_batches >= 1.0):
             raise ValueError(
-                f"yaw_calibration.change_drift={self.change_drift!r} is out of range: allowed (0, "
-                f"innovation_gate={self.innovation_gate})"
+                f"yaw_calibration.noise_batches={self.noise_batches!r} is out of range: allowed [1, inf)"
+            )
+        if not (math.isfinite(self.change_clip) and self.change_clip > self.change_drift):
+            raise ValueError(
+                f"yaw_calibration.change_clip={self.change_clip!r} is out of range: allowed "
+                f"(change_drift={self.change_drift}, inf)"
             )
         if not (0.0 <= self.trusted_c1 <= 1.0):
             raise ValueError(
@@ -153,11 +172,16 @@ CALIBRATION_LAYOUT = (
     ("cusum", 6),
     ("changes", 1),
     ("previous_wheels", 1),
+    ("previous_gyro", 1),
+    ("standing", 1),
+    ("residual_variance", 1),
 )
 """The calibration's state, in order (name, size): theta = [b_g, D], its covariance P (row-major), the
 batch's sums of (gyro, omega_o, v_o, |v_o| + |omega_o|), its sample count, 1 while every sample of the
 batch passed its checks, the learned and rejected batches, the bias-change CUSUM (CusumState), the bias
-changes detected, the previous batch's calibrated odometric yaw rate (NaN: none)."""
+changes detected, the previous batch's calibrated odometric yaw rate and gyro mean (NaN: none), the
+batch's samples the standstill detector called standing, the observed variance of the tested batches'
+innovations (rad^2/s^2; 0: none yet)."""
 
 
 def _layout_slices(layout) -> dict:
@@ -171,14 +195,15 @@ def _layout_slices(layout) -> dict:
 _SLICES = _layout_slices(CALIBRATION_LAYOUT)
 _THETA, _P, _SUMS, _COUNT, _OK = (_SLICES[k] for k in ("theta", "covariance", "sums", "count", "ok"))
 _LEARNED, _REJECTED, _CUSUM, _CHANGES = (_SLICES[k] for k in ("learned", "rejected", "cusum", "changes"))
-_PREVIOUS_WHEELS = _SLICES["previous_wheels"]
+_PREVIOUS_WHEELS, _PREVIOUS_GYRO = _SLICES["previous_wheels"], _SLICES["previous_gyro"]
+_STANDING, _RESIDUAL_VARIANCE = _SLICES["standing"], _SLICES["residual_variance"]
 STATE_SIZE = sum(size for _, size in CALIBRATION_LAYOUT)
 NUM_THETA = 2
 
 
 def bias_change_test(p: YawCalibrationParameters) -> CusumTest:
     """The CUSUM that judges the calibration's normalised innovations for a change of the gyro bias."""
-    return CusumTest.from_run_length(p.change_run_length, p.change_drift, p.innovation_gate)
+    return CusumTest.from_run_length(p.change_run_length, p.change_drift, p.change_clip)
 
 
 def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
@@ -186,7 +211,7 @@ def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
     state = np.zeros(STATE_SIZE)
     state[_P] = np.diag([p.initial_bias_std**2, p.initial_radius_difference_std**2]).ravel()
     state[_OK] = 1.0
-    state[_PREVIOUS_WHEELS] = math.nan
+    state[_PREVIOUS_WHEELS] = state[_PREVIOUS_GYRO] = math.nan
     return state
 
 
@@ -216,9 +241,14 @@ def yaw_calibration_step(
     p: YawCalibrationParameters,
     T_N: float,
     batch_length: int,
+    standing: bool | None = None,
 ) -> np.ndarray:
     """One T_N sample: accumulate the batch; at its end (batch_length samples) the Kalman update of theta
-    if every check passed. Returns the next state (the theta used at this sample is ``state``'s)."""
+    if every check passed. ``standing``: the standstill detector's decision for this sample
+    (systems/standstill.py; None: without the detector the wheels alone say the robot stands). A batch
+    whose wheels did not turn counts as a standstill only while the detector said so on every sample;
+    otherwise (the wheels' counts lag a turn's start or end) it is neither learned from nor tested.
+    Returns the next state (the theta used at this sample is ``state``'s)."""
     state = np.array(state, dtype=float)
     if not p.enabled:
         return state
@@ -229,6 +259,7 @@ def yaw_calibration_step(
     else:
         state[_OK] = 0.0
     state[_COUNT] += 1.0
+    state[_STANDING] += 1.0 if standing is None or standing else 0.0
     if state[_COUNT] < batch_length:
         return state
     n = state[_COUNT]
@@ -237,18 +268,27 @@ def yaw_calibration_step(
     # predict step: the random walks over the batch
     P = P + np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * (n * T_N)
     wheels = omega_mean + theta[1] * v_mean / track_width  # the calibrated odometric yaw rate
-    steady = abs(wheels - state[_PREVIOUS_WHEELS]) <= p.steady_yaw_acceleration * n * T_N
+    change = p.steady_yaw_acceleration * n * T_N  # both witnesses' yaw rates steady since the last batch
+    steady = (
+        abs(wheels - state[_PREVIOUS_WHEELS]) <= change and abs(gyro_mean - state[_PREVIOUS_GYRO]) <= change
+    )
     state[_PREVIOUS_WHEELS] = wheels if state[_OK] > 0.5 else math.nan
+    state[_PREVIOUS_GYRO] = gyro_mean if state[_OK] > 0.5 else math.nan
     learn, test = batch_selection(gyro_mean - theta[0], wheels, moving > 0.0, steady, p)
-    if state[_OK] > 0.5 and (learn or test):
+    witnessed = moving > 0.0 or state[_STANDING] == n  # a rest the detector confirms
+    if state[_OK] > 0.5 and witnessed and (learn or test):
         H = np.array([1.0, v_mean / track_width])
         R = (p.measurement_std if moving > 0.0 else p.standstill_measurement_std) ** 2
         innovation = gyro_mean - omega_mean - H @ theta
         S = H @ P @ H + R
         alarm = 0
-        if test:
-            # test: the normalised innovation's CUSUM
-            z = innovation / math.sqrt(S)
+        # the test judges b_g only where D's uncertainty adds less to the innovation than the noise does
+        if test and H[1] * H[1] * P[1, 1] <= R:
+            # test: the CUSUM of the innovation normalised by the larger of its predicted variance and
+            # the variance the healthy tested batches show (a real robot's witnesses are noisier)
+            z = innovation / math.sqrt(max(S, state[_RESIDUAL_VARIANCE]))
+            if z * z <= p.innovation_gate**2:
+                state[_RESIDUAL_VARIANCE] += (innovation**2 - state[_RESIDUAL_VARIANCE]) / p.noise_batches
             cusum, alarm = cusum_step(CusumState(state[_CUSUM]), z, bias_change_test(p), innovation)
             state[_CUSUM] = cusum[:]
             if alarm:
@@ -269,7 +309,7 @@ def yaw_calibration_step(
     state[_THETA] = theta
     state[_P] = (0.5 * (P + P.T)).ravel()
     state[_SUMS] = 0.0
-    state[_COUNT] = 0.0
+    state[_COUNT] = state[_STANDING] = 0.0
     state[_OK] = 1.0
     return state
 
@@ -329,6 +369,7 @@ class YawRateCalibration(LeafSystem):
         - C1
         - inertial_fault
         - encoder_fault
+        - standstill
         output_ports:
         - calibrated
         - bias
@@ -336,7 +377,8 @@ class YawRateCalibration(LeafSystem):
 
     - gyro: the checked gyro sample [omega] (rad/s); odometry: the nominal S(10) [^O v_t, ^O omega, v_R,
       v_L]; C1: the C1 in force; inertial_fault, encoder_fault: 1 when this sample's reading was replaced
-      (its batch is not learned from).
+      (its batch is not learned from); standstill (optional): 1 while the standstill detector says the
+      robot stands (unconnected: the wheels alone say so, yaw_calibration_step's ``standing`` None).
     - calibrated (direct feedthrough, theta from the state), in CALIBRATED_LAYOUT's order: gyro
       [omega - b_g]; odometry, calibrated_odometry. One vector, one Python call per sample; the
       navigation diagram slices it with a Demultiplexer (diagrams/split.py).
@@ -359,6 +401,7 @@ class YawRateCalibration(LeafSystem):
         self._odo = self.DeclareVectorInputPort("odometry", 4)
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._faults = [self.DeclareVectorInputPort(name, 1) for name in ("inertial_fault", "encoder_fault")]
+        self._standstill = self.DeclareVectorInputPort("standstill", 1)
         state0 = yaw_calibration_initial_state(params)
         self._state = self.DeclareDiscreteState(state0)
         parameters0 = calibration_parameters(state0)
@@ -394,6 +437,7 @@ class YawRateCalibration(LeafSystem):
             self._p,
             self._T_N,
             self._n,
+            self._standstill.Eval(context).tolist()[0] > 0.5 if self._standstill.HasValue(context) else None,
         )
         discrete_state.set_value(self._state, state)
         if state[_COUNT] == 0.0:  # a batch ended (or calibration is off): theta, P and the counts moved

@@ -1061,7 +1061,8 @@ def test_tyre_model_check_on_a_floor_with_less_grip():
     closed loop (the diagram's twin): where the slide departs from the nominal curve (seeds 1 and 3) the
     check opens beyond 0.9 and the side-slip RMS error where |alpha| > 1 deg falls from above 3 deg by a
     third or more (3.2 -> 1.3, 3.3 -> 2.3); where the integral stays with the curve (seed 0) the check
-    stays shut and the run is the unchecked one. The check's own effect: the tyre peak's identification
+    stays all but shut (its weight below 0.05) and the run is the unchecked one within 1 %. The check's
+    own effect: the tyre peak's identification
     (test_tyre_peak_identification_on_floors_of_other_grip) is off."""
     from slipnav.scenarios.config import with_keys
     from slipnav.scenarios.metrics import side_slip_rms_error
@@ -1084,7 +1085,8 @@ def test_tyre_model_check_on_a_floor_with_less_grip():
         assert without > 3.0 and with_check < 0.7 * without, (seed, without, with_check)
         assert np.max(a["tyre_model_weight"]) > 0.9
     with_check, a = alpha_rms(slippery, 0)
-    assert with_check == alpha_rms(unchecked, 0)[0] and np.max(a["tyre_model_weight"]) == 0.0
+    assert with_check == pytest.approx(alpha_rms(unchecked, 0)[0], rel=0.01)
+    assert np.max(a["tyre_model_weight"]) < 0.05
     # An accelerometer that reads twice the lateral acceleration looks like a slide for the 60 ms before
     # the sensor checks exclude it (square, seed 1, accel2_n from 2.73 s at 0.4 m/s): below the gate's
     # reference speed of 1 m/s that is no evidence, and the run ends as without the check (16.1 mm; with
