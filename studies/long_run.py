@@ -2,7 +2,8 @@
 
     python -m slipnav.studies.long_run [SCENARIO] [--duration S] [--spin S] [--out DIR]
 
-1. ``slipnav run SCENARIO --duration S`` (default: square, 3600 s) in a child process: its peak resident
+1. ``slipnav run SCENARIO --duration S`` (default: square_laps, an hour of square laps with 5 s at rest
+   between them, 3600 s) in a child process: its peak resident
    memory (getrusage of the child, as ``/usr/bin/time -v`` reports it), wall time, and the summary's
    ``completed``, ``aborted`` and the extreme eigenvalues and asymmetry of the EKF covariance P (checked
    every 0.1 s of simulated time by runner.NavigationHealth).
@@ -92,7 +93,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m slipnav.studies.long_run", description=__doc__.split("\n")[0]
     )
-    parser.add_argument("scenario", nargs="?", default="square")
+    parser.add_argument("scenario", nargs="?", default="square_laps")
     parser.add_argument("--duration", type=float, default=3600.0, help="simulated time of the run (s)")
     parser.add_argument("--spin", type=float, default=3600.0, help="simulated time of the spin (s); 0 skips")
     parser.add_argument("--out", default="runs/long_run", help="directory of the run's artifact")
