@@ -7,6 +7,7 @@ finite holds the last finite one (held_reading). The gyro passes the model's sen
 the robot's calibration, not a check.
 """
 
+import dataclasses as dc
 import math
 
 import numpy as np
@@ -22,15 +23,20 @@ def held_reading(value: float, last: float) -> float:
     return value if math.isfinite(value) else last
 
 
+@dc.dataclass
 class BaselineState:
     """The baselines' state after each sample (the plain loop's; the block holds the same groups)."""
 
-    def __init__(self, initial_pose, initial_speed: float):
-        v = float(initial_speed)
-        self.odometry = [np.nan, np.nan, 0.0, v, 0.0, v, v]  # odometry_step's
-        self.odometry_pose = [float(p) for p in initial_pose]
-        self.gyrodometry = [*self.odometry_pose, 0.0, 0.0]  # gyrodometry_step's
-        self.gyro = 0.0  # the last finite (corrected) gyro reading
+    odometry: list  # odometry_step's
+    odometry_pose: list  # [x, y, phi]
+    gyrodometry: list  # gyrodometry_step's [x, y, phi, drift, rate PT1]
+    gyro: float  # the last finite (corrected) gyro reading
+
+    @classmethod
+    def initial(cls, initial_pose, initial_speed: float) -> "BaselineState":
+        """At rest or at ``initial_speed`` (m/s) in ``initial_pose``, no encoder reading yet."""
+        v, pose = float(initial_speed), [float(p) for p in initial_pose]
+        return cls([np.nan, np.nan, 0.0, v, 0.0, v, v], pose, [*pose, 0.0, 0.0], 0.0)
 
 
 def baselines_step(
@@ -93,7 +99,7 @@ class Baselines(LeafSystem):
         self._calibration = None if calibration is None or calibration.is_identity() else calibration
         self._encoders = self.DeclareVectorInputPort("encoders", 2)
         self._gyro = self.DeclareVectorInputPort("gyro", 1)
-        state = BaselineState(initial_pose, initial_speed)
+        state = BaselineState.initial(initial_pose, initial_speed)
         self._odometry = self.DeclareDiscreteState(np.array(state.odometry))
         self._odometry_pose = self.DeclareDiscreteState(np.array(state.odometry_pose))
         self._gyro_pose = self.DeclareDiscreteState(np.array(state.gyrodometry[0:3]))
@@ -103,11 +109,13 @@ class Baselines(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _update(self, context, discrete_state):
-        state = BaselineState((0.0, 0.0, 0.0), 0.0)
-        state.odometry = discrete_state.get_value(self._odometry).tolist()
-        state.odometry_pose = discrete_state.get_value(self._odometry_pose).tolist()
-        drift, rate, state.gyro = discrete_state.get_value(self._gyro_rest).tolist()
-        state.gyrodometry = [*discrete_state.get_value(self._gyro_pose).tolist(), drift, rate]
+        drift, rate, gyro = discrete_state.get_value(self._gyro_rest).tolist()
+        state = BaselineState(
+            discrete_state.get_value(self._odometry).tolist(),
+            discrete_state.get_value(self._odometry_pose).tolist(),
+            [*discrete_state.get_value(self._gyro_pose).tolist(), drift, rate],
+            gyro,
+        )
         baselines_step(
             state,
             self._encoders.Eval(context).tolist(),

@@ -250,7 +250,7 @@ class NavigationLoop:
         self.c1, self.dv_held, self.dv_sum, self.alpha, self.v_track = 1.0, 0.0, 0.0, 0.0, 0.0
         self.pose = list(initial.pose)
         self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
-        self.baselines = BaselineState(initial.pose, initial.speed)  # on the raw sensors
+        self.baselines = BaselineState.initial(initial.pose, initial.speed)  # on the raw sensors
         self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)

@@ -49,7 +49,7 @@ def odometry_step(state, encoders, wheel_radius, track_width: float, T_N: float)
     return [theta_R, theta_L, 0.0, v_t, omega, v_R, v_L], [v_t, omega, v_R, v_L], 0.0
 
 
-ODOMETRY_STEP_LAYOUT = (("state", 7), ("odometry", 4), ("fault", 1), ("body_velocity", 3))
+ODOMETRY_STEP_LAYOUT = (("state", 7), ("odometry", 4), ("fault", 1))
 """The Odometry block's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
@@ -67,9 +67,8 @@ class Odometry(LeafSystem):
     - encoders: quantised wheel angles [theta_R, theta_L] (rad).
     - step (direct feedthrough), in ODOMETRY_STEP_LAYOUT's order: the next state; odometry
       [^O v_t, ^O omega, v_R, v_L] of the current sample; fault: 1 when the current encoder sample is not
-      finite (the previous output is held); body_velocity [^O v_t, 0, ^O omega] for dead reckoning
-      (odometry has no v_n, §IV-B). One vector, one Python call per sample; the navigation diagram
-      slices it with a Demultiplexer (diagrams/split.py).
+      finite (the previous output is held). One vector, one Python call per sample; the navigation
+      diagram slices it with a Demultiplexer (diagrams/split.py).
 
     Args:
         wheel_radius, track_width: calibrated geometry (m); wheel_radius one number for both wheels or
@@ -99,7 +98,7 @@ class Odometry(LeafSystem):
             self._b,
             self._T_N,
         )
-        output.SetFromVector([*state, *out, fault, out[0], 0.0, out[1]])
+        output.SetFromVector([*state, *out, fault])
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:7])
