@@ -205,6 +205,7 @@ def build_navigation_diagram(
     b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))
     b.Connect(check["inertial_fault"], yaw_calibration.GetInputPort("inertial_fault"))
     b.Connect(check["encoder_fault"], yaw_calibration.GetInputPort("encoder_fault"))
+    b.Connect(check["gyro_bias_step"], yaw_calibration.GetInputPort("gyro_bias_step"))
     if params.standstill.enabled:  # a rest the detector confirms (else the wheels' alone)
         b.Connect(zupt["standstill"], yaw_calibration.GetInputPort("standstill"))
     b.Connect(calibrated["gyro"], ekf.GetInputPort("gyro"))

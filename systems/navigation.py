@@ -69,6 +69,7 @@ from slipnav.systems.sensor_health import (
     NO_CURRENTS,
     HealthGeometry,
     SensorHealthParameters,
+    gyro_bias_step,
     health_check,
     health_constants,
     health_initial_state,
@@ -386,7 +387,8 @@ class NavigationLoop:
         fault = fault_imu > 0.5 or fault_enc > 0.5
         rest = standing if self.params.standstill.enabled else None  # the detector's, else the wheels'
         self.calibration = yaw_calibration_step(
-            self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n, rest
+            self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n, rest,
+            gyro_bias_step(self.health),
         )
         self.c3_residual, self.c3_turn_rate = residual, turn
         self.standstill = standstill_step(

@@ -25,7 +25,9 @@ Checks (health codes, 0 = healthy):
 5. ``inconsistent``: the two accelerometers' same axes disagree, in a moving average over
    consistency_samples, by more than accel_consistency + accel_consistency_per_speed |v_o| beyond the
    rotational terms the gyro predicts (S(3)'s sensors at +-(x, y) differ by
-   2 (-omega_dot y - omega^2 x, omega_dot x - omega^2 y), omega_dot from the gyro's difference), or, in
+   2 (-omega_dot y - omega^2 x, omega_dot x - omega^2 y), omega_dot from the gyro less b_g) and the
+   pair's learned offset (the two biases' difference, a state that drifts as the data sheet says:
+   pair_offset_update), or, in
    a second average over fast_consistency_samples (3) while the gyro is trusted, by
    fast_consistency_factor (1.6) times that bound plus the noise the gyro's difference puts into the
    rotational terms (fast_pair_ratio): a 5 m/s^2 step is flagged after 3-4 samples instead of 7-11; the one
@@ -73,9 +75,13 @@ replacement's, so that a scale error does not come back as a turn slows), an enc
 its increments agree with v_pred sample by sample and, summed over a block of
 encoder_readmission_samples, within two counts plus encoder_readmission_fraction of the predicted travel
 (a doubled encoder passes one sample's bound at low speed; with no prediction, one increment agreeing with
-the previous one suffices); either after
-max_exclusion_time if only that test still fails (a persistent new level: the yaw calibration's
-innovation gate judges a gyro bias step from there).
+the previous one suffices). No exclusion ends on a timer: a channel whose readings never agree again
+(a sign-flipped or dead encoder, an accelerometer with a bias beyond its jump bound) stays out to the
+end, its replacement serving. A gyro that comes back at a new level is no such channel: while it is
+out, its residual against the replacement is judged over blocks of bias_step_samples, and a block that
+shows a steady offset while the wheels say the robot drives straight hands that offset to the
+calibration as a bias step (gyro_bias_step_block); the gyro, less the new b_g, then agrees and is
+re-admitted. The gyro's reference and the replacements read the gyro less b_g.
 """
 
 import collections
@@ -105,6 +111,14 @@ yaw rate, averaged over 15 samples, reads up to 5.4 rad/s while the body turns a
 corner, 10 seeds), above the 5.2 rad/s full scale: a doubled gyro read max(full scale, pair) there (open
 corner seed 9: 4.3 deg of heading, 85 mm)."""
 NUM_CHANNELS = 7
+READMISSION_TRAVEL_COUNTS = 10.0
+"""An excluded encoder's re-admission block is judged only once the encoder itself has counted this
+many counts in it (five times the block's two-count allowance): at rest a sign-flipped or doubled
+encoder agrees with any prediction, so the block goes on until the wheel has turned enough to tell."""
+BIAS_STEP_SIGMAS = 4.0
+"""An excluded gyro's residual may spread this many of its noise sigmas (plus the wheels' quantisation)
+over a block that measures a new bias (gyro_bias_step_block): a gyro that reads noise, or a turn the
+wheels do not see, is no bias."""
 FAST_ROTATION_SIGMAS = 5.0
 """The fast pair test's bound allows this many standard deviations of the noise that the gyro's
 sample-to-sample difference (omega') puts into the fast average's rotational terms, 2 omega' y (t) and
@@ -157,17 +171,20 @@ class SensorHealthParameters:
             so 1.6 keeps about 1.6 x of margin there and more on Tinyphoon. A 5 m/s^2 bias step is
             flagged after 3-4 samples instead of 7-11 (open corner, seed 1: a lateral axis's bias,
             20 -> 10 ms, 12.2 -> 8.7 x the fault-free error).
-        max_exclusion_time: an analog channel failing only the jump test is re-admitted after this (s),
-            counted from when its reading is finite, unsaturated and moving again (after a longer
-            outage the returning reading is still compared with its replacement first).
+        bias_step_samples: an excluded gyro's residual against its replacement is judged over blocks
+            of this many samples for a new bias (gyro_bias_step_block), in [2, 500]: 25 (50 ms).
+        bias_step_yaw_rate: the block measures a bias only while its replacement stays within this
+            (rad/s): 0.15, driving straight (the calibration's change_yaw_rate), where a scale error or
+            a sign flip reads nothing.
         encoder_readmission_samples: an excluded encoder is re-admitted only after a block of this
             many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the prediction from the
-            other wheel and the gyro and whose summed difference from it stays within two counts plus
+            other wheel and the gyro, span READMISSION_TRAVEL_COUNTS of the encoder's counts, and whose
+            summed difference from it stays within two counts plus
             encoder_readmission_fraction of the predicted travel. One sample's bound
             (max_wheel_acceleration T_N, 0.3 m/s) lets a doubled encoder through below 0.3 m/s; the
             quantisation telescopes over the block, a scale error does not (the square's final braking:
             a x2 encoder re-admitted at 0.33 m/s read v_t 0.15 m/s fast). Like every channel it is
-            re-admitted after max_exclusion_time whatever the block says.
+            kept out until a block agrees.
         encoder_readmission_fraction: the block's tolerance beyond two counts, as a fraction of the
             predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
         gyro_readmission_samples: an excluded gyro is re-admitted only after this many consecutive
@@ -177,7 +194,7 @@ class SensorHealthParameters:
             bias from 2.19 s: re-admitted after 60 ms and trusted for the rest of the step, 26 deg of
             heading, 0.47 m). 5 (10 ms): 3 already kept that gyro out (2.2 deg, as an outage); an outage
             ending in the skid cost 6.8 -> 7.2 mm with 5, 8.2 with 10. Like every channel it is
-            re-admitted after max_exclusion_time whatever the block says.
+            kept out until a block agrees.
         gyro_readmission_fraction: the gyro's block must also agree in sum: its summed difference from
             the replacement within 3 noise sigmas sqrt(n), two counts of each wheel's heading and this
             fraction (in [0, 1]) of the replacement's summed magnitude. A gyro's doubled scale passes the
@@ -240,7 +257,8 @@ class SensorHealthParameters:
     consistency_samples: int = 15
     fast_consistency_samples: int = 3
     fast_consistency_factor: float = 1.6
-    max_exclusion_time: float = 1.0
+    bias_step_samples: int = 25
+    bias_step_yaw_rate: float = 0.15
     encoder_readmission_samples: int = 10
     encoder_readmission_fraction: float = 0.2
     gyro_readmission_samples: int = 5
@@ -258,7 +276,7 @@ class SensorHealthParameters:
     def __post_init__(self):
         for name in (
             "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
-            "max_exclusion_time stuck_min_speed"
+            "bias_step_yaw_rate stuck_min_speed"
         ).split():
             _positive(name, getattr(self, name))
         if self.max_wheel_speed is not None:
@@ -278,6 +296,9 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
+        value = self.bias_step_samples
+        if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 500):
+            raise ValueError(f"bias_step_samples={value!r} is out of range: allowed integers in [2, 500]")
         value = self.gain_samples
         if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= GAIN_WINDOW_MAX):
             raise ValueError(f"gain_samples={value!r} is out of range: allowed integers in [2, 50]")
@@ -435,7 +456,12 @@ _GAIN_POS = _GAIN + 2 * GAIN_SLOTS
 _GAIN_RING = _GAIN_POS + 2
 # The variance of the pair's learned offset (t, n; pair_offset_update).
 _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
-STATE_SIZE = _OFFSET_VAR + 2
+# An excluded gyro's bias-step block (gyro_bias_step_block): its samples, the sums of its residual and
+# of the residual's square, the largest |replacement| in it; then the bias step handed over this sample.
+_B_COUNT, _B_SUM, _B_SQUARES, _B_TURN, _B_STEP = (_OFFSET_VAR + 2 + i for i in range(5))
+# Per encoder, its own travel (|increments| summed) in the re-admission block.
+_R_MOVED = slice(_B_STEP + 1, _B_STEP + 3)
+STATE_SIZE = _B_STEP + 3
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
@@ -456,7 +482,7 @@ HealthConstants = collections.namedtuple(
     "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
     "accel_consistency "
     "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
-    "max_exclusion_time "
+    "bias_step_samples bias_step_yaw_rate "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
     "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
     "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
@@ -499,6 +525,7 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
             "clip_window",
             "gain_samples",
             "gain_block_samples",
+            "bias_step_samples",
         ):
             value = int(value)
         else:
@@ -569,7 +596,6 @@ def health_check(
     # Analog channels: non-finite, saturated, stuck, jump.
     ranges = (p.accel_range, p.accel_range, p.accel_range, p.accel_range, p.gyro_range)
     steps = (p.accel_max_step, p.accel_max_step, p.accel_max_step, p.accel_max_step, p.gyro_max_step)
-    max_excl = round(p.max_exclusion_time / g.T_N)
     for c in range(5):
         x = raw[c]
         if not math.isfinite(x):
@@ -586,7 +612,7 @@ def health_check(
             codes[c] = SATURATED
         elif repeat[c] >= p.stuck_samples - 1:
             codes[c] = STUCK
-        elif math.isfinite(ref[c]) and abs(x - ref[c]) > steps[c] and excl[c] < max_excl:
+        elif math.isfinite(ref[c]) and abs(x - (bias if c == 4 else 0.0) - ref[c]) > steps[c]:
             codes[c] = RECOVERING if excl[c] > 0 else JUMP
         elif hold[c] > 0:
             codes[c] = INCONSISTENT
@@ -597,7 +623,7 @@ def health_check(
     # An excluded gyro comes back only after a block of samples within its bound of the replacement whose
     # summed difference from it (a heading) stays within the noise, two counts of each wheel and
     # gyro_readmission_fraction of the replacement's own: a scale error does not telescope.
-    if codes[4] == 0 and 0.0 < excl[4] < max_excl and math.isfinite(ref[4]):
+    if codes[4] == 0 and excl[4] > 0.0 and math.isfinite(ref[4]):
         s[_G_COUNT] += 1.0
         s[_G_DIFF] += raw[4] - bias - ref[4]
         s[_G_TRAVEL] += abs(ref[4])
@@ -614,6 +640,7 @@ def health_check(
             s[_G_COUNT], s[_G_DIFF], s[_G_TRAVEL] = 0.0, 0.0, 0.0
     else:
         s[_G_COUNT], s[_G_DIFF], s[_G_TRAVEL] = 0.0, 0.0, 0.0
+    gyro_bias_step_block(s, codes[4], raw[4] - bias - ref[4], ref[4], p, g)
     gyro_ok = codes[4] == 0
 
     # Encoders: raw-to-raw increments; implausible, spanning an exclusion, or still while predicted moving.
@@ -621,7 +648,7 @@ def health_check(
     e_last, e_out, e_inc = s[_E_LAST], s[_E_OUT], s[_E_INC]
     still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
     e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
-    r_count, r_diff, r_travel = s[_R_COUNT], s[_R_DIFF], s[_R_TRAVEL]
+    r_count, r_diff, r_travel, r_moved = s[_R_COUNT], s[_R_DIFF], s[_R_TRAVEL], s[_R_MOVED]
     previous_out = [e_last[w] + e_out[w] for w in range(2)]  # e_out: the output less the last raw
 
     def predicted_increment(w: int, other_increment: float) -> float:
@@ -673,14 +700,16 @@ def health_check(
                     r_count[w] += 1.0
                     r_diff[w] += d - expected
                     r_travel[w] += abs(expected)
-                    if r_count[w] >= p.encoder_readmission_samples:
+                    r_moved[w] += abs(d)
+                    informative = r_moved[w] >= READMISSION_TRAVEL_COUNTS * g.encoder_step
+                    if r_count[w] >= p.encoder_readmission_samples and informative:
                         tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * r_travel[w]
                         ok = abs(r_diff[w]) <= tolerance
                     else:
                         ok, in_block[w] = False, True
             else:
                 ok = abs(d - d_prev) <= bound
-            if ok or e_excl[w] >= max_excl:
+            if ok:
                 inc[w] = d
             else:
                 codes[5 + w] = RECOVERING
@@ -743,7 +772,7 @@ def health_check(
         e_inc[w] = e_inc[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         e_excl[w] = e_excl[w] + 1.0 if codes[5 + w] else 0.0
         if not in_block[w]:  # judged, broken, or no block: the next one starts anew
-            r_count[w] = r_diff[w] = r_travel[w] = 0.0
+            r_count[w] = r_diff[w] = r_travel[w] = r_moved[w] = 0.0
     s[_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     v_R, v_L = used[0] * radii[0] / g.T_N, used[1] * radii[1] / g.T_N
     v_o = 0.5 * (v_R + v_L)
@@ -766,10 +795,10 @@ def health_check(
     shadow = s[_G_SHADOW]
     previous_omega = ref[4]  # the pair's omega' differences against what it last used
     if codes[4] == 0 and repeat[4] == 0:
-        s[_G_SHADOW], s[_G_OWED] = raw[4], 0.0
+        s[_G_SHADOW], s[_G_OWED] = raw[4] - bias, 0.0
     elif codes[4] == 0 and math.isfinite(shadow) and enc_ok:
         s[_G_SHADOW] = yaw_follow_step(shadow, v_R, v_L, v_t, v_n, g, grip) if model else omega_o
-        s[_G_OWED] += s[_G_SHADOW] - raw[4]
+        s[_G_OWED] += s[_G_SHADOW] - (raw[4] - bias)
     if codes[4] == STUCK and excl[4] == 0.0 and math.isfinite(shadow) and enc_ok:
         ref[4] = shadow
         s[_G_PAY_LEFT] = float(p.stuck_samples)
@@ -792,7 +821,7 @@ def health_check(
                 rate_dot = (used[w] - previous_inc[w]) / (g.T_N * g.T_N)
                 torque = g.motor_constant * currents[w] - g.bearing_drag * rate - g.wheel_inertia * rate_dot
                 force += torque / radii[w]
-            force, _ = shoe_drag(v_o, 0.0, raw[4] if gyro_ok else omega_wheels, g, force, 0.0)
+            force, _ = shoe_drag(v_o, 0.0, raw[4] - bias if gyro_ok else omega_wheels, g, force, 0.0)
             a_force = force / g.mass
 
     # Accelerometer pair: disagreement beyond the rotational terms, a moving average over
@@ -800,7 +829,7 @@ def health_check(
     # moved more and lies farther from the kinematics is excluded. The yaw rate the rotational terms use
     # is the gyro's, else the wheels' (omega_wheels), else (saturated) the pair's own.
     px, py = g.accelerometer_position
-    omega = raw[4] if gyro_ok else omega_wheels
+    omega = raw[4] - bias if gyro_ok else omega_wheels
     full_scale = p.saturation_fraction * p.gyro_range
     pair_finite = (
         math.isfinite(raw[0]) and math.isfinite(raw[1]) and math.isfinite(raw[2]) and math.isfinite(raw[3])
@@ -838,9 +867,10 @@ def health_check(
         for axis in (0, 1):
             pair_of = (axis, axis + 2)  # sensor 1's and sensor 2's channel of this axis
             disagreement = raw[axis] - raw[axis + 2] - rot[axis] - rot_dot[axis]
-            average[axis] += (disagreement - average[axis]) / p.consistency_samples
+            offset_free = disagreement - s[_OFFSET + axis]  # less the two biases' learned difference
+            average[axis] += (offset_free - average[axis]) / p.consistency_samples
             if fast_known:
-                s[_FAST + axis] += (disagreement - s[_FAST + axis]) / p.fast_consistency_samples
+                s[_FAST + axis] += (offset_free - s[_FAST + axis]) / p.fast_consistency_samples
             else:  # the replacement's omega' is not averaged in: restart from the slow average
                 s[_FAST + axis] = average[axis]
             fast = fast_pair_ratio(s[_FAST + axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
@@ -850,7 +880,6 @@ def health_check(
             if fast_known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
                 pair_offset_update(s, axis, disagreement, abs(v_o), other, p, g)
             rotation = rot[axis] + rot_dot[axis]
-            offset_free = disagreement - s[_OFFSET + axis]
             moving = used[0] != 0.0 or used[1] != 0.0  # the wheels turned
             gain = pair_gain_ratio(
                 s, axis, offset_free, mean, rotation, other, abs(v_o), moving, fast_known, p, g
@@ -900,12 +929,12 @@ def health_check(
 
     # Analog output: the reading, else its redundant estimate (the reference carried along).
     for c in range(5):
-        if codes[c] == 0:
-            out[c] = ref[c] = raw[c]
+        if codes[c] == 0:  # the reference is the gyro less b_g, as its replacement is
+            out[c] = raw[c]
+            ref[c] = raw[c] - (bias if c == 4 else 0.0)
             excl[c] = 0.0
             continue
-        # max_exclusion_time counts from when the reading is plausible again (a new level after an outage)
-        excl[c] = 1.0 if codes[c] in (NONFINITE, SATURATED, STUCK) else excl[c] + 1.0
+        excl[c] += 1.0
         if c == 4 and codes[4] == SATURATED:
             value = omega  # the pair's yaw rate, or the wheels' (above)
         elif c == 4:
@@ -942,6 +971,44 @@ def clip_returns(s, base: int, position: int, x: float, p) -> int:
             runs += 1
         newer_at = at
     return runs
+
+
+@jitable
+def gyro_bias_step_block(s, code: int, residual: float, replacement: float, p, g) -> None:
+    """The bias step of an excluded gyro (module docstring, re-admission): while the gyro is out for a
+    jump (JUMP, RECOVERING), its ``residual`` against the ``replacement`` (raw - b_g - replacement, rad/s)
+    is summed over blocks of bias_step_samples. A block in which the replacement stays within
+    bias_step_yaw_rate (the wheels say the robot drives straight, where a yaw-rate scale error reads
+    nothing) and the residual's standard deviation within BIAS_STEP_SIGMAS of the gyro's noise plus the
+    wheels' quantisation (one count of each wheel over T_N, as a yaw rate) measures a new bias: its mean
+    residual, unless within BIAS_STEP_SIGMAS of its standard error, is handed to the calibration
+    (s[_B_STEP], gyro_bias_step), which adds it to b_g; the gyro is then re-admitted by the block test
+    when it agrees again."""
+    s[_B_STEP] = 0.0
+    if code != JUMP and code != RECOVERING or not math.isfinite(residual):
+        s[_B_COUNT] = s[_B_SUM] = s[_B_SQUARES] = s[_B_TURN] = 0.0
+        return
+    s[_B_COUNT] += 1.0
+    s[_B_SUM] += residual
+    s[_B_SQUARES] += residual * residual
+    s[_B_TURN] = max(s[_B_TURN], abs(replacement))
+    n = s[_B_COUNT]
+    if n < p.bias_step_samples:
+        return
+    mean = s[_B_SUM] / n
+    spread = math.sqrt(max(s[_B_SQUARES] / n - mean * mean, 0.0))
+    counts = g.encoder_step * (g.radius_R + g.radius_L) / (g.track_width * g.T_N)
+    measured = abs(mean) > BIAS_STEP_SIGMAS * max(spread, g.gyro_noise_std) / math.sqrt(n)
+    steady = spread <= BIAS_STEP_SIGMAS * g.gyro_noise_std + counts
+    if s[_B_TURN] <= p.bias_step_yaw_rate and steady and measured:
+        s[_B_STEP] = mean
+    s[_B_COUNT] = s[_B_SUM] = s[_B_SQUARES] = s[_B_TURN] = 0.0
+
+
+def gyro_bias_step(state) -> float:
+    """The gyro bias step (rad/s) the checks of this sample hand to the calibration (0: none;
+    gyro_bias_step_block)."""
+    return float(state[_B_STEP])
 
 
 @jitable
@@ -1219,6 +1286,7 @@ HEALTH_STEP_LAYOUT = (
     ("inertial_fault", 1),
     ("encoder_fault", 1),
     ("sensor_fault", 1),
+    ("gyro_bias_step", 1),
 )
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
@@ -1296,8 +1364,9 @@ class SensorHealthMonitor(LeafSystem):
       encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
-      One vector, so that one Python call per sample computes them all; the navigation diagram slices
-      it with a Demultiplexer (diagrams/split.py).
+      gyro_bias_step: the step of b_g measured on an excluded gyro this sample (rad/s, 0: none;
+      gyro_bias_step_block), for the calibration. One vector, so that one Python call per sample
+      computes them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
 
@@ -1346,11 +1415,7 @@ class SensorHealthMonitor(LeafSystem):
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
         flags = health_flags(codes, odometry_unusable(state, out))
-        step[STATE_SIZE:] = [
-            *out,
-            *codes,
-            *flags,
-        ]
+        step[STATE_SIZE:] = [*out, *codes, *flags, gyro_bias_step(state)]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

@@ -242,16 +242,26 @@ def yaw_calibration_step(
     T_N: float,
     batch_length: int,
     standing: bool | None = None,
+    bias_step: float = 0.0,
 ) -> np.ndarray:
     """One T_N sample: accumulate the batch; at its end (batch_length samples) the Kalman update of theta
     if every check passed. ``standing``: the standstill detector's decision for this sample
     (systems/standstill.py; None: without the detector the wheels alone say the robot stands). A batch
     whose wheels did not turn counts as a standstill only while the detector said so on every sample;
     otherwise (the wheels' counts lag a turn's start or end) it is neither learned from nor tested.
+    ``bias_step``: a step of b_g the sensor checks measured on an excluded gyro (rad/s, 0: none;
+    systems/sensor_health.py, gyro_bias_step_block), taken as a bias change (bias_step_update with R =
+    measurement_std^2) at once.
     Returns the next state (the theta used at this sample is ``state``'s)."""
     state = np.array(state, dtype=float)
     if not p.enabled:
         return state
+    if bias_step != 0.0 and math.isfinite(bias_step):
+        P = state[_P].reshape(NUM_THETA, NUM_THETA)
+        theta, P = bias_step_update(state[_THETA], P, bias_step, p.measurement_std**2)
+        state[_THETA], state[_P] = theta, P.ravel()
+        state[_CUSUM] = 0.0
+        state[_CHANGES] += 1.0
     v, omega_o = odo[0], odo[1]
     sample_ok = not fault and c1 >= p.trusted_c1 and all(map(math.isfinite, (gyro, v, omega_o)))
     if sample_ok:
@@ -316,17 +326,23 @@ def yaw_calibration_step(
 
 def bias_change_update(theta, P, cusum: CusumState, side: int, R: float) -> tuple:
     """A detected change of b_g: the N batches since the CUSUM's change point say the residual moved by
-    their mean m. b_g's variance widens by m^2 (the change's size), and the mean is the measurement
-    y = m of b_g's change (H = [1, 0], R / N). Returns the new (theta, P)."""
+    their mean m: bias_step_update with m and R / N. Returns the new (theta, P)."""
     count, shift = cusum_shift(cusum, side)
-    P = P.copy()
+    return bias_step_update(theta, P, shift, R / count)
+
+
+def bias_step_update(theta, P, shift: float, variance: float) -> tuple:
+    """A measured change ``shift`` of b_g (rad/s) with ``variance`` (rad^2/s^2): b_g's variance widens
+    by shift^2 (the change's size), and the shift is the measurement y = m of b_g's change
+    (H = [1, 0], R = variance). Returns the new (theta, P)."""
+    P = np.array(P, dtype=float)
     P[0, 0] += shift * shift
     H = np.array([1.0, 0.0])
-    S = H @ P @ H + R / count
+    S = H @ P @ H + variance
     gain = P @ H / S
-    theta = theta + gain * shift
+    theta = np.asarray(theta, dtype=float) + gain * shift
     I_KH = np.eye(NUM_THETA) - np.outer(gain, H)
-    return theta, I_KH @ P @ I_KH.T + np.outer(gain, gain) * R / count
+    return theta, I_KH @ P @ I_KH.T + np.outer(gain, gain) * variance
 
 
 def batch_selection(gyro: float, wheels: float, moving: bool, steady: bool, p) -> tuple:
@@ -370,6 +386,7 @@ class YawRateCalibration(LeafSystem):
         - inertial_fault
         - encoder_fault
         - standstill
+        - gyro_bias_step
         output_ports:
         - calibrated
         - bias
@@ -378,7 +395,9 @@ class YawRateCalibration(LeafSystem):
     - gyro: the checked gyro sample [omega] (rad/s); odometry: the nominal S(10) [^O v_t, ^O omega, v_R,
       v_L]; C1: the C1 in force; inertial_fault, encoder_fault: 1 when this sample's reading was replaced
       (its batch is not learned from); standstill (optional): 1 while the standstill detector says the
-      robot stands (unconnected: the wheels alone say so, yaw_calibration_step's ``standing`` None).
+      robot stands (unconnected: the wheels alone say so, yaw_calibration_step's ``standing`` None);
+      gyro_bias_step (optional): the step of b_g the sensor checks measured on an excluded gyro (rad/s;
+      0 or unconnected: none), added at once.
     - calibrated (direct feedthrough, theta from the state), in CALIBRATED_LAYOUT's order: gyro
       [omega - b_g]; odometry, calibrated_odometry. One vector, one Python call per sample; the
       navigation diagram slices it with a Demultiplexer (diagrams/split.py).
@@ -402,6 +421,7 @@ class YawRateCalibration(LeafSystem):
         self._c1 = self.DeclareVectorInputPort("C1", 1)
         self._faults = [self.DeclareVectorInputPort(name, 1) for name in ("inertial_fault", "encoder_fault")]
         self._standstill = self.DeclareVectorInputPort("standstill", 1)
+        self._bias_step = self.DeclareVectorInputPort("gyro_bias_step", 1)
         state0 = yaw_calibration_initial_state(params)
         self._state = self.DeclareDiscreteState(state0)
         parameters0 = calibration_parameters(state0)
@@ -427,6 +447,8 @@ class YawRateCalibration(LeafSystem):
     def _update(self, context, discrete_state):
         inertial, encoder = self._faults
         fault = inertial.Eval(context).tolist()[0] > 0.5 or encoder.Eval(context).tolist()[0] > 0.5
+        port = self._bias_step
+        step = float(port.Eval(context)[0]) if port.HasValue(context) else 0.0
         state = yaw_calibration_step(
             discrete_state.get_value(self._state),
             self._gyro.Eval(context).tolist()[0],
@@ -438,9 +460,10 @@ class YawRateCalibration(LeafSystem):
             self._T_N,
             self._n,
             self._standstill.Eval(context).tolist()[0] > 0.5 if self._standstill.HasValue(context) else None,
+            step,
         )
         discrete_state.set_value(self._state, state)
-        if state[_COUNT] == 0.0:  # a batch ended (or calibration is off): theta, P and the counts moved
+        if state[_COUNT] == 0.0 or step != 0.0:  # a batch ended, or a bias step: theta, P, the counts moved
             parameters = calibration_parameters(state)
             discrete_state.set_value(self._bias, parameters[0:1])
             discrete_state.set_value(self._parameters, parameters)

@@ -360,9 +360,9 @@ def test_a_doubled_gyro_is_not_readmitted_when_the_turn_slows_within_its_bound()
 
 
 def test_after_a_long_outage_the_gyro_is_still_compared_with_its_replacement():
-    """NaN for 1.2 s (longer than max_exclusion_time, 1 s), then the gyro returns 1 rad/s off for 0.6 s:
-    max_exclusion_time counts from its return, so it is not re-admitted on its first sample (as it was
-    when the outage's samples counted) but when it agrees again, after the block of 5."""
+    """NaN for 1.2 s, then the gyro returns 1 rad/s off for 0.6 s in a 0.5 rad/s turn (no bias step is
+    measured in a turn): it is not re-admitted on its first sample but when it agrees again, after the
+    block of 5."""
     rows = stream(1500, 1.0, 0.5)
     rows[100:700, 4] = np.nan
     rows[700:1000, 4] += 1.0
