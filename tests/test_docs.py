@@ -33,12 +33,14 @@ def test_readme_python_blocks_exist():
     assert len(_blocks(README, "python")) == 2
 
 
-@pytest.mark.parametrize("document", ["README.md", "docs/scenario-schema.md"])
+@pytest.mark.parametrize(
+    "document", ["README.md", "docs/scenario-schema.md", "docs/calibration.md", "docs/truth-and-belief.md"]
+)
 def test_every_yaml_example_loads(document):
     blocks = _blocks((ROOT / document).read_text(), "yaml")
     assert blocks
     for block in blocks:
-        if "manoeuvres:" in block:  # a calibration session (README: Calibration sessions)
+        if "manoeuvres:" in block:  # a calibration session (docs/calibration.md)
             from slipnav.scenarios.config import _check, _load_yaml
             from slipnav.studies.calibration_session import CalibrationSession
 
