@@ -33,9 +33,17 @@ def test_readme_python_blocks_exist():
     assert len(_blocks(README, "python")) == 2
 
 
-@pytest.mark.parametrize(
-    "document", ["README.md", "docs/scenario-schema.md", "docs/calibration.md", "docs/truth-and-belief.md"]
-)
+YAML_DOCUMENTS = [
+    "README.md",
+    "docs/scenario-schema.md",
+    "docs/model.md",
+    "docs/calibration.md",
+    "docs/truth-and-belief.md",
+]
+"""The documents with YAML examples (scenarios or calibration sessions), each loaded as written."""
+
+
+@pytest.mark.parametrize("document", YAML_DOCUMENTS)
 def test_every_yaml_example_loads(document):
     blocks = _blocks((ROOT / document).read_text(), "yaml")
     assert blocks
