@@ -18,19 +18,32 @@ def _blocks(text: str, language: str) -> list[str]:
     return re.findall(rf"```{language}\n(.*?)```", text, re.S)
 
 
-@pytest.mark.parametrize("index", range(len(_blocks(README, "python"))))
-def test_readme_python_blocks_run(index, capsys):
-    code = _blocks(README, "python")[index]
+PYTHON_DOCUMENTS = {"README.md": 1, "docs/python-api.md": 1}
+"""The documents with Python examples and how many each has: README's three-line example, the worked
+script of docs/python-api.md."""
+PYTHON_BLOCKS = [
+    (document, index)
+    for document in PYTHON_DOCUMENTS
+    for index in range(len(_blocks((ROOT / document).read_text(), "python")))
+]
+
+
+@pytest.mark.parametrize("document, index", PYTHON_BLOCKS)
+def test_python_blocks_run(document, index, capsys):
+    code = _blocks((ROOT / document).read_text(), "python")[index]
     namespace = {}
-    exec(compile(code, f"README.md python block {index}", "exec"), namespace)
+    exec(compile(code, f"{document} python block {index}", "exec"), namespace)
     if "arrays" in namespace:  # the three-line example
         assert len(namespace["arrays"]["t"]) == 751  # 1.5 s on the 2 ms grid
     else:  # the worked script prints how far the fused estimate ends from the truth
         assert re.search(r"fused estimate ends \d+\.\d mm from the truth", capsys.readouterr().out)
 
 
-def test_readme_python_blocks_exist():
-    assert len(_blocks(README, "python")) == 2
+def test_python_blocks_exist():
+    for document, count in PYTHON_DOCUMENTS.items():
+        assert len(_blocks((ROOT / document).read_text(), "python")) == count, document
+    assert "arrays = run_scenario(" in _blocks(README, "python")[0]
+    assert "fused estimate ends" in _blocks((DOCS / "python-api.md").read_text(), "python")[0]
 
 
 YAML_DOCUMENTS = [
