@@ -47,13 +47,19 @@ def test_python_blocks_exist():
 
 
 YAML_DOCUMENTS = [
-    "README.md",
     "docs/scenario-schema.md",
     "docs/model.md",
     "docs/calibration.md",
     "docs/truth-and-belief.md",
+    "docs/sensor-faults.md",
 ]
 """The documents with YAML examples (scenarios or calibration sessions), each loaded as written."""
+
+
+def test_every_document_with_yaml_examples_is_checked():
+    for path in [ROOT / "README.md", *sorted(DOCS.glob("*.md"))]:
+        if _blocks(path.read_text(), "yaml"):
+            assert str(path.relative_to(ROOT)) in YAML_DOCUMENTS, path
 
 
 @pytest.mark.parametrize("document", YAML_DOCUMENTS)
