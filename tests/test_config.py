@@ -109,17 +109,17 @@ def test_missing_file_and_unknown_name(tmp_path):
         load_scenario("nope")
 
 
-def test_readme_example_scenario_loads_and_builds():
-    """The scenario example in README.md is valid as written."""
+def test_docs_example_scenario_loads_and_builds():
+    """The scenario example in docs/model.md (its first YAML block) is valid as written."""
     import re
     from pathlib import Path
 
     from slipnav.scenarios.runner import follower_path, reference_for
 
-    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
-    blocks = re.findall(r"```yaml\n(.*?)```", readme, re.S)
+    text = (Path(__file__).resolve().parent.parent / "docs" / "model.md").read_text()
+    blocks = re.findall(r"```yaml\n(.*?)```", text, re.S)
     example = next(b for b in blocks if "manoeuvres:" not in b)  # not a calibration session
-    scenario = scenario_from_yaml(example, name="readme")
+    scenario = scenario_from_yaml(example, name="docs")
     assert scenario.follower.epsilon == 0.05 and scenario.slip_control.delta_min == 0.75
     reference, _ = reference_for(scenario)
     assert reference.length == pytest.approx(1.0 + 1.0 + 0.5 * math.pi / 4 + 1.0 + 0.5)

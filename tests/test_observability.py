@@ -1,4 +1,4 @@
-"""What proprioception cannot tell apart (README, Truth and belief, "Twin robots").
+"""What proprioception cannot tell apart (docs/truth-and-belief.md, "Twin robots").
 
 A gyro whose sensitivity is 1 % low and a track 1/0.99 - 1 = 1.01 % wider than the tape measure's both
 scale the ratio of the gyro's yaw rate to the odometric one by 0.99, and nothing else the sensors see
