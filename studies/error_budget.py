@@ -121,6 +121,7 @@ def replay(a: dict, scenario, navigation=None, **oracles) -> dict:
             speed=float(a["true_v_t"][0]),
             pose=(float(a["true_x"][0]), float(a["true_y"][0]), float(a["true_phi"][0])),
         ),
+        robot=robot,  # the believed robot, as the run's navigation has it
         **oracles,
     )
     accelerometers = np.column_stack([a[f"meas_{k}"] for k in ("a_t1", "a_n1", "a_t2", "a_n2")])

@@ -28,6 +28,7 @@ Logged values are those the blocks read at t_k: states before step 5, outputs of
 
 import dataclasses as dc
 import math
+from types import SimpleNamespace
 
 import numpy as np
 from slipnav.systems.baselines import BaselineState, baselines_step
@@ -96,6 +97,7 @@ from slipnav.systems.yaw_calibration import (
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
+from slipnav.systems.yaw_witness import MIN_YAW_LAG_STEPS, yaw_lag_at_floor
 
 
 @dc.dataclass
@@ -190,6 +192,10 @@ def health_geometry(
     force = {}
     if robot is not None:
         force = {name: float(getattr(robot, name)) for name in FORCE_REFERENCE_FIELDS}
+        force["track_width"] = track_width  # the believed track, as the checks use it
+        if yaw_lag_at_floor(SimpleNamespace(**force)) < MIN_YAW_LAG_STEPS * T_N:  # no lag to model
+            force["yaw_inertia"] = 0.0
+        del force["track_width"]
     return HealthGeometry(
         r_R,
         r_L,

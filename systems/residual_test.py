@@ -21,8 +21,10 @@ its witnesses are healthy. Two tests judge z:
 import dataclasses as dc
 import math
 
+import numpy as np
 from pydrake.common.containers import namedview
 from scipy.stats import chi2
+from slipnav.systems.compiled import jitable
 
 CusumState = namedview(
     "CusumState", ["upper", "lower", "upper_count", "lower_count", "upper_sum", "lower_sum"]
@@ -98,14 +100,28 @@ def cusum_step(state: CusumState, z: float, test: CusumTest, residual: float | N
     """One normalised innovation ``z`` of ``residual`` (default z): returns (the next CusumState, +1 / -1
     when the upper / lower sum exceeds the threshold, else 0). The sums are not reset here: the caller
     decides what an alarm changes and restarts the test with cusum_initial_state."""
-    residual = z if residual is None else residual
-    clipped = min(max(z, -test.clip), test.clip)
-    upper = max(0.0, state.upper + clipped - test.drift)
-    lower = max(0.0, state.lower - clipped - test.drift)
-    upper_run = (state.upper_count + 1, state.upper_sum + residual) if upper > 0.0 else (0.0, 0.0)
-    lower_run = (state.lower_count + 1, state.lower_sum + residual) if lower > 0.0 else (0.0, 0.0)
-    alarm = 1 if upper > test.threshold else (-1 if lower > test.threshold else 0)
-    return CusumState([upper, lower, upper_run[0], lower_run[0], upper_run[1], lower_run[1]]), alarm
+    sums = np.array(state[:], dtype=float)
+    alarm = cusum_update(sums, z, test.drift, test.threshold, test.clip, z if residual is None else residual)
+    return CusumState(sums), alarm
+
+
+@jitable
+def cusum_update(sums, z: float, drift: float, threshold: float, clip: float, residual: float) -> int:
+    """cusum_step on the plain array ``sums`` (CusumState's order), updated in place: the form the
+    compiled sensor checks call (systems/compiled.py). Returns +1 / -1 / 0 as cusum_step."""
+    clipped = min(max(z, -clip), clip)
+    upper = max(0.0, sums[0] + clipped - drift)
+    lower = max(0.0, sums[1] - clipped - drift)
+    if upper > 0.0:
+        sums[2], sums[4] = sums[2] + 1.0, sums[4] + residual
+    else:
+        sums[2], sums[4] = 0.0, 0.0
+    if lower > 0.0:
+        sums[3], sums[5] = sums[3] + 1.0, sums[5] + residual
+    else:
+        sums[3], sums[5] = 0.0, 0.0
+    sums[0], sums[1] = upper, lower
+    return 1 if upper > threshold else (-1 if lower > threshold else 0)
 
 
 def cusum_shift(state: CusumState, side: int) -> tuple:

@@ -46,6 +46,10 @@ Checks (health codes, 0 = healthy):
    reference is the force balance instead, what the motors put on the ground over the nominal mass
    (sum (k i - beta w - J w')/r plus the shoe drag, / m), which does not slip as d v_o/dt does, and
    the distance from it alone decides (a hard braking moves the healthy sensor as much as a bias).
+   The gyro is ``inconsistent`` when the yaw test (systems/yaw_witness.py) finds its yaw rate in a turn
+   unconfirmed by the wheels' witness (the nominal yaw dynamics driven by the wheels) and not supported
+   by the accelerometer pair's |omega|: held out (hold) until a re-admission block that turned
+   YAW_RELEASE_HEADING agrees in sum.
 6. ``recovering``: excluded, waiting to agree again with its redundant estimate.
 
 Replacements: an excluded gyro reads the yaw rate the nominal yaw dynamics give the body from the wheels'
@@ -91,7 +95,18 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.compiled import compiled, jitable
-from slipnav.systems.plant import shoe_drag, tyre_force_and_stiffness
+from slipnav.systems.plant import shoe_drag
+from slipnav.systems.yaw_witness import CUSUM as YAW_CUSUM
+from slipnav.systems.yaw_witness import (
+    GRIP_STIFFNESS_RATIO,
+    YAW_TEST_SIZE,
+    gyro_yaw_test,
+    tyre_grip,
+    yaw_follow_step,
+    yaw_test_initial_state,
+    yaw_test_threshold,
+    yaw_witness_step,
+)
 
 NO_CURRENTS = (math.nan, math.nan)
 """The motor current readings when none are read: the tangential accelerometers' reference is the
@@ -112,9 +127,14 @@ corner, 10 seeds), above the 5.2 rad/s full scale: a doubled gyro read max(full 
 corner seed 9: 4.3 deg of heading, 85 mm)."""
 NUM_CHANNELS = 7
 READMISSION_TRAVEL_COUNTS = 10.0
-"""An excluded encoder's re-admission block is judged only once the encoder itself has counted this
-many counts in it (five times the block's two-count allowance): at rest a sign-flipped or doubled
-encoder agrees with any prediction, so the block goes on until the wheel has turned enough to tell."""
+"""An encoder excluded for a disagreement (a jump, a stuck count, an increment or a block off the
+prediction) has its re-admission block judged only once the encoder itself has counted this many counts
+in it (five times the block's two-count allowance): at rest a sign-flipped or doubled encoder agrees with
+any prediction, so the block goes on until the wheel has turned enough to tell. One excluded for a
+non-finite reading comes back at rest."""
+YAW_RELEASE_HEADING = 0.05
+"""A gyro the yaw test holds out is re-admitted only by a block whose replacement turned this much (rad,
+3 deg): driving straight says nothing of a scale error."""
 BIAS_STEP_SIGMAS = 4.0
 """An excluded gyro's residual may spread this many of its noise sigmas (plus the wheels' quantisation)
 over a block that measures a new bias (gyro_bias_step_block): a gyro that reads noise, or a turn the
@@ -176,6 +196,14 @@ class SensorHealthParameters:
         bias_step_yaw_rate: the block measures a bias only while its replacement stays within this
             (rad/s): 0.15, driving straight (the calibration's change_yaw_rate), where a scale error or
             a sign flip reads nothing.
+        yaw_slip_fraction: the share of the wheels' yaw rate that the tyres' differential slip may leave
+            unexplained by the nominal yaw dynamics, in the yaw test's residual variance
+            (systems/yaw_witness.py), in [0, 1]: 0.2.
+        yaw_witness_lag: the witness's timing uncertainty against the gyro (s): the body's unmodelled
+            lag behind the wheels and the sensor streams' relative latency, times the witness's rate of
+            change, in the yaw test's residual variance, in (0, inf): 0.02, one T_C.
+        yaw_false_alarm_time: healthy driving (s) per false alarm of the yaw test's CUSUM, in
+            (0, inf): 3600, one an hour.
         encoder_readmission_samples: an excluded encoder is re-admitted only after a block of this
             many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the prediction from the
             other wheel and the gyro, span READMISSION_TRAVEL_COUNTS of the encoder's counts, and whose
@@ -259,6 +287,9 @@ class SensorHealthParameters:
     fast_consistency_factor: float = 1.6
     bias_step_samples: int = 25
     bias_step_yaw_rate: float = 0.15
+    yaw_slip_fraction: float = 0.2
+    yaw_witness_lag: float = 0.02
+    yaw_false_alarm_time: float = 3600.0
     encoder_readmission_samples: int = 10
     encoder_readmission_fraction: float = 0.2
     gyro_readmission_samples: int = 5
@@ -276,7 +307,7 @@ class SensorHealthParameters:
     def __post_init__(self):
         for name in (
             "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
-            "bias_step_yaw_rate stuck_min_speed"
+            "bias_step_yaw_rate yaw_false_alarm_time yaw_witness_lag stuck_min_speed"
         ).split():
             _positive(name, getattr(self, name))
         if self.max_wheel_speed is not None:
@@ -322,7 +353,7 @@ class SensorHealthParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
                 raise ValueError(f"{name}={value!r} is out of range: allowed integers in [1, 50]")
-        for name in ("encoder_readmission_fraction", "gyro_readmission_fraction"):
+        for name in ("encoder_readmission_fraction", "gyro_readmission_fraction", "yaw_slip_fraction"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
                 raise ValueError(f"{name}={value!r} is out of range: allowed [0, 1]")
@@ -461,18 +492,27 @@ _OFFSET_VAR = _GAIN_RING + 2 * (GAIN_SERIES + 1) * GAIN_WINDOW_MAX
 _B_COUNT, _B_SUM, _B_SQUARES, _B_TURN, _B_STEP = (_OFFSET_VAR + 2 + i for i in range(5))
 # Per encoder, its own travel (|increments| summed) in the re-admission block.
 _R_MOVED = slice(_B_STEP + 1, _B_STEP + 3)
-STATE_SIZE = _B_STEP + 3
+# The gyro's witness from the wheels (rad/s, NaN: restart) and the yaw test's CUSUM (systems/yaw_witness.py).
+_Y_WITNESS = _B_STEP + 3
+_Y_TEST = slice(_Y_WITNESS + 1, _Y_WITNESS + 1 + YAW_TEST_SIZE)
+_Y_SMOOTH = _Y_WITNESS + 1 + YAW_TEST_SIZE  # the witness's PT1 over yaw_witness_lag (NaN: restart)
+# Per encoder, 1 while its exclusion is for a disagreement (a jump, a stuck count, a failed block): its
+# re-admission block needs READMISSION_TRAVEL_COUNTS of its own counts.
+_R_SUSPECT = slice(_Y_SMOOTH + 1, _Y_SMOOTH + 3)
+STATE_SIZE = _Y_SMOOTH + 3
 
 
 def health_initial_state(g: HealthGeometry, initial_speed: float = 0.0) -> np.ndarray:
     """Nothing read yet (the first finite reading is accepted); wheels rolling at ``initial_speed``."""
     s = np.zeros(STATE_SIZE)
     nan_parts = (_REF, _LAST, _E_LAST, _E_OUT, _E_RAW, slice(_W + 8, _W + 12), slice(_RING, _RING_POS))
-    for part in (*nan_parts, slice(_G_SHADOW, _G_SHADOW + 1)):
+    witness = (slice(_Y_WITNESS, _Y_WITNESS + 1), slice(_Y_SMOOTH, _Y_SMOOTH + 1))
+    for part in (*nan_parts, slice(_G_SHADOW, _G_SHADOW + 1), *witness):
         s[part] = np.nan
     s[_E_INC] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
     s[_W + 3] = initial_speed
     s[_OFFSET_VAR : _OFFSET_VAR + 2] = 2.0 * g.accel_initial_bias_std**2  # two sensors' biases
+    s[_Y_TEST] = yaw_test_initial_state()
     return s
 
 
@@ -482,7 +522,7 @@ HealthConstants = collections.namedtuple(
     "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
     "accel_consistency "
     "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
-    "bias_step_samples bias_step_yaw_rate "
+    "bias_step_samples bias_step_yaw_rate yaw_slip_fraction yaw_witness_lag yaw_threshold "
     "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
     "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
     "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
@@ -510,6 +550,9 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
     accelerometer_position a pair of floats), as health_check takes them."""
     values = []
     for name in HealthConstants._fields:
+        if name == "yaw_threshold":  # the yaw test's CUSUM threshold (systems/yaw_witness.py)
+            values.append(yaw_test_threshold(p.yaw_false_alarm_time, g.T_N))
+            continue
         value = getattr(g if name in _GEOMETRY_FIELDS else p, name)
         if name == "accelerometer_position":
             value = (float(value[0]), float(value[1]))
@@ -622,13 +665,17 @@ def health_check(
 
     # An excluded gyro comes back only after a block of samples within its bound of the replacement whose
     # summed difference from it (a heading) stays within the noise, two counts of each wheel and
-    # gyro_readmission_fraction of the replacement's own: a scale error does not telescope.
-    if codes[4] == 0 and excl[4] > 0.0 and math.isfinite(ref[4]):
+    # gyro_readmission_fraction of the replacement's own: a scale error does not telescope. A gyro the yaw
+    # test holds out (hold[4]) is judged only once the block has turned YAW_RELEASE_HEADING.
+    held = hold[4] > 0.0
+    if (codes[4] == 0 or (held and codes[4] == INCONSISTENT)) and excl[4] > 0.0 and math.isfinite(ref[4]):
+        out_code = INCONSISTENT if held else RECOVERING
         s[_G_COUNT] += 1.0
         s[_G_DIFF] += raw[4] - bias - ref[4]
         s[_G_TRAVEL] += abs(ref[4])
-        if s[_G_COUNT] < p.gyro_readmission_samples:
-            codes[4] = RECOVERING
+        informative = not held or s[_G_TRAVEL] * g.T_N >= YAW_RELEASE_HEADING
+        if s[_G_COUNT] < p.gyro_readmission_samples or not informative:
+            codes[4] = out_code
         else:
             n = s[_G_COUNT]
             counts = 2.0 * g.encoder_step * (g.radius_R + g.radius_L) / (g.track_width * g.T_N)
@@ -636,7 +683,9 @@ def health_check(
                 3.0 * g.gyro_noise_std * math.sqrt(n) + counts + p.gyro_readmission_fraction * s[_G_TRAVEL]
             )
             if abs(s[_G_DIFF]) > allowed:
-                codes[4] = RECOVERING  # a new block from the next sample
+                codes[4] = out_code  # a new block from the next sample
+            else:
+                codes[4], hold[4] = 0, 0.0
             s[_G_COUNT], s[_G_DIFF], s[_G_TRAVEL] = 0.0, 0.0, 0.0
     else:
         s[_G_COUNT], s[_G_DIFF], s[_G_TRAVEL] = 0.0, 0.0, 0.0
@@ -649,6 +698,7 @@ def health_check(
     still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
     e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
     r_count, r_diff, r_travel, r_moved = s[_R_COUNT], s[_R_DIFF], s[_R_TRAVEL], s[_R_MOVED]
+    suspect = s[_R_SUSPECT]
     previous_out = [e_last[w] + e_out[w] for w in range(2)]  # e_out: the output less the last raw
 
     def predicted_increment(w: int, other_increment: float) -> float:
@@ -688,7 +738,7 @@ def health_check(
             codes[5 + w] = JUMP
         elif e_code[w] in (0, STUCK):
             if abs(d - e_inc[w]) > bound:
-                codes[5 + w] = JUMP
+                codes[5 + w], suspect[w] = JUMP, 1.0
             else:
                 inc[w] = d
         else:  # re-admission: agree with the prediction, else (none) with the last raw increment
@@ -696,21 +746,23 @@ def health_check(
             if math.isfinite(other) and gyro_ok:
                 expected = predicted_increment(w, other)
                 ok = abs(d - expected) <= bound
+                suspect[w] = suspect[w] if ok else 1.0
                 if ok:  # and over a block of samples, where the counts' quantisation telescopes
                     r_count[w] += 1.0
                     r_diff[w] += d - expected
                     r_travel[w] += abs(expected)
                     r_moved[w] += abs(d)
-                    informative = r_moved[w] >= READMISSION_TRAVEL_COUNTS * g.encoder_step
-                    if r_count[w] >= p.encoder_readmission_samples and informative:
+                    moved = r_moved[w] >= READMISSION_TRAVEL_COUNTS * g.encoder_step
+                    if r_count[w] >= p.encoder_readmission_samples and (moved or suspect[w] == 0.0):
                         tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * r_travel[w]
                         ok = abs(r_diff[w]) <= tolerance
+                        suspect[w] = suspect[w] if ok else 1.0
                     else:
                         ok, in_block[w] = False, True
             else:
                 ok = abs(d - d_prev) <= bound
             if ok:
-                inc[w] = d
+                inc[w], suspect[w] = d, 0.0
             else:
                 codes[5 + w] = RECOVERING
     predicted = [
@@ -740,7 +792,7 @@ def health_check(
                 still[w] >= p.stuck_samples
                 and mean_pred > p.stuck_min_speed + p.stuck_speed_fraction * v_other
             ):
-                codes[5 + w] = STUCK
+                codes[5 + w], suspect[w] = STUCK, 1.0
                 missed[w] = pred[w] - predicted[w]  # the travel missed before the detection
         else:
             still[w] = pred[w] = pred_abs[w] = 0.0
@@ -807,6 +859,26 @@ def health_check(
         s[_G_SHADOW], s[_G_OWED] = math.nan, 0.0
     if not gyro_ok and model and math.isfinite(ref[4]):
         omega_wheels = yaw_follow_step(ref[4], v_R, v_L, v_t, v_n, g, grip)
+
+    # The wheels' witness of the gyro and the yaw test (systems/yaw_witness.py): a gyro whose yaw rate the
+    # wheels do not confirm, and the pair does not side with, is held out (hold[4], inconsistent).
+    # The wheels witness nothing while their tyres slide: the witness restarts from the gyro (else the
+    # odometric yaw rate) when they grip again, and forgets that start within the tyres' lag.
+    witness = s[_Y_WITNESS] if math.isfinite(s[_Y_WITNESS]) else omega_o
+    gripping = enc_ok and tyre_grip(v_R, v_L, v_t, v_n, witness, g) >= GRIP_STIFFNESS_RATIO
+    if gripping and not math.isfinite(s[_Y_WITNESS]) and codes[4] == 0:
+        witness = raw[4] - bias
+    s[_Y_WITNESS] = yaw_witness_step(witness, v_R, v_L, v_t, v_n, g, grip) if gripping else math.nan
+    smooth = s[_Y_SMOOTH] if math.isfinite(s[_Y_SMOOTH]) else s[_Y_WITNESS]
+    s[_Y_SMOOTH] = smooth + (s[_Y_WITNESS] - smooth) * min(1.0, g.T_N / p.yaw_witness_lag)
+    witness_rate = (s[_Y_SMOOTH] - smooth) / g.T_N if math.isfinite(s[_Y_SMOOTH]) else 0.0
+    if codes[4] == 0 and gripping and abs(s[_Y_WITNESS]) > p.bias_step_yaw_rate:  # a turn: the scale's
+        test = s[_Y_TEST]
+        if gyro_yaw_test(test, raw[4] - bias, s[_Y_WITNESS], witness_rate, s[_W + 12], abs(v_o), p):
+            hold[4], codes[4], gyro_ok = 1.0, INCONSISTENT, False
+            omega_wheels = s[_Y_WITNESS]
+    else:
+        s[_Y_TEST][YAW_CUSUM] = 0.0
 
     # The force reference of a_t: what the motors put on the ground (their currents less the wheels'
     # bearing drag and inertia) and the nominal shoe drag, over the nominal mass; unlike d v_o/dt it does
@@ -1009,32 +1081,6 @@ def gyro_bias_step(state) -> float:
     """The gyro bias step (rad/s) the checks of this sample hand to the calibration (0: none;
     gyro_bias_step_block)."""
     return float(state[_B_STEP])
-
-
-@jitable
-def yaw_follow_step(
-    omega: float, u_R: float, u_L: float, v_t: float, v_n: float, g, grip: float = 1.0
-) -> float:
-    """The excluded gyro's replacement: the body's yaw rate one T_N on, following the wheels through the
-    nominal yaw dynamics I_z omega' = b/2 (F_R - F_L) + the shoes' moment, each tyre's F_x from the
-    believed curve at the wheel's circumferential speed ``u`` against its contact point's v_t +- omega b/2
-    and v_n.
-    Linearly implicit in the tyres' slip stiffness dF/du (stable for any dF/du >= 0; past the peak, where
-    it turns negative, 1 + T_N (b/2)^2 (k_R + k_L) / I_z stays above 0.99 on both robots): near zero slip
-    the body follows the odometric yaw rate with the lag 2 I_z / (b^2 dF/du), 12 ms on Tinyphoon at 1.6
-    m/s, longer as the tyres saturate; the shoes' scrub holds it below. The odometric yaw rate itself
-    leads the body by that lag (over-reads while the turn builds, under-reads as it ends: 3.9 deg over 0.5
-    s of the open corner's turn, 0.2 deg this way). ``g``: HealthConstants (or anything with their
-    track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields); ``grip``: the identified tyre
-    peak over the nominal, which scales the curve's forces and stiffness (both are mu N times a function
-    of the slip)."""
-    half = 0.5 * g.track_width
-    f_R, _, k_R = tyre_force_and_stiffness(v_t + omega * half, v_n, u_R, g.wheel_normal_load, g)
-    f_L, _, k_L = tyre_force_and_stiffness(v_t - omega * half, v_n, u_L, g.wheel_normal_load, g)
-    f_R, f_L, k_R, k_L = grip * f_R, grip * f_L, grip * k_R, grip * k_L
-    _, moment = shoe_drag(v_t, v_n, omega, g, 0.0, half * (f_R - f_L))
-    stiffness = g.T_N * half * half * (k_R + k_L) / g.yaw_inertia
-    return omega + g.T_N * (moment / g.yaw_inertia) / (1.0 + stiffness)
 
 
 @jitable

@@ -1,0 +1,133 @@
+"""The wheels' witness of the gyro and the yaw test (systems/yaw_witness.py): the residual's variance,
+the tyres' grip, the yaw lag, the decision with the accelerometer pair, and the gyro held out by the
+test until a turn agrees again (systems/sensor_health.py); numbers by hand."""
+
+import dataclasses as dc
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.metrics import final_position_error
+from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.faults import FaultEvent
+from slipnav.systems.plant import kurt3d, tinyphoon
+from slipnav.systems.sensor_health import (
+    INCONSISTENT,
+    HealthConstants,
+    SensorHealthParameters,
+    health_constants,
+)
+from slipnav.systems.yaw_witness import (
+    MIN_YAW_LAG_STEPS,
+    YAW_CLIP,
+    YAW_DRIFT,
+    gyro_yaw_test,
+    tyre_grip,
+    yaw_lag_at_floor,
+    yaw_residual_variance,
+    yaw_test_initial_state,
+    yaw_test_threshold,
+)
+
+from tests.test_exclusion import check_with_bias
+from tests.test_faults import GEOMETRY, STEP, T_N, B, R, stream
+
+CONSTANTS = HealthConstants(*health_constants(SensorHealthParameters(), GEOMETRY))
+
+
+def test_the_residual_variance_by_hand():
+    """S = 0.014^2 + q^2 / 3 + (0.2 w)^2 + (0.02 w')^2 with q = (2 pi / 6144) 0.015 / (0.068 0.002) =
+    0.1128 rad/s."""
+    q = STEP * R / (B * T_N)
+    assert q == pytest.approx(0.11280, abs=1e-5)
+    for witness, rate in ((0.0, 0.0), (3.0, 0.0), (1.0, 30.0)):
+        expected = 0.014**2 + q * q / 3 + (0.2 * witness) ** 2 + (0.02 * rate) ** 2
+        assert yaw_residual_variance(witness, rate, CONSTANTS) == pytest.approx(expected, rel=1e-12)
+
+
+def test_the_threshold_gives_one_false_alarm_an_hour():
+    """h for 3600 s / 2 ms = 1.8e6 samples between false alarms at k = 0.5 (Siegmund): about 13.2."""
+    assert yaw_test_threshold(3600.0, T_N) == pytest.approx(13.24, abs=0.01)
+    assert (YAW_DRIFT, YAW_CLIP) == (0.5, 4.0)
+
+
+def test_the_tyres_grip_in_their_linear_range_and_not_past_the_peak():
+    """Tinyphoon's curve (B 15, C 1.3): at zero slip the stiffness ratio is 1; a wheel at 1.02 m/s on
+    ground at 1 m/s slips 0.02 / 1.02, B sigma = 0.294: cos(1.3 atan 0.294) / 1.0865 = 0.857; at -0.1
+    it is cos(1.3 atan 1.5) / 3.25 = 0.157 (past half)."""
+    robot = tinyphoon()
+    g = SimpleNamespace(track_width=0.068, tyre_stiffness_factor=15.0, tyre_shape_factor=1.3)
+    g.slip_speed_floor = 0.3
+    assert robot.tyre_stiffness_factor == 15.0 and robot.tyre_shape_factor == 1.3
+    assert tyre_grip(1.0, 1.0, 1.0, 0.0, 0.0, g) == pytest.approx(1.0)
+    b_sigma = 15.0 * 0.02 / 1.02
+    ratio = math.cos(1.3 * math.atan(b_sigma)) / (1.0 + b_sigma * b_sigma)
+    assert tyre_grip(1.02, 1.0, 1.0, 0.0, 0.0, g) == pytest.approx(ratio, rel=1e-9)
+    assert ratio == pytest.approx(0.857, abs=1e-3)
+    past_peak = math.cos(1.3 * math.atan(1.5)) / 3.25
+    assert tyre_grip(0.9, 0.9, 1.0, 0.0, 0.0, g) == pytest.approx(past_peak, rel=1e-9)
+    assert past_peak < 0.5
+
+
+def test_the_yaw_lag_decides_whether_the_yaw_dynamics_witness():
+    """I_z / ((b/2)^2 2 mu N C B / 0.3): Tinyphoon 2.27 ms and Kurt3D 1.85 ms step at T_N = 2 ms; a
+    TurtleBot's 0.23 m track with Tinyphoon's yaw inertia lags 0.20 ms, below a quarter sample."""
+    assert yaw_lag_at_floor(tinyphoon()) == pytest.approx(2.271e-3, rel=1e-3)
+    assert yaw_lag_at_floor(kurt3d()) == pytest.approx(1.851e-3, rel=1e-3)
+    turtle = dc.replace(tinyphoon(), track_width=0.23)
+    assert yaw_lag_at_floor(turtle) == pytest.approx(0.1985e-3, rel=1e-3)
+    assert yaw_lag_at_floor(turtle) < MIN_YAW_LAG_STEPS * T_N < yaw_lag_at_floor(kurt3d())
+    no_tyres = SimpleNamespace(tyre_friction=0.0, wheel_normal_load=1.0, tyre_shape_factor=1.3)
+    no_tyres.tyre_stiffness_factor, no_tyres.yaw_inertia, no_tyres.track_width = 15.0, 1e-3, 0.1
+    assert yaw_lag_at_floor(no_tyres) == math.inf
+
+
+def test_a_gyro_half_again_too_large_in_a_turn_raises_the_alarm_in_its_fifth_sample():
+    """A 3 rad/s turn read as 4.5: z = 1.5 / sqrt(0.014^2 + 0.1128^2 / 3 + 0.6^2) = 2.485 per sample, so
+    the CUSUM gains 1.985 a sample and passes h = 13.24 in the seventh; without the pair the gyro is
+    blamed. A pair whose |omega| (4.5 +- its noise) sides with the gyro exonerates it."""
+    z = 1.5 / math.sqrt(yaw_residual_variance(3.0, 0.0, CONSTANTS))
+    assert z == pytest.approx(2.485, abs=0.001)
+    state = np.array(yaw_test_initial_state())
+    alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, math.nan, 1.0, CONSTANTS) for _ in range(7)]
+    assert alarms == [False] * 6 + [True] and not state[1:].any()
+    state = np.array(yaw_test_initial_state())
+    alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, 4.5**2, 0.0, CONSTANTS) for _ in range(7)]
+    assert not any(alarms)
+
+
+def test_a_scaled_gyro_is_held_out_until_a_turn_agrees():
+    """The checks on a 0.8 rad/s turn at 1 m/s with the gyro x1.5 from sample 500 to 800 (0.4 rad/s off,
+    within the jump bound): z = 0.4 / sqrt(0.014^2 + 0.1128^2 / 3 + 0.16^2) = 2.3 holds it out
+    (inconsistent) from within 10 samples of the onset to its end, and it is re-admitted by the first
+    block that turned 0.05 rad (32 samples at 0.8 rad/s) and agrees in sum, which ends after it. The
+    same gyro x1.5 in a straight (no turn) raises nothing: the test judges turns."""
+    rows = stream(1500, 1.0, 0.8)
+    rows[500:800, 4] *= 1.5
+    codes, _ = check_with_bias(rows)
+    flagged = np.flatnonzero(codes[:, 4])
+    assert not codes[:500].any() and 500 < flagged[0] <= 510
+    assert np.all(codes[flagged[0] : 800, 4] == INCONSISTENT)
+    assert 800 + 5 <= flagged[-1] <= 800 + 45 and not codes[flagged[-1] + 1 :].any()
+    rows = stream(1500, 1.0, 0.0)
+    rows[500:800, 4] = 1.5 * rows[500:800, 4]
+    codes, _ = check_with_bias(rows)
+    assert not codes.any()
+
+
+@pytest.mark.parametrize("value", [-2.0, 0.5, -0.5])
+def test_closed_loop_gyro_scale_faults_are_caught_in_the_first_turn(value):
+    """The corner with the gyro x(1 + value) from 1.5 s to the end (a sign flip, x1.5, x0.5): flagged
+    inconsistent within 0.1 s of the turn's start (2.0 s), the run completes and the fused final error is
+    below both baselines'."""
+    event = FaultEvent("scale", "gyro", 1.5, 100.0, value)
+    run = run_scenario(load_scenario("corner"), seed=0, faults=[event])
+    a = run.arrays
+    t, codes = a["t"], a["health_gyro"]
+    first = t[np.flatnonzero(codes == INCONSISTENT)[0]]
+    assert 2.0 < first < 2.2
+    assert run.summary["completed"]
+    fused = final_position_error(a, "est")
+    assert fused < min(final_position_error(a, "odo"), final_position_error(a, "gyro"))
