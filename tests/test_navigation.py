@@ -668,13 +668,16 @@ def test_diagram_matches_sequential_reference_loop(name):
     assert len(changes) > 0 and np.all(changes % rates.batch_length == 1)
 
 
-def test_covariance_stays_symmetric_positive_definite_over_ten_minutes():
-    """10 simulated minutes of hard driving (speed to 3 m/s, yaw rate to 5 rad/s) through the same pure
-    functions as the diagram: P stays symmetric positive definite; the measured block (omega, a_t, a_n)
-    and the gain S(7) stay at their steady values. The velocity block is not measured (S(3)) and its
-    variance would grow (the forward-Euler rotation of S(2) has |eigenvalue| = sqrt(1 + (omega T_N)^2) > 1)
-    but the mixing's pseudo-measurements (ekf_mixing_covariance) hold it at the odometry's level."""
-    N = int(600.0 / T_N)
+def test_covariance_stays_symmetric_positive_definite_over_a_minute():
+    """A simulated minute of hard driving (speed to 3 m/s, yaw rate to 5 rad/s: 20 periods of the yaw
+    rate, 8.6 of the speed) through the navigation loop (the same pure functions as the diagram): P stays
+    symmetric positive definite; the measured block (omega, a_t, a_n) and the gain S(7) stay at their
+    steady values (the block at 30 s and at 60 s, the gain from 6 s on). The velocity block is not
+    measured (S(3)) and its variance would grow (the forward-Euler rotation of S(2) has |eigenvalue| =
+    sqrt(1 + (omega T_N)^2) > 1) but the mixing's pseudo-measurements (ekf_mixing_covariance) hold it at
+    the odometry's level: without them it passes the bound below (1e-3) within 10 s and reaches 0.014 by
+    60 s. (Ten simulated minutes pass the same checks at ten times the cost.)"""
+    N = int(60.0 / T_N)
     t = np.arange(N) * T_N
     v = 1.5 + 1.5 * np.sin(2 * np.pi * t / 7.0)
     w = 5.0 * np.sin(2 * np.pi * t / 3.0)
