@@ -31,6 +31,8 @@ from slipnav.systems.slip_control import (
     step_size,
 )
 
+from tests.shared import scenario_frenet_errors, scenario_run
+
 # --- Indiveri I(11)-(24) -------------------------------------------------------------------------------
 
 
@@ -316,31 +318,24 @@ def test_closed_loop_curvature_term_T_stays_within_the_I20_I22_bound(name, kappa
 
 
 @pytest.mark.parametrize("name, kappa_max", [("circle", 1 / 2.0), ("long_path", 1 / 2.5)])
-def test_T_of_I21_stays_within_the_I22_bound_on_the_real_robot(name, kappa_max, monkeypatch):
+def test_T_of_I21_stays_within_the_I22_bound_on_the_real_robot(name, kappa_max):
     """The same bound on the whole closed loop (Kurt3D's dynamics, tyres, navigation estimate, standing
     start), where I(15)-(16) read the estimated speed, so T is taken as I(21) defines it: T = kappa_cl -
     kappa_r cos(theta), kappa_cl = (v_R - v_L) / (b (v_R + v_L)) of each follower update's commands (I(5),
     I(20); the saturator keeps their ratio). Bound 1/b - kappa_r,max = 4.5 (circle), 4.6 (long path);
-    measured max |T| 0.91 and 0.26 1/m (seed 0)."""
+    measured max |T| 0.91 and 0.26 1/m (seed 0). The scenario's default run, shared (tests/shared.py: the
+    long path's with test_long_path_bounded_speed_law_is_faster_and_respects_V_m)."""
     from slipnav.scenarios import runner
 
-    frenet = {}
-    collect = runner.collect_arrays
-
-    def spy(loggers, context, robot, **options):
-        frenet["data"] = loggers["frenet_errors"].FindLog(context).data().copy()
-        return collect(loggers, context, robot, **options)
-
-    monkeypatch.setattr(runner, "collect_arrays", spy)
     scenario = load_scenario(name)
-    result = run_scenario(scenario)
+    result = scenario_run(name)
     a, path = result.arrays, runner.follower_path(scenario)
     half = 0.5 * float(a["track_width"])
     # The update at t_K reads row k (s before it) and shows its errors and commands on row k + 1.
     n = round(float(a["T_C"]) / float(a["T_N"]))
     k = np.arange(round(float(a["start_time"]) / float(a["T_N"])), len(a["t"]) - 1, n)
     k = k[a["virtual_target"][k] < path.length]
-    theta = frenet["data"][2, k + 1]
+    theta = scenario_frenet_errors(name)[2, k + 1]
     v_R, v_L = a["cmd_R"][k + 1], a["cmd_L"][k + 1]
     kappa_cl = (v_R - v_L) / (half * (v_R + v_L))
     T = kappa_cl - np.interp(a["virtual_target"][k], path.s, path.kappa) * np.cos(theta)
@@ -416,7 +411,8 @@ def test_step_size_parameter_validation(field, value, message):
 
 def test_corner_slip_control_reduces_side_slip_and_catches_up():
     scenario = load_scenario("corner")
-    on = run_scenario(scenario, slip_control=True)
+    assert scenario.slip_control_enabled  # the default run is the one with slip control (tests/shared.py)
+    on = scenario_run("corner")
     off = run_scenario(scenario, slip_control=False)
     assert on.summary["peak_abs_true_alpha_deg"] <= 0.7 * off.summary["peak_abs_true_alpha_deg"]
     assert on.summary["path_error_rms_m"] < off.summary["path_error_rms_m"]
@@ -445,7 +441,8 @@ def test_square_tangential_slip_reduces_step_size():
 
 def test_long_path_bounded_speed_law_is_faster_and_respects_V_m():
     scenario = load_scenario("long_path")
-    bounded = run_scenario(scenario, speed_law="bounded")
+    assert scenario.speed_law == "bounded"  # the default run is the bounded one (tests/shared.py)
+    bounded = scenario_run("long_path")
     constant = run_scenario(scenario, speed_law="constant")
     V_m = scenario.robot_parameters().wheel_speed_limit
     for run in (bounded, constant):

@@ -62,6 +62,8 @@ from slipnav.systems.sensor_health import SensorHealthParameters, health_initial
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 
+from tests.shared import scenario_run
+
 T_N = 0.002
 
 
@@ -1115,7 +1117,7 @@ def test_the_fused_pose_of_a_row_describes_the_robot_two_samples_back():
     samples back. On the corner its distance from the truth shifted by two samples is a fraction of
     its distance from the same row's truth, which is mostly the robot's travel in 2 T_N (4.6 mm rms
     at the corner's speeds); the lag is no estimation error, and at the final standstill it is gone."""
-    a = run_scenario(load_scenario("corner"), seed=0).arrays
+    a = scenario_run("corner", seed=0).arrays
     t = a["t"]
     moving = np.flatnonzero((t > 0.1) & (np.abs(a["true_v_t"]) > 0.2))
 
