@@ -154,8 +154,9 @@ def test_the_pose_holds_at_rest_while_the_biases_drift():
 
 def test_rejections_at_rest_stay_near_the_false_rejection_rate():
     """Fault-free rest: after the biases have settled the accelerometers' test rejects about
-    false_rejection of the samples (the PT1's samples are correlated, so a factor 5 of margin)."""
-    accelerometers, gyro, encoders, _ = rest_streams(60.0, 7, 0.0065)
+    false_rejection of the samples (the PT1's samples are correlated, so a factor 5 of margin). 25 s
+    settled, 12 500 samples: rejected 0.06 % (seeds 1 and 2: 0.05 %, 0.12 %; over 55 s before: 0.05 %)."""
+    accelerometers, gyro, encoders, _ = rest_streams(30.0, 7, 0.0065)
     loop = NavigationLoop(NavigationParameters(), 0.015, 0.068, T_N, 0.02)
     out = run_navigation_loop(loop, accelerometers, gyro, encoders)
     rejected = 1.0 - out["standstill"][2500:].mean()  # from 5 s on
