@@ -22,10 +22,11 @@ from slipnav.systems.sensors import SensorParameters, sensor_frame
 from tests.shared import shared_manoeuvres
 
 
-@pytest.fixture(scope="module", params=[3, 7])
+@pytest.fixture(scope="module", params=[3])
 def calibrated(request):
-    """Tinyphoon drawn with seeds 3 and 7, calibrated (seed 3's manoeuvres simulated once for this and the
-    calibrate command's test: tests/shared.py)."""
+    """Tinyphoon drawn with seed 3, calibrated (its manoeuvres simulated once for this and the calibrate
+    command's test: tests/shared.py). One draw checks each identification's claim; seed 7 passed the same
+    checks as well (about 11 s more; the README's Calibration section reports 10 seeds)."""
     with shared_manoeuvres():
         return simulated_calibration("tinyphoon", request.param)
 
