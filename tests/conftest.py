@@ -49,6 +49,7 @@ SHARED_PROCESS = {
 """Modules that run in one process together: the simulations they share (tests/shared.py)."""
 
 
+@pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: without xdist the suite runs in one process
 def pytest_xdist_make_scheduler(config, log):
     """pytest-xdist (README's ``-n 2``): each module is a unit of work that one process runs, so that its
     module-scoped fixtures run once, and the modules of SHARED_PROCESS are one unit. (xdist's loadgroup
