@@ -42,6 +42,29 @@ def run_open_loop(
     return collect_arrays(built.loggers, simulator.get_context(), robot)
 
 
+SHARED_PROCESS = {
+    "tests/test_calibration.py": "calibration",
+    "tests/test_calibration_session.py": "calibration",
+}
+"""Modules that run in one process together: the simulations they share (tests/shared.py)."""
+
+
+@pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: without xdist the suite runs in one process
+def pytest_xdist_make_scheduler(config, log):
+    """pytest-xdist (README's ``-n 2``): each module is a unit of work that one process runs, so that its
+    module-scoped fixtures run once, and the modules of SHARED_PROCESS are one unit. (xdist's loadgroup
+    would do this with marks, but pytest 9.2's node ids break it: pytest-xdist issue 1386.) The units go
+    out the ones with the most tests first (xdist's loadscope)."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class ModuleScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            module = nodeid.split("::", 1)[0]
+            return SHARED_PROCESS.get(module, module)
+
+    return ModuleScheduling(config, log)
+
+
 @pytest.fixture
 def open_loop():
     return run_open_loop

@@ -12,6 +12,8 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import judge_completion, path_projection
 from slipnav.scenarios.trajectories import Arc, PathConfig, build_path
 
+from tests.shared import scenario_run
+
 # Tinyphoon on tyres with mu = 0.15 (traction 1.2 m/s^2, shoes' drag 0.5 m/s^2) cannot follow a 4.5 m/s^2
 # acceleration; the controller's progress reaches the end anyway and the robot stops about 1 m short.
 TOO_SLIPPERY = """
@@ -67,7 +69,7 @@ def test_robot_that_stops_short_is_not_completed(tmp_path, capsys):
 
 
 def test_corner_completes_near_the_end():
-    result = runner.run_scenario(load_scenario("corner"))
+    result = scenario_run("corner")  # the default corner, shared (tests/shared.py)
     s, a = result.summary, result.arrays
     assert s["completed"] is True and s["end_distance_m"] < s["completion_tolerance_m"]
     k = int(round(s["completion_time_s"] / float(a["T_N"])))

@@ -19,10 +19,16 @@ from slipnav.studies.calibration import (
 from slipnav.systems.plant import tinyphoon
 from slipnav.systems.sensors import SensorParameters, sensor_frame
 
+from tests.shared import shared_manoeuvres
 
-@pytest.fixture(scope="module", params=[3, 7])
+
+@pytest.fixture(scope="module", params=[3])
 def calibrated(request):
-    return simulated_calibration("tinyphoon", request.param)
+    """Tinyphoon drawn with seed 3, calibrated (its manoeuvres simulated once for this and the calibrate
+    command's test: tests/shared.py). One draw checks each identification's claim; seed 7 passed the same
+    checks as well (about 11 s more; the README's Calibration section reports 10 seeds)."""
+    with shared_manoeuvres():
+        return simulated_calibration("tinyphoon", request.param)
 
 
 def test_geometry_is_recovered_within_its_standard_error_and_the_targets(calibrated):
@@ -105,7 +111,10 @@ def test_allan_deviation_of_white_noise_falls_as_one_over_root_tau():
 
 
 def test_calibrate_command_writes_a_model_that_replay_reads(tmp_path, capsys):
-    assert main(["calibrate", "--simulate", "tinyphoon", "--seed", "3", "--out", str(tmp_path)]) == 0
+    """The command drives seed 3's manoeuvres (the fixture's, simulated once: tests/shared.py), identifies,
+    prints and writes the model; replay reads it."""
+    with shared_manoeuvres():
+        assert main(["calibrate", "--simulate", "tinyphoon", "--seed", "3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     last = out.strip().splitlines()[-1]
     assert last.startswith("calibration worst_radius_pct=")
@@ -159,7 +168,10 @@ def test_calibrate_bad_options(argv, phrase, capsys):
 
 
 def test_kurt3d_calibrates_too():
-    calibration, truth = simulated_calibration("kurt3d", 1)
+    """Kurt3D drawn with seed 5 (the manoeuvres of tests/test_calibration_session.py's session, simulated
+    once: tests/shared.py)."""
+    with shared_manoeuvres():
+        calibration, truth = simulated_calibration("kurt3d", 5)
     errors = compare(calibration, truth)
     for key, target in (("wheel_radius_R", 0.001), ("wheel_radius_L", 0.001), ("track_width", 0.003)):
         assert abs(errors[key][2]) < target, (key, errors[key])

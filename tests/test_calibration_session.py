@@ -9,14 +9,17 @@ from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import Scenario, ScenarioError
 from slipnav.scenarios.model import RobotModel, load_model
 from slipnav.scenarios.sensor_log import SensorLog, write_sensor_log
-from slipnav.studies.calibration import calibrate, compare, simulate_manoeuvres
+from slipnav.studies.calibration import calibrate, compare
 from slipnav.studies.calibration_session import read_session, write_session
+
+from tests.shared import calibration_manoeuvres
 
 
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
-    """Kurt3D's calibration manoeuvres for seed 5, in memory and written as a session."""
-    manoeuvres, truth = simulate_manoeuvres(Scenario(robot="kurt3d", trajectory=None), 5)
+    """Kurt3D's calibration manoeuvres for seed 5 (simulated once: tests/shared.py), in memory and
+    written as a session."""
+    manoeuvres, truth = calibration_manoeuvres(Scenario(robot="kurt3d", trajectory=None), 5)
     folder = tmp_path_factory.mktemp("lab") / "kurt3d-day1.calibration"
     session = write_session(manoeuvres, folder, "kurt3d", "simulated lab day")
     return manoeuvres, truth, session

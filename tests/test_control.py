@@ -9,7 +9,14 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from scipy.integrate import solve_ivp
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.runner import run_scenario
+from slipnav.scenarios.plain_loop import run_scenario_plain_loop
+from slipnav.scenarios.runner import (
+    closed_loop_settings,
+    completion_tolerance,
+    follower_path,
+    judge_completion,
+    run_scenario,
+)
 from slipnav.scenarios.trajectories import Arc, PathConfig, Straight, build_path
 from slipnav.systems.path_follower import (
     LyapunovPathFollower,
@@ -30,6 +37,8 @@ from slipnav.systems.slip_control import (
     max_step_size,
     step_size,
 )
+
+from tests.shared import scenario_frenet_errors, scenario_run
 
 # --- Indiveri I(11)-(24) -------------------------------------------------------------------------------
 
@@ -316,31 +325,24 @@ def test_closed_loop_curvature_term_T_stays_within_the_I20_I22_bound(name, kappa
 
 
 @pytest.mark.parametrize("name, kappa_max", [("circle", 1 / 2.0), ("long_path", 1 / 2.5)])
-def test_T_of_I21_stays_within_the_I22_bound_on_the_real_robot(name, kappa_max, monkeypatch):
+def test_T_of_I21_stays_within_the_I22_bound_on_the_real_robot(name, kappa_max):
     """The same bound on the whole closed loop (Kurt3D's dynamics, tyres, navigation estimate, standing
     start), where I(15)-(16) read the estimated speed, so T is taken as I(21) defines it: T = kappa_cl -
     kappa_r cos(theta), kappa_cl = (v_R - v_L) / (b (v_R + v_L)) of each follower update's commands (I(5),
     I(20); the saturator keeps their ratio). Bound 1/b - kappa_r,max = 4.5 (circle), 4.6 (long path);
-    measured max |T| 0.91 and 0.26 1/m (seed 0)."""
+    measured max |T| 0.91 and 0.26 1/m (seed 0). The scenario's default run, shared (tests/shared.py: the
+    long path's with test_long_path_bounded_speed_law_is_faster_and_respects_V_m)."""
     from slipnav.scenarios import runner
 
-    frenet = {}
-    collect = runner.collect_arrays
-
-    def spy(loggers, context, robot, **options):
-        frenet["data"] = loggers["frenet_errors"].FindLog(context).data().copy()
-        return collect(loggers, context, robot, **options)
-
-    monkeypatch.setattr(runner, "collect_arrays", spy)
     scenario = load_scenario(name)
-    result = run_scenario(scenario)
+    result = scenario_run(name)
     a, path = result.arrays, runner.follower_path(scenario)
     half = 0.5 * float(a["track_width"])
     # The update at t_K reads row k (s before it) and shows its errors and commands on row k + 1.
     n = round(float(a["T_C"]) / float(a["T_N"]))
     k = np.arange(round(float(a["start_time"]) / float(a["T_N"])), len(a["t"]) - 1, n)
     k = k[a["virtual_target"][k] < path.length]
-    theta = frenet["data"][2, k + 1]
+    theta = scenario_frenet_errors(name)[2, k + 1]
     v_R, v_L = a["cmd_R"][k + 1], a["cmd_L"][k + 1]
     kappa_cl = (v_R - v_L) / (half * (v_R + v_L))
     T = kappa_cl - np.interp(a["virtual_target"][k], path.s, path.kappa) * np.cos(theta)
@@ -416,7 +418,8 @@ def test_step_size_parameter_validation(field, value, message):
 
 def test_corner_slip_control_reduces_side_slip_and_catches_up():
     scenario = load_scenario("corner")
-    on = run_scenario(scenario, slip_control=True)
+    assert scenario.slip_control_enabled  # the default run is the one with slip control (tests/shared.py)
+    on = scenario_run("corner")
     off = run_scenario(scenario, slip_control=False)
     assert on.summary["peak_abs_true_alpha_deg"] <= 0.7 * off.summary["peak_abs_true_alpha_deg"]
     assert on.summary["path_error_rms_m"] < off.summary["path_error_rms_m"]
@@ -444,15 +447,28 @@ def test_square_tangential_slip_reduces_step_size():
 
 
 def test_long_path_bounded_speed_law_is_faster_and_respects_V_m():
+    """Indiveri's bounded speed law I(24) against u = V_m / 2 on the long path (Kurt3D, closed loop): both
+    keep every wheel command within V_m, and the bounded one completes in at most 0.56 of the time. The
+    bounded run is the scenario's default (the diagram's, shared with the I(22) test: tests/shared.py);
+    the constant one runs as the plain closed loop (scenarios/plain_loop.py, the diagram's twin sample for
+    sample: test_plain_loop), to the controller's nominal end plus two settle times, and is judged complete
+    as run_scenario judges it (judge_completion on the true track)."""
     scenario = load_scenario("long_path")
-    bounded = run_scenario(scenario, speed_law="bounded")
-    constant = run_scenario(scenario, speed_law="constant")
-    V_m = scenario.robot_parameters().wheel_speed_limit
-    for run in (bounded, constant):
-        a = run.arrays
+    assert scenario.speed_law == "bounded"  # the default run is the bounded one (tests/shared.py)
+    bounded = scenario_run("long_path")
+    robot, rates, path = scenario.robot_parameters(), scenario.rates(), follower_path(scenario)
+    _, _, nominal = closed_loop_settings(scenario, scenario.slip_control_enabled, "constant")
+    steps = int(round((nominal + 2.0 * scenario.settle_time) / rates.T_N))
+    constant = run_scenario_plain_loop(scenario, scenario.seed, steps, speed_law="constant")
+    t = np.arange(steps) * rates.T_N
+    completion = judge_completion(
+        t, constant["true_x"], constant["true_y"], path.x, path.y, completion_tolerance(robot)
+    )["completion_time_s"]
+    V_m = robot.wheel_speed_limit
+    for a in (bounded.arrays, constant):
         assert np.max(np.maximum(np.abs(a["cmd_R"]), np.abs(a["cmd_L"]))) <= V_m + 1e-12
-        assert run.summary["completion_time_s"] is not None
-    ratio = bounded.summary["completion_time_s"] / constant.summary["completion_time_s"]
+    assert bounded.summary["completion_time_s"] is not None and completion is not None
+    ratio = bounded.summary["completion_time_s"] / completion
     assert ratio <= 0.56  # the paper: "about 50 %"; measured 0.53-0.55 (docs/results.md)
     assert np.max(bounded.arrays["cmd_R"]) == pytest.approx(V_m)  # really drives at the bound
 

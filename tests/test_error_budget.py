@@ -2,6 +2,7 @@
 
 import dataclasses as dc
 import math
+import re
 
 import numpy as np
 import pytest
@@ -16,11 +17,17 @@ from slipnav.scenarios.metrics import (
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.error_budget import VARIANTS, error_budget_of_run, replay
 
+from tests.shared import scenario_run
+
 
 @pytest.fixture(scope="module")
 def corner_run():
-    scenario = load_scenario("corner")
-    return scenario, run_scenario(scenario, seed=0).arrays
+    return load_scenario("corner"), scenario_run("corner", seed=0).arrays
+
+
+@pytest.fixture(scope="module")
+def corner_budget(corner_run):
+    return error_budget_of_run(corner_run[1], corner_run[0])
 
 
 def test_replay_is_the_diagram_and_the_oracles_replace_what_they_name(corner_run):
@@ -42,12 +49,12 @@ def test_replay_is_the_diagram_and_the_oracles_replace_what_they_name(corner_run
     assert rms(free["est_v_n"]) > 2 * rms(default["est_v_n"])
 
 
-def test_budget_of_the_corner(corner_run):
+def test_budget_of_the_corner(corner_run, corner_budget):
     """Measured on seed 0 (closed loop): relaxing v_n towards the tyre model instead of zero cuts the
     paper's side-slip error to an eighth (0.24 vs 1.88 deg), and above b2 towards the slip at the measured
     tyre force rather than at v_t omega by nearly half again (0.24 vs 0.42 deg)."""
     scenario, a = corner_run
-    budget = error_budget_of_run(a, scenario)
+    budget = corner_budget
     assert list(budget) == list(VARIANTS)
     pct = 100.0 * final_position_error(a, "est") / float(a["path_length"])
     assert budget["default"] == pytest.approx((pct, math.degrees(side_slip_rms_error(a))), rel=1e-9)
@@ -93,10 +100,27 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
     assert final_position_error(a, "est") > final_position_error({**a, **oracle}, "est")
 
 
-def test_error_budget_command(capsys, tmp_path):
+def test_error_budget_command(corner_run, corner_budget, capsys, tmp_path, monkeypatch):
+    """The command's table holds each variant's final error and side-slip RMS of the seed's run. Its run
+    and budget are the tests' above (the corner's seed 0, the same arguments), so that this checks what the
+    command adds: the jobs, the engine, the results file, the table."""
+    from slipnav.studies import error_budget as study
+
+    def budget(a, scenario):
+        assert scenario.name == "corner" and np.array_equal(a["est_x"], corner_run[1]["est_x"])
+        return corner_budget
+
+    monkeypatch.setattr(study, "run_scenario", lambda scenario, **kw: scenario_run(scenario.name, **kw))
+    monkeypatch.setattr(study, "error_budget_of_run", budget)
     assert main(["error-budget", "corner", "--seeds", "1", "--workers", "0", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
+
+    def shown(value):  # one seed: mean (worst) is the value twice; not estimated: "-"
+        return re.escape(f"{value:6.2f} ({value:5.2f})" if math.isfinite(value) else "-")
+
     for variant in VARIANTS:
-        assert variant in out
+        pct, alpha = corner_budget[variant]
+        assert re.search(rf"{re.escape(variant)}\s+{shown(pct)}\s+{shown(alpha)}\n", out), variant
+    assert len((tmp_path / "error-budget.csv").read_text().splitlines()) == 2  # header, the seed's row
     assert main(["error-budget", "corner", "--seeds", "0"]) == 2
     assert "--seeds=0 is out of range" in capsys.readouterr().err

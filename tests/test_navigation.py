@@ -62,6 +62,8 @@ from slipnav.systems.sensor_health import SensorHealthParameters, health_initial
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 
+from tests.shared import scenario_run
+
 T_N = 0.002
 
 
@@ -668,13 +670,16 @@ def test_diagram_matches_sequential_reference_loop(name):
     assert len(changes) > 0 and np.all(changes % rates.batch_length == 1)
 
 
-def test_covariance_stays_symmetric_positive_definite_over_ten_minutes():
-    """10 simulated minutes of hard driving (speed to 3 m/s, yaw rate to 5 rad/s) through the same pure
-    functions as the diagram: P stays symmetric positive definite; the measured block (omega, a_t, a_n)
-    and the gain S(7) stay at their steady values. The velocity block is not measured (S(3)) and its
-    variance would grow (the forward-Euler rotation of S(2) has |eigenvalue| = sqrt(1 + (omega T_N)^2) > 1)
-    but the mixing's pseudo-measurements (ekf_mixing_covariance) hold it at the odometry's level."""
-    N = int(600.0 / T_N)
+def test_covariance_stays_symmetric_positive_definite_over_a_minute():
+    """A simulated minute of hard driving (speed to 3 m/s, yaw rate to 5 rad/s: 20 periods of the yaw
+    rate, 8.6 of the speed) through the navigation loop (the same pure functions as the diagram): P stays
+    symmetric positive definite; the measured block (omega, a_t, a_n) and the gain S(7) stay at their
+    steady values (the block at 30 s and at 60 s, the gain from 6 s on). The velocity block is not
+    measured (S(3)) and its variance would grow (the forward-Euler rotation of S(2) has |eigenvalue| =
+    sqrt(1 + (omega T_N)^2) > 1) but the mixing's pseudo-measurements (ekf_mixing_covariance) hold it at
+    the odometry's level: without them it passes the bound below (1e-3) within 10 s and reaches 0.014 by
+    60 s. (Ten simulated minutes pass the same checks at ten times the cost.)"""
+    N = int(60.0 / T_N)
     t = np.arange(N) * T_N
     v = 1.5 + 1.5 * np.sin(2 * np.pi * t / 7.0)
     w = 5.0 * np.sin(2 * np.pi * t / 3.0)
@@ -749,7 +754,7 @@ def test_mixing_as_pseudo_measurement_of_the_velocities_in_P():
     assert gain[1] == pytest.approx(1.0 - 0.25 * still.q2 - 0.75 * still.q2_inertial, rel=1e-14)
 
 
-def spin_on_the_spot(omega: float, pushed: bool, duration: float = 90.0, checks: bool = True):
+def spin_on_the_spot(omega: float, pushed: bool, duration: float = 30.0, checks: bool = True):
     """(parameters, navigation_loop output) of Tinyphoon spinning on the spot at omega for ``duration``:
     the gyro beyond its 300 deg/s (replaced by the pair's or the odometric yaw rate), exact encoder counts,
     and accelerometers at +-(0.02, 0.015) m that read the centripetal -omega^2 r and, ``pushed``, 3 m/s^2
@@ -771,10 +776,11 @@ def spin_on_the_spot(omega: float, pushed: bool, duration: float = 90.0, checks:
 
 
 def test_covariance_stays_bounded_in_a_long_fast_spin():
-    """The long-run check, scaled to the suite: 90 s of spinning on the spot at 20 rad/s, in which S(6)
-    and S(9) alone grow the velocities' variance by (1 + (omega T_N)^2)^N = e^72 (NaN after ~860 s). With
-    the mixing in P, P is steady from 30 s on, v_t's variance is odometry's, C1^2 R_t / (1 - (1 - C1)^2)
-    to 2 %, and P stays symmetric positive definite."""
+    """The long-run check, scaled to the suite: 30 s of spinning on the spot at 20 rad/s, in which S(6)
+    and S(9) alone grow the velocities' variance by (1 + (omega T_N)^2)^N = e^24 (NaN after ~860 s). With
+    the mixing in P, P is steady from 10 s on (within 0.03 % from 5 s on, here and over 90 s alike), v_t's
+    variance is odometry's, C1^2 R_t / (1 - (1 - C1)^2) to 2 %, and P stays symmetric positive
+    definite."""
     omega = 20.0
     params, out = spin_on_the_spot(omega, pushed=False)
     P = out["P"][::250]
@@ -868,11 +874,12 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
 
 
 def test_covariance_stays_bounded_when_the_odometry_is_not_trusted_in_a_spin():
-    """90 s at 20 rad/s with accelerometers that also read 3 m/s^2 forward that the wheels do not show,
+    """30 s at 20 rad/s with accelerometers that also read 3 m/s^2 forward that the wheels do not show,
     the sensor checks off (with them the saturated gyro's samples teach S(11) nothing): the slip detector
-    sees the odometry disagree and C1 falls to ~0, so S(15) hardly measures v_t; P stays
+    sees the odometry disagree and C1 falls to ~0 (within 0.25 s), so S(15) hardly measures v_t; P stays
     within ekf.velocity_variance_limit and positive definite (the cap itself:
-    test_velocity_cross_covariance_is_scaled_to_the_variance_limit)."""
+    test_velocity_cross_covariance_is_scaled_to_the_variance_limit; without the mixing in P the variance
+    reaches the limit within 15 s and the cap holds it there)."""
     params, out = spin_on_the_spot(20.0, pushed=True, checks=False)
     assert out["C1"][-1] < 1e-3
     P = out["P"][::250]
@@ -1110,7 +1117,7 @@ def test_the_fused_pose_of_a_row_describes_the_robot_two_samples_back():
     samples back. On the corner its distance from the truth shifted by two samples is a fraction of
     its distance from the same row's truth, which is mostly the robot's travel in 2 T_N (4.6 mm rms
     at the corner's speeds); the lag is no estimation error, and at the final standstill it is gone."""
-    a = run_scenario(load_scenario("corner"), seed=0).arrays
+    a = scenario_run("corner", seed=0).arrays
     t = a["t"]
     moving = np.flatnonzero((t > 0.1) & (np.abs(a["true_v_t"]) > 0.2))
 

@@ -11,10 +11,12 @@ from slipnav.scenarios import plots
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario, write_artifacts
 
+from tests.shared import scenario_run
+
 
 @pytest.fixture(scope="module")
 def corner():
-    return run_scenario(load_scenario("corner"))
+    return scenario_run("corner")
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +26,7 @@ def corner_open():
 
 @pytest.fixture(scope="module")
 def circle():
-    return run_scenario(load_scenario("circle"))
+    return scenario_run("circle")
 
 
 def written_figures(result, tmp_path, monkeypatch) -> dict:

@@ -1,6 +1,8 @@
 """slipnav reproduce (studies/reproduce.py): each figure function on cheap inputs, the helpers by hand, and
 the command writing a page that references every figure with the numbers of its runs."""
 
+import contextlib
+import io
 import json
 import math
 import re
@@ -9,11 +11,13 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from slipnav.scenarios.cli import main
-from slipnav.scenarios.config import load_scenario, scenario_from_yaml
+from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.paper import paper_mode
-from slipnav.scenarios.runner import follower_path, run_scenario
+from slipnav.scenarios.runner import follower_path
 from slipnav.studies import reproduce as rp
 from slipnav.systems.mixing import MixingParameters, logsig
+
+from tests.shared import scenario_run
 
 KEYS = [
     "seyr-fig4",
@@ -36,28 +40,37 @@ def _close_figures():
     plt.close("all")
 
 
-def _run(name, command="cmd", scenario=None, **options):
-    scenario = scenario or load_scenario(name)
-    r = run_scenario(scenario, **options)
-    return rp.Run(r.arrays, r.summary, r.reference, follower_path(scenario), command)
-
-
 @pytest.fixture(scope="module")
 def corner():
-    return _run("corner", "slipnav run corner")
+    """The default corner run (shared: tests/shared.py)."""
+    r, path = scenario_run("corner"), follower_path(load_scenario("corner"))
+    return rp.Run(r.arrays, r.summary, r.reference, path, "slipnav run corner")
 
 
 @pytest.fixture(scope="module")
-def circles():
-    """Short circle runs (3 s): bounded, constant, and the lifted variant (to 6 s)."""
-    lifted = scenario_from_yaml(rp.lifted_circle_yaml(), "lifted_circle")
-    return {
-        "bounded": _run("circle", duration=3.0),
-        "constant": _run("circle", speed_law="constant", duration=3.0),
-        "lifted": _run(
-            "lifted_circle", scenario=lifted, localisation="odometry", speed_law="constant", duration=6.0
-        ),
-    }
+def quick(tmp_path_factory):
+    """``slipnav reproduce --quick`` once: (its folder, what it printed, the runs it made)."""
+    out = tmp_path_factory.mktemp("quick")
+    made = {}
+    make_runs = rp.make_runs
+
+    def keep(*args, **kwargs):
+        made.update(runs := make_runs(*args, **kwargs))
+        return runs
+
+    printed = io.StringIO()
+    with pytest.MonkeyPatch.context() as m, contextlib.redirect_stdout(printed):
+        m.setattr(rp, "make_runs", keep)
+        assert main(["reproduce", "--quick", "--out", str(out)]) == 0
+    return out / "reproduce", printed.getvalue(), made
+
+
+@pytest.fixture(scope="module")
+def circles(quick):
+    """Short circle runs (4 s): bounded, constant, and the lifted variant (to 6 s), those of reproduce
+    --quick (the same runs as run_specs(quick=True) names them)."""
+    runs = quick[2]
+    return {"bounded": runs["circle"], "constant": runs["circle_constant"], "lifted": runs["lifted"]}
 
 
 def _labels(fig):
@@ -154,11 +167,11 @@ def test_helpers_by_hand():
     assert rp.following_time(run) == pytest.approx(0.99)
 
 
-def test_reproduce_writes_a_page_referencing_every_figure(tmp_path, capsys):
+def test_reproduce_writes_a_page_referencing_every_figure(quick):
     """--quick: default mode only, the long runs cut short. The page shows every figure's PNG beside its
-    caption, claim, measurement and command; the numbers are those of the runs."""
-    assert main(["reproduce", "--quick", "--out", str(tmp_path)]) == 0
-    out = tmp_path / "reproduce"
+    caption, claim, measurement and command; the numbers are those of the runs (the corner's: the same
+    run made anew)."""
+    out, printed, _ = quick
     page = (out / "index.html").read_text()
     record = json.loads((out / "reproduce.json").read_text())
     assert sorted(record["figures"]["default"]) == sorted(KEYS)
@@ -170,7 +183,7 @@ def test_reproduce_writes_a_page_referencing_every_figure(tmp_path, capsys):
     # The claims: position error, slip control, speed law, saturation; the page carries the numbers.
     claims = record["claims"]
     assert [c["figure"] for c in claims] == ["seyr-fig8", "seyr-fig6", "indiveri-fig9", "indiveri-fig8"]
-    corner = run_scenario(load_scenario("corner"))
+    corner = scenario_run("corner")
     pct = 100 * corner.summary["final_position_error_m"]["fused"] / corner.summary["path_length_m"]
     assert record["figures"]["default"]["seyr-fig8"]["numbers"]["corner_fused_pct"] == pytest.approx(pct)
     assert f"fused {pct:.2f} % corner" in claims[0]["measured"]["default"]
@@ -181,7 +194,7 @@ def test_reproduce_writes_a_page_referencing_every_figure(tmp_path, capsys):
     # The lifted circle's scenario file is written and loads: its command can be run.
     lifted = load_scenario(str(out / "lifted_circle.yaml"))
     assert [e.kind for e in lifted.faults] == ["wheel_lifted", "wheel_lifted", "wheel_held", "wheel_pushed"]
-    assert "reproduce figures=11" in capsys.readouterr().out
+    assert "reproduce figures=11" in printed
     # Seyr's corner and square and Indiveri's long path as animations, linked from the page.
     assert record["animations"] == {
         "default": {n: f"{n}-default.html" for n in ("corner", "square", "long_path")}

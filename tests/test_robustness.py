@@ -92,12 +92,13 @@ def test_kurt3d_turns_are_the_gyros_when_the_track_is_off():
     """Long path, seed 0, through its first 90 deg turn (R = 3 m at 4 m/s) on a Kurt3D whose track is 3 %
     wider than believed: the odometric yaw rate reads 3 % high, 2.7 deg of heading over the turn. With the
     turn rule (the scenario's mixing.gyro_turn_rate, 0.05 rad/s) the fused heading follows the gyro and
-    ends within 0.5 deg; S(14) alone (.inf) keeps the odometry's error (Truth and belief)."""
+    ends within 0.5 deg; S(14) alone (.inf) keeps the odometry's error (Truth and belief). The closed loop
+    as the plain loop (scenarios/plain_loop.py, the diagram's twin sample for sample: test_plain_loop)."""
     import dataclasses as dc
     import math
 
     from slipnav.scenarios.config import load_scenario
-    from slipnav.scenarios.runner import run_scenario
+    from slipnav.scenarios.plain_loop import run_scenario_plain_loop
     from slipnav.scenarios.tolerances import RobotDeviations
 
     def heading_errors(turn_rate):
@@ -106,10 +107,10 @@ def test_kurt3d_turns_are_the_gyros_when_the_track_is_off():
         mixing = dc.replace(scenario.navigation.mixing, gyro_turn_rate=turn_rate)
         scenario.navigation = dc.replace(scenario.navigation, mixing=mixing)
         scenario.plant = dc.replace(scenario.plant, deviations=RobotDeviations(track_width=0.03))
-        a = run_scenario(scenario, seed=0, duration=7.5).arrays
+        a = run_scenario_plain_loop(scenario, 0, round(7.5 / scenario.T_N))  # 7.5 s
         assert abs(a["true_phi"][-1] - math.pi / 2) < 0.2  # the turn is done
         return [
-            math.degrees(math.remainder(a[f"{p}_phi"][-1] - a["true_phi"][-1], 2 * math.pi))
+            math.degrees(math.remainder(a[f"nav_{p}_phi"][-1] - a["true_phi"][-1], 2 * math.pi))
             for p in ("est", "odo")
         ]
 

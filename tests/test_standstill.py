@@ -132,9 +132,9 @@ def rest_streams(seconds, seed, drift_density, gyro_bias=0.002, gyro_step=0.0):
 
 
 def test_the_pose_holds_at_rest_while_the_biases_drift():
-    """120 s at rest with the biases drifting sqrt(5) times faster than the data sheet says (as far as
+    """60 s at rest with the biases drifting sqrt(10) times faster than the data sheet says (as far as
     10 min at the data sheet's density): the pose moves < 1 cm and the biases are tracked."""
-    accelerometers, gyro, encoders, bias = rest_streams(120.0, 3, 0.0065 * math.sqrt(5.0))
+    accelerometers, gyro, encoders, bias = rest_streams(60.0, 3, 0.0065 * math.sqrt(10.0))
     loop = NavigationLoop(NavigationParameters(), 0.015, 0.068, T_N, 0.02)
     out = run_navigation_loop(loop, accelerometers, gyro, encoders)
     moved = math.hypot(out["est_x"][-1], out["est_y"][-1])
@@ -143,19 +143,20 @@ def test_the_pose_holds_at_rest_while_the_biases_drift():
     assert out["standstill"][1000:].mean() > 0.99
     learned = np.array([out[f"est_accel_bias_{axis}"][-1] for axis in ("t1", "n1", "t2", "n2")])
     assert np.abs(learned - bias[-1]).max() < 0.03  # the drift over the last seconds, several sigma
-    # without the measurement the first 30 s of the same streams already move the pose farther
+    # without the measurement the first 10 s of the same streams already move the pose farther
     params = NavigationParameters()
     params.standstill.enabled = False
     loop = NavigationLoop(params, 0.015, 0.068, T_N, 0.02)
-    off = run_navigation_loop(loop, accelerometers[:15000], gyro[:15000], encoders[:15000])
+    off = run_navigation_loop(loop, accelerometers[:5000], gyro[:5000], encoders[:5000])
     assert off["standstill"].max() == 0.0
     assert math.hypot(off["est_x"][-1], off["est_y"][-1]) > 10 * moved
 
 
 def test_rejections_at_rest_stay_near_the_false_rejection_rate():
     """Fault-free rest: after the biases have settled the accelerometers' test rejects about
-    false_rejection of the samples (the PT1's samples are correlated, so a factor 5 of margin)."""
-    accelerometers, gyro, encoders, _ = rest_streams(60.0, 7, 0.0065)
+    false_rejection of the samples (the PT1's samples are correlated, so a factor 5 of margin). 25 s
+    settled, 12 500 samples: rejected 0.06 % (seeds 1 and 2: 0.05 %, 0.12 %; over 55 s before: 0.05 %)."""
+    accelerometers, gyro, encoders, _ = rest_streams(30.0, 7, 0.0065)
     loop = NavigationLoop(NavigationParameters(), 0.015, 0.068, T_N, 0.02)
     out = run_navigation_loop(loop, accelerometers, gyro, encoders)
     rejected = 1.0 - out["standstill"][2500:].mean()  # from 5 s on
