@@ -100,6 +100,7 @@ from slipnav.systems.yaw_witness import CUSUM as YAW_CUSUM
 from slipnav.systems.yaw_witness import (
     GRIP_STIFFNESS_RATIO,
     YAW_TEST_SIZE,
+    count_yaw_rate,
     gyro_yaw_test,
     tyre_grip,
     yaw_follow_step,
@@ -678,7 +679,7 @@ def health_check(
             codes[4] = out_code
         else:
             n = s[_G_COUNT]
-            counts = 2.0 * g.encoder_step * (g.radius_R + g.radius_L) / (g.track_width * g.T_N)
+            counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
             allowed = (
                 3.0 * g.gyro_noise_std * math.sqrt(n) + counts + p.gyro_readmission_fraction * s[_G_TRAVEL]
             )
@@ -1069,7 +1070,7 @@ def gyro_bias_step_block(s, code: int, residual: float, replacement: float, p, g
         return
     mean = s[_B_SUM] / n
     spread = math.sqrt(max(s[_B_SQUARES] / n - mean * mean, 0.0))
-    counts = g.encoder_step * (g.radius_R + g.radius_L) / (g.track_width * g.T_N)
+    counts = 2.0 * count_yaw_rate(g)  # one count of each wheel
     measured = abs(mean) > BIAS_STEP_SIGMAS * max(spread, g.gyro_noise_std) / math.sqrt(n)
     steady = spread <= BIAS_STEP_SIGMAS * g.gyro_noise_std + counts
     if s[_B_TURN] <= p.bias_step_yaw_rate and steady and measured:

@@ -127,15 +127,20 @@ def yaw_test_threshold(false_alarm_time: float, T_N: float) -> float:
 
 
 @jitable
+def count_yaw_rate(g) -> float:
+    """One encoder count of one wheel in one T_N as a yaw rate (rad/s): encoder_step r / (b T_N), r the
+    wheels' mean radius (Tinyphoon 0.113)."""
+    return g.encoder_step * 0.5 * (g.radius_R + g.radius_L) / (g.track_width * g.T_N)
+
+
+@jitable
 def yaw_residual_variance(witness: float, witness_rate: float, c) -> float:
     """S of the residual (gyro - b_g) - witness (rad^2/s^2; module docstring, 2.) at the witness's rate
     of change ``witness_rate`` (rad/s^2); ``c``: HealthConstants (or anything with their
     yaw_slip_fraction, yaw_witness_lag and sensor figures)."""
-    radius = 0.5 * (c.radius_R + c.radius_L)
-    count_yaw_rate = c.encoder_step * radius / (c.track_width * c.T_N)
     return (
         c.gyro_noise_std**2
-        + count_yaw_rate**2 / 3.0
+        + count_yaw_rate(c) ** 2 / 3.0
         + (c.yaw_slip_fraction * witness) ** 2
         + (c.yaw_witness_lag * witness_rate) ** 2
     )
