@@ -29,7 +29,14 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios import alignment as al
-from slipnav.scenarios.importers import RESAMPLING, ImportResult, LogImportError, read_table, resolve_model
+from slipnav.scenarios.importers import (
+    RESAMPLING,
+    ImportResult,
+    LogImportError,
+    log_summary,
+    read_table,
+    resolve_model,
+)
 from slipnav.scenarios.model import RobotModel
 from slipnav.scenarios.sensor_log import SensorLog
 
@@ -433,8 +440,7 @@ def import_trial(trial_dir, model_path=None, resample: str = "interpolate") -> I
 def summary(r: dict) -> str:
     """One line of what the import estimated (slipnav import prints it)."""
     c, o = r["clocks"], r["truth_offset"]
-    return (
-        f"{r['name']}: {r['log']['rows']} rows at T_N {r['log']['T_N_s']:g} s ({r['log']['resampling']}); "
+    return log_summary(r) + (
         f"lags behind Vicon: wheels {1000 * c['kobuki']['lag_behind_vicon_s']:.1f} ms, IMU "
         f"{1000 * c['navx']['lag_behind_vicon_s']:.1f} ms; gyro {r['gyro']['yaw_axis']}; "
         f"{r['accelerometer']['mapping']} (fit {r['accelerometer']['fitted_angle_deg']:.1f} deg); truth "

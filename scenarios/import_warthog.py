@@ -34,7 +34,14 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios import alignment as al
-from slipnav.scenarios.importers import RESAMPLING, ImportResult, LogImportError, read_table, resolve_model
+from slipnav.scenarios.importers import (
+    RESAMPLING,
+    ImportResult,
+    LogImportError,
+    log_summary,
+    read_table,
+    resolve_model,
+)
 from slipnav.scenarios.model import RobotModel
 from slipnav.scenarios.sensor_log import SensorLog
 
@@ -343,8 +350,7 @@ def import_trial(folder, model_path=None, resample: str = "interpolate") -> Impo
 def summary(r: dict) -> str:
     """One line of what the import estimated (slipnav import prints it)."""
     c, t = r["clocks"], r["truth"]
-    return (
-        f"{r['name']}: {r['log']['rows']} rows at T_N {r['log']['T_N_s']:g} s ({r['log']['resampling']}); "
+    return log_summary(r) + (
         f"lags behind GNSS (UTC = GPST - {c['gnss']['gps_minus_utc_s']} s): gyro "
         f"{1000 * c['gyro']['lag_behind_gnss_s']:.0f} ms, wheels "
         f"{1000 * c['wheels']['lag_behind_gnss_s']:.0f} ms; "

@@ -72,6 +72,12 @@ def read_table(path: FilePath, columns, skip: int = 0) -> dict:
     return out
 
 
+def log_summary(report: dict) -> str:
+    """The start of an import's summary line: its name, rows, T_N and resampling (report's keys)."""
+    log = report["log"]
+    return f"{report['name']}: {log['rows']} rows at T_N {log['T_N_s']:g} s ({log['resampling']}); "
+
+
 def resolve_model(model_path, default) -> tuple[RobotModel, str]:
     """(model, its YAML text): ``--model``'s file, else ``default()``."""
     if model_path is None:
