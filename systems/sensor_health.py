@@ -448,11 +448,11 @@ class HealthGeometry:
 # accepted or replaced value), the last raw reading, its repeat count, the inconsistency hold and the
 # samples excluded; per encoder (2 each) the last finite raw angle, the output angle less that reading,
 # the last used increment, still samples, predicted travel while still and its absolute sum, code, lost,
-# the last raw increment, the samples excluded; then the accelerometer pair (below).
+# the last raw increment; then the accelerometer pair (below).
 _REF, _LAST, _REPEAT, _HOLD, _EXCL = (slice(5 * i, 5 * i + 5) for i in range(5))
 _E = 25  # encoder slots; _E_OUT holds the output angle less the last finite raw reading
-_E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E_EXCL = (
-    slice(_E + 2 * i, _E + 2 * i + 2) for i in range(10)
+_E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW = (
+    slice(_E + 2 * i, _E + 2 * i + 2) for i in range(9)
 )
 # Accelerometer pair: averages of the disagreement (t, n); 1 when this sample's encoder output restored a
 # stuck encoder's missed travel (_RESTORED); the previous odometric v,
@@ -462,7 +462,7 @@ _E_LAST, _E_OUT, _E_INC, _E_STILL, _E_PRED, _E_ABS, _E_CODE, _E_LOST, _E_RAW, _E
 # its agreeing samples, their summed difference from the prediction and the predicted travel; then the
 # excluded gyro's agreeing samples (its re-admission block); the pair's fast averages (t, n); the gyro's
 # block: its summed difference from the replacement and the replacement's summed magnitude (rad/s).
-_W = _E + 20
+_W = _E + 18
 _RESTORED = _W + 2
 _OFFSET = _W + 13
 _R_COUNT, _R_DIFF, _R_TRAVEL = (slice(_W + 15 + 2 * i, _W + 17 + 2 * i) for i in range(3))
@@ -697,7 +697,7 @@ def health_check(
     radii = (g.radius_R, g.radius_L)
     e_last, e_out, e_inc = s[_E_LAST], s[_E_OUT], s[_E_INC]
     still, pred, pred_abs, e_code, lost = s[_E_STILL], s[_E_PRED], s[_E_ABS], s[_E_CODE], s[_E_LOST]
-    e_raw, e_excl = s[_E_RAW], s[_E_EXCL]
+    e_raw = s[_E_RAW]
     r_count, r_diff, r_travel, r_moved = s[_R_COUNT], s[_R_DIFF], s[_R_TRAVEL], s[_R_MOVED]
     suspect = s[_R_SUSPECT]
     previous_out = [e_last[w] + e_out[w] for w in range(2)]  # e_out: the output less the last raw
@@ -823,7 +823,6 @@ def health_check(
         lost[w] = 1.0 if codes[5 + w] in (NONFINITE, JUMP) else 0.0
         e_code[w] = codes[5 + w]
         e_inc[w] = e_inc[w] if first[w] else used[w]  # the first keeps the initial speed's increment
-        e_excl[w] = e_excl[w] + 1.0 if codes[5 + w] else 0.0
         if not in_block[w]:  # judged, broken, or no block: the next one starts anew
             r_count[w] = r_diff[w] = r_travel[w] = r_moved[w] = 0.0
     s[_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
