@@ -12,6 +12,7 @@ from pydrake.systems.primitives import LogVectorOutput
 from slipnav.diagrams.split import split_port
 from slipnav.systems.baselines import Baselines
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
+from slipnav.systems.health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
 from slipnav.systems.mixing import (
     C2C3_STEP_LAYOUT,
     MIXER_LAYOUT,
@@ -31,7 +32,6 @@ from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
-from slipnav.systems.sensor_health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator
 from slipnav.systems.slip_detector import TangentialSlipDetector

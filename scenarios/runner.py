@@ -41,9 +41,9 @@ from slipnav.scenarios.trajectories import (
 )
 from slipnav.systems.checks import require_seed
 from slipnav.systems.faults import SENSOR_CHANNELS
+from slipnav.systems.health import health_report
 from slipnav.systems.perturbation_monitor import FORCE_CHANNELS, PERTURBATION_CHANNELS, perturbation_report
 from slipnav.systems.plant import RobotParameters, tyre_slip
-from slipnav.systems.sensor_health import health_report
 
 TRUTH_KEYS = (
     "true_x true_y true_phi true_v_t true_v_n true_omega true_alpha true_wheel_R true_wheel_L".split()

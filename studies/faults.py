@@ -6,7 +6,7 @@ the channel's largest reading while the robot moves (so that a scale or saturati
 run reports
 
 - the detection latency: from the first sample the fault changed (against the fault-free run, which
-  is identical up to there) to the first flag of that channel (systems/sensor_health.py);
+  is identical up to there) to the first flag of that channel (systems/health/);
 - the fused final position error over the fault-free run's (error ratio);
 - the gyro-bias estimate at the end against the true bias, in the estimate's standard deviations;
 - beside the issue's final-error ratio, the ratio of the fused position error's RMS over the run to the

@@ -23,8 +23,8 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.health.accelerometer_pair import pair_rotational_difference
 from slipnav.systems.rates import pt1_step
-from slipnav.systems.sensor_health import pair_rotational_difference
 from slipnav.systems.standstill import zero_velocity_update
 
 
@@ -466,7 +466,7 @@ def wheels_at_rest(odo) -> bool:
 
 def accelerometer_pair_disagreement(accelerometers, omega: float, position) -> float:
     """|a_t1 - a_t2 - (-2 omega^2 x)|: how far the two accelerometers' t axes (S(3): at +-(x, y))
-    disagree beyond their centripetal difference (sensor_health.pair_rotational_difference; the
+    disagree beyond their centripetal difference (health.accelerometer_pair.pair_rotational_difference; the
     angular-acceleration term -2 omega_dot y is left in: it is part of what the tolerance allows). NaN if
     a reading is not finite."""
     return abs(accelerometers[0] - accelerometers[2] - pair_rotational_difference(omega, position)[0])

@@ -5,7 +5,7 @@ order the diagram's timing implies, over logged sensor rows. It is the test orac
 diagram's multi-rate wiring (sample-for-sample agreement) and the baseline of the speed benchmark.
 
 Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K n):
-1. check every sensor channel (systems/sensor_health.py: exclude and replace faulty ones, flag them),
+1. check every sensor channel (systems/health/: exclude and replace faulty ones, flag them),
    odometry S(10) from the encoder difference;
    the gyro and the odometric yaw rate calibrated with the bias and radius difference learned up to
    the last batch (systems/yaw_calibration.py); the accelerometers less the biases learned up to sample
@@ -42,6 +42,19 @@ from slipnav.systems.ekf import (
 )
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.gyrodometry import GyrodometryParameters
+from slipnav.systems.health import (
+    FORCE_REFERENCE_FIELDS,
+    NO_CURRENTS,
+    HealthGeometry,
+    SensorHealthParameters,
+    gyro_bias_step,
+    health_check,
+    health_constants,
+    health_initial_state,
+    odometry_unusable,
+    slip_detector_blind,
+)
+from slipnav.systems.health.yaw_witness import MIN_YAW_LAG_STEPS, yaw_lag_at_floor
 from slipnav.systems.mixing import (
     SLIDE_ONSET_INITIAL,
     MixingParameters,
@@ -65,18 +78,6 @@ from slipnav.systems.sensor_correction import (
     corrected_accelerometers,
     corrected_gyro,
 )
-from slipnav.systems.sensor_health import (
-    FORCE_REFERENCE_FIELDS,
-    NO_CURRENTS,
-    HealthGeometry,
-    SensorHealthParameters,
-    gyro_bias_step,
-    health_check,
-    health_constants,
-    health_initial_state,
-    odometry_unusable,
-    slip_detector_blind,
-)
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
@@ -97,7 +98,6 @@ from slipnav.systems.yaw_calibration import (
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
-from slipnav.systems.yaw_witness import MIN_YAW_LAG_STEPS, yaw_lag_at_floor
 
 
 @dc.dataclass

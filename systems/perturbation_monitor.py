@@ -3,7 +3,7 @@ Fig. 5, "the robot was perturbed by hand"), flagged from what the robot itself k
 commands, its encoders (as the sensor checks pass them: an excluded one's replacement) and the
 navigation's estimate.
 
-The sensor checks (systems/sensor_health.py) judge each sensor against the others; they cannot tell a
+The sensor checks (systems/health/) judge each sensor against the others; they cannot tell a
 wheel stopped by a hand from a robot that was commanded to stop. The commands can: every T_N,
 
 1. ``wheel_braked`` / ``wheel_driven`` (per wheel): the wheel's encoder speed leaves the band the speed
@@ -60,8 +60,8 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.health import NO_CURRENTS, PLAUSIBLE_CURRENT
 from slipnav.systems.plant import RobotParameters, shoe_drag
-from slipnav.systems.sensor_health import NO_CURRENTS, PLAUSIBLE_CURRENT
 
 PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
 """Output layout: [wheel_R, wheel_L, yaw, body]; a wheel's code is 1 braked, 2 driven; yaw, body 0/1."""

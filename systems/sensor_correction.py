@@ -12,7 +12,7 @@ that day, and the navigation learns the gyro's at every run's standstill (system
 Removing a stale bias adds the turn-on repeatability to the bias error (sqrt(2) times the data sheet's
 residual in expectation; corner, one seed, happened to end 2.4 mm with it removed and 3.3 mm without).
 
-Where the navigation sits in Seyr & Jakubek's Fig. 3: between the sensor checks (systems/sensor_health.py,
+Where the navigation sits in Seyr & Jakubek's Fig. 3: between the sensor checks (systems/health/,
 which judge the readings in the sensors' own units: their data-sheet range, a stuck value) and every
 block that reads the inertial sensors (S(1)-(9) EKF, S(11) slip detector, the yaw calibration,
 Gyrodometry). A replaced sample (a faulty channel) is corrected alike: the replacements are predictions

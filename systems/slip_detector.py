@@ -15,7 +15,7 @@ printed, with the single sample's term (a_t1,k + a_t2,k) T_N/2:
 
 A trend of wheel speed against body speed is detected, not a stationary slip (§IV-C).
 
-Samples that S(11) cannot use (sensor_health.slip_detector_blind) are left out:
+Samples that S(11) cannot use (health.slip_detector_blind) are left out:
 dv_K is the sum over the samples the batch could use divided by their number (T_N/T_C of the sum when
 all could), and NaN when none could. NaN is "no evidence": the C1 mixer holds C1 rather than read a
 blind batch as "no slip" (MixerC1, mixing.mixer_c1_step).
@@ -38,7 +38,7 @@ def slip_detector_step(
 
     ``running_integral``: the inertial speed change integrated since the batch start (default); False:
     only this sample's (a_t1,k + a_t2,k) T_N/2, S(11) as printed. ``excluded``: a sensor channel of this
-    sample failed its check (systems/sensor_health.py): the sample adds nothing to the sum and is counted
+    sample failed its check (systems/health/): the sample adds nothing to the sum and is counted
     as excluded, so C1 S(12) learns nothing from it (its replaced acceleration still enters the
     integral)."""
     total, integral, v_ref, left_out = state
@@ -87,7 +87,7 @@ class TangentialSlipDetector(LeafSystem):
 
     - odometry: [^O v_t, ^O omega, v_R, v_L] of the current sample.
     - accelerometers: checked [a_t1, a_n1, a_t2, a_n2] of the current sample.
-    - sensor_fault: 1 when the current sample cannot be used (sensor_health.slip_detector_blind: both
+    - sensor_fault: 1 when the current sample cannot be used (health.slip_detector_blind: both
       encoders excluded, one with the gyro, an encoder output the odometry cannot use, or both
       tangential accelerometers; its term is left out).
     - delta_v: dv_K of the batch that ends with the current sample (direct feedthrough). Batches end at

@@ -109,7 +109,7 @@ class StandstillConstants:
 
 
 def standstill_constants(p: StandstillParameters, geometry, T_N: float) -> StandstillConstants:
-    """The constants for the nominal data sheet in ``geometry`` (sensor_health.HealthGeometry: the
+    """The constants for the nominal data sheet in ``geometry`` (health.HealthGeometry: the
     accelerometers' noise, drift density and initial bias)."""
     a = T_N / (p.averaging_time + T_N)
     through_average = a / (2.0 - a)

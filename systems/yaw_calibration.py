@@ -53,6 +53,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.residual_test import CusumState, CusumTest, cusum_shift, cusum_step
+from slipnav.systems.state_layout import layout_size, layout_slices
 
 
 @dc.dataclass
@@ -184,20 +185,12 @@ batch's samples the standstill detector called standing, the observed variance o
 innovations (rad^2/s^2; 0: none yet)."""
 
 
-def _layout_slices(layout) -> dict:
-    slices, start = {}, 0
-    for name, size in layout:
-        slices[name] = slice(start, start + size) if size > 1 else start
-        start += size
-    return slices
-
-
-_SLICES = _layout_slices(CALIBRATION_LAYOUT)
+_SLICES = layout_slices(CALIBRATION_LAYOUT)
 _THETA, _P, _SUMS, _COUNT, _OK = (_SLICES[k] for k in ("theta", "covariance", "sums", "count", "ok"))
 _LEARNED, _REJECTED, _CUSUM, _CHANGES = (_SLICES[k] for k in ("learned", "rejected", "cusum", "changes"))
 _PREVIOUS_WHEELS, _PREVIOUS_GYRO = _SLICES["previous_wheels"], _SLICES["previous_gyro"]
 _STANDING, _RESIDUAL_VARIANCE = _SLICES["standing"], _SLICES["residual_variance"]
-STATE_SIZE = sum(size for _, size in CALIBRATION_LAYOUT)
+STATE_SIZE = layout_size(CALIBRATION_LAYOUT)
 NUM_THETA = 2
 
 
@@ -250,7 +243,7 @@ def yaw_calibration_step(
     whose wheels did not turn counts as a standstill only while the detector said so on every sample;
     otherwise (the wheels' counts lag a turn's start or end) it is neither learned from nor tested.
     ``bias_step``: a step of b_g the sensor checks measured on an excluded gyro (rad/s, 0: none;
-    systems/sensor_health.py, gyro_bias_step_block), taken as a bias change (bias_step_update with R =
+    systems/health/gyro.py, gyro_bias_step_block), taken as a bias change (bias_step_update with R =
     measurement_std^2) at once.
     Returns the next state (the theta used at this sample is ``state``'s)."""
     state = np.array(state, dtype=float)

@@ -1,4 +1,4 @@
-"""Exclusion ends on evidence (systems/sensor_health.py): a channel stays out until its readings agree
+"""Exclusion ends on evidence (systems/health/): a channel stays out until its readings agree
 with the other witnesses again, and a gyro that comes back at a new level hands that level to the
 calibration as a bias step (gyro_bias_step_block, yaw_calibration.bias_step_update); numbers by hand."""
 
@@ -8,8 +8,7 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.faults import FaultEvent
-from slipnav.systems.sensor_health import (
-    BIAS_STEP_SIGMAS,
+from slipnav.systems.health import (
     JUMP,
     RECOVERING,
     SensorHealthParameters,
@@ -17,6 +16,7 @@ from slipnav.systems.sensor_health import (
     health_initial_state,
     health_step,
 )
+from slipnav.systems.health.gyro import BIAS_STEP_SIGMAS
 from slipnav.systems.yaw_calibration import (
     YawCalibrationParameters,
     bias_step_update,

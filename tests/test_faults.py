@@ -1,4 +1,4 @@
-"""Sensor faults (systems/faults.py) and the sensor checks (systems/sensor_health.py): every fault class
+"""Sensor faults (systems/faults.py) and the sensor checks (systems/health/): every fault class
 injected, detected within 0.1 s, flagged with its class, excluded and recovered from; numbers by hand."""
 
 import dataclasses as dc
@@ -22,9 +22,7 @@ from slipnav.studies.faults import (
     select_cases,
 )
 from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
-from slipnav.systems.navigation import NavigationParameters, health_geometry
-from slipnav.systems.plant import contact_forces, kurt3d, plant_derivatives, plant_substep, tinyphoon
-from slipnav.systems.sensor_health import (
+from slipnav.systems.health import (
     INCONSISTENT,
     JUMP,
     NONFINITE,
@@ -34,18 +32,17 @@ from slipnav.systems.sensor_health import (
     HealthConstants,
     HealthGeometry,
     SensorHealthParameters,
-    fast_pair_ratio,
     health_constants,
     health_flags,
     health_initial_state,
     health_step,
-    pair_gain_ratio,
-    pair_gain_reset,
-    pair_gain_upper_bound,
-    pair_omega_squared,
     travel_restored,
-    yaw_follow_step,
 )
+from slipnav.systems.health.accelerometer_pair import fast_pair_ratio, pair_omega_squared
+from slipnav.systems.health.pair_gain import pair_gain_ratio, pair_gain_reset, pair_gain_upper_bound
+from slipnav.systems.health.yaw_witness import yaw_follow_step
+from slipnav.systems.navigation import NavigationParameters, health_geometry
+from slipnav.systems.plant import contact_forces, kurt3d, plant_derivatives, plant_substep, tinyphoon
 from slipnav.systems.sensors import accelerometer_truth
 
 T_N = 0.002
@@ -310,7 +307,7 @@ def test_gyro_bias_step_is_a_jump_excluded_until_it_ends():
 def test_a_biased_gyro_is_not_readmitted_by_a_sample_that_meets_a_skidding_odometry():
     """In a skidding turn the odometric yaw rate reads high; a gyro with a +1 rad/s bias step meets it
     within gyro_max_step (0.5 rad/s) for a few samples. One sample re-admits it (gyro_readmission_samples
-    = 1), and then the yaw test (systems/yaw_witness.py) holds it out again: 0.7 rad/s above the
+    = 1), and then the yaw test (systems/health/yaw_witness.py) holds it out again: 0.7 rad/s above the
     witness in a 2 rad/s turn is z = 0.7 / sqrt(0.014^2 + 0.1128^2 / 3 + 0.4^2) = 1.7 a sample, an alarm
     within 20 samples. A block of 5 keeps it out until the step ends."""
     rows = stream(400, 1.0, 2.0)

@@ -25,6 +25,7 @@ from slipnav.systems.ekf import (
     ekf_update,
 )
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
+from slipnav.systems.health import SensorHealthParameters, health_initial_state, health_step
 from slipnav.systems.mixing import (
     MIXER_LAYOUT,
     MixerC1,
@@ -58,7 +59,6 @@ from slipnav.systems.navigation import (
 from slipnav.systems.odometry import odometry, odometry_step
 from slipnav.systems.pose import pose_step
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_health import SensorHealthParameters, health_initial_state, health_step
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 
@@ -840,7 +840,7 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
     # 303: the first increment after the gap spans it and is not used (recovering).
     np.testing.assert_array_equal(encoder_fault, [300, 301, 302, 303])
     # 300: the left wheel's increment is replaced by v_R - (b (gyro - b_g) - D v_R), the online
-    # calibration's b_g and D as they stood (systems/sensor_health.py); 301-303: no wheel is readable,
+    # calibration's b_g and D as they stood (systems/health/); 301-303: no wheel is readable,
     # the increments used at 300 are held; 304: the encoders' own again.
     odo_v = logs["odometry"][0]
     r, b = robot.wheel_radius, robot.track_width

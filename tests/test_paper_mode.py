@@ -11,6 +11,7 @@ from slipnav.scenarios.config import load_scenario, scenario_from_yaml, with_key
 from slipnav.scenarios.paper import DEVIATIONS, paper_mode
 from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
 from slipnav.systems.gyrodometry import gyrodometry_step
+from slipnav.systems.health import health_initial_state, health_step
 from slipnav.systems.mixing import (
     MixingParameters,
     accumulate_delta_v,
@@ -21,7 +22,6 @@ from slipnav.systems.mixing import (
 )
 from slipnav.systems.navigation import NavigationParameters, health_geometry
 from slipnav.systems.path_follower import PathFollowerParameters, follower_step
-from slipnav.systems.sensor_health import health_initial_state, health_step
 from slipnav.systems.slip_control import StepSizeController, StepSizeParameters
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 from slipnav.systems.yaw_calibration import calibrated_gyro, calibrated_odometry

@@ -20,7 +20,7 @@ from slipnav.scenarios.sensor_log import (
     write_sensor_log,
 )
 from slipnav.systems.faults import FaultEvent
-from slipnav.systems.sensor_health import INCONSISTENT
+from slipnav.systems.health import INCONSISTENT
 
 COMPARED = [
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed",

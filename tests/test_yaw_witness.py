@@ -1,6 +1,6 @@
-"""The wheels' witness of the gyro and the yaw test (systems/yaw_witness.py): the residual's variance,
+"""The wheels' witness of the gyro and the yaw test (systems/health/yaw_witness.py): the residual's variance,
 the tyres' grip, the yaw lag, the decision with the accelerometer pair, and the gyro held out by the
-test until a turn agrees again (systems/sensor_health.py); numbers by hand."""
+test until a turn agrees again (systems/health/); numbers by hand."""
 
 import dataclasses as dc
 import math
@@ -12,14 +12,13 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.faults import FaultEvent
-from slipnav.systems.plant import kurt3d, tinyphoon
-from slipnav.systems.sensor_health import (
+from slipnav.systems.health import (
     INCONSISTENT,
     HealthConstants,
     SensorHealthParameters,
     health_constants,
 )
-from slipnav.systems.yaw_witness import (
+from slipnav.systems.health.yaw_witness import (
     MIN_YAW_LAG_STEPS,
     YAW_CLIP,
     YAW_DRIFT,
@@ -30,6 +29,7 @@ from slipnav.systems.yaw_witness import (
     yaw_test_initial_state,
     yaw_test_threshold,
 )
+from slipnav.systems.plant import kurt3d, tinyphoon
 
 from tests.test_exclusion import check_with_bias
 from tests.test_faults import GEOMETRY, STEP, T_N, B, R, stream

@@ -1,0 +1,147 @@
+"""The analog channels' own checks and outputs: [a_t1, a_n1, a_t2, a_n2, omega], each judged alone
+against its data sheet and its last accepted value (health codes 1-4), and the value each one outputs.
+
+1. ``nonfinite``: NaN or inf.
+2. ``saturated``: a reading at saturation_fraction of its data-sheet range (gyro 300 deg/s,
+   accelerometers 10 g), or at a rail below it: the clip_samples-th return to one magnitude within
+   clip_window readings with none larger between (clip_returns; a run of repeats counts once).
+3. ``stuck``: a reading exactly repeated stuck_samples times (the sensors' white noise makes a repeat
+   practically impossible; a real ADC's quantum is stuck_tolerance).
+4. ``jump``: the innovation test of S(2)'s prediction of omega and a (random walks: the prediction is
+   the last accepted value, the gyro's less b_g) against what the robot can do in one sample
+   (gyro_max_step, accel_max_step); ``recovering`` while the channel is excluded and still beyond it.
+
+An excluded channel outputs its replacement (analog_outputs): the gyro the yaw rate of its witnesses
+(systems/health/gyro.py) plus b_g, which the navigation removes; an accelerometer axis the other
+sensor's reading of that axis plus the rotational difference and the pair's learned offset
+(systems/health/accelerometer_pair.py); else the reference carried along.
+"""
+
+import math
+
+from slipnav.systems.compiled import jitable
+from slipnav.systems.health.layout import (
+    ANALOG_EXCLUDED,
+    ANALOG_HOLD,
+    ANALOG_LAST,
+    ANALOG_REFERENCE,
+    ANALOG_REPEATS,
+    CLIP_POSITION,
+    CLIP_RING,
+    CLIP_WINDOW_MAX,
+    PAIR_OFFSET,
+    PAYBACK_LEFT,
+    PAYBACK_RATE,
+)
+from slipnav.systems.health.parameters import (
+    INCONSISTENT,
+    JUMP,
+    NONFINITE,
+    RECOVERING,
+    SATURATED,
+    STUCK,
+)
+
+NUM_ANALOG = 5
+GYRO = 4
+
+
+@jitable
+def checks_off(s, raw) -> tuple:
+    """The checks off (enabled False): a non-finite analog reading holds the last valid value (0.0
+    before any); returns (out, codes) with codes NONFINITE for the non-finite channels."""
+    codes = [0 if math.isfinite(v) else NONFINITE for v in raw]
+    out, reference = list(raw), s[ANALOG_REFERENCE]
+    for c in range(NUM_ANALOG):
+        if codes[c]:
+            out[c] = reference[c] if math.isfinite(reference[c]) else 0.0
+        reference[c] = out[c]
+    return out, codes
+
+
+@jitable
+def analog_checks(s, raw, bias: float, codes, p) -> None:
+    """Writes codes[0:5] (module docstring, 1-4; ``inconsistent`` while a hold stands), the repeat counts,
+    the last readings and the clip ring; ``bias``: the calibration's b_g."""
+    reference = s[ANALOG_REFERENCE]
+    last = s[ANALOG_LAST]
+    repeats = s[ANALOG_REPEATS]
+    hold = s[ANALOG_HOLD]
+    excluded = s[ANALOG_EXCLUDED]
+    ring = s[CLIP_RING]
+    position = int(s[CLIP_POSITION])
+    ranges = (p.accel_range, p.accel_range, p.accel_range, p.accel_range, p.gyro_range)
+    steps = (p.accel_max_step, p.accel_max_step, p.accel_max_step, p.accel_max_step, p.gyro_max_step)
+    for c in range(NUM_ANALOG):
+        x = raw[c]
+        if not math.isfinite(x):
+            codes[c] = NONFINITE
+            continue
+        same = math.isfinite(last[c]) and abs(x - last[c]) <= p.stuck_tolerance
+        repeats[c] = repeats[c] + 1 if same else 0
+        last[c] = x
+        # at the data-sheet range, or at a rail below it (clip_returns: read only when needed)
+        if abs(x) >= p.saturation_fraction * ranges[c] or (
+            p.clip_samples > 0 and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, p) >= p.clip_samples
+        ):
+            codes[c] = SATURATED
+        elif repeats[c] >= p.stuck_samples - 1:
+            codes[c] = STUCK
+        elif math.isfinite(reference[c]) and abs(x - (bias if c == GYRO else 0.0) - reference[c]) > steps[c]:
+            codes[c] = RECOVERING if excluded[c] > 0 else JUMP
+        elif hold[c] > 0:
+            codes[c] = INCONSISTENT
+    for c in range(NUM_ANALOG):  # the ring of readings (clip_returns)
+        ring[CLIP_WINDOW_MAX * c + position] = raw[c]
+    s[CLIP_POSITION] = (position + 1) % CLIP_WINDOW_MAX
+
+
+@jitable
+def clip_returns(ring, base: int, position: int, x: float, p) -> int:
+    """How many times reading ``x`` returned to its magnitude within the last clip_window readings (the
+    channel's ring ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since the last
+    larger one, counting this one and a run of repeats once. A clipped channel returns to its rail again
+    and again, the largest magnitude it reads; noise never repeats a value (within stuck_tolerance)."""
+    tol = p.stuck_tolerance
+    runs, newer_at = 1, True  # this reading is at its own magnitude
+    for j in range(1, p.clip_window):
+        y = ring[base + (position - j) % CLIP_WINDOW_MAX]
+        if not math.isfinite(y):  # a gap does not split a run
+            continue
+        if abs(y) > abs(x) + tol:
+            break
+        at = abs(abs(y) - abs(x)) <= tol
+        if at and not newer_at:
+            runs += 1
+        newer_at = at
+    return runs
+
+
+@jitable
+def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation, out) -> None:
+    """Writes out[0:5]: the reading, else its replacement (module docstring), and the references; a
+    frozen gyro's owed heading is paid back on out[4] (systems/health/gyro.py). ``gyro_replacement``:
+    the excluded gyro's yaw rate from its witnesses (rad/s, without b_g); ``rotation``: the pair's
+    rotational difference per axis (t, n) with its angular-acceleration terms (m/s^2)."""
+    reference = s[ANALOG_REFERENCE]
+    excluded = s[ANALOG_EXCLUDED]
+    offset = s[PAIR_OFFSET]
+    for c in range(NUM_ANALOG):
+        if codes[c] == 0:  # the reference is the gyro less b_g, as its replacement is
+            out[c] = raw[c]
+            reference[c] = raw[c] - (bias if c == GYRO else 0.0)
+            excluded[c] = 0.0
+            continue
+        excluded[c] += 1.0
+        if c == GYRO:
+            value = gyro_replacement
+        elif codes[c ^ 2] == 0:  # the partner's reading of the axis, plus the pair's difference
+            value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * (rotation[c % 2] + offset[c % 2])
+        else:
+            value = reference[c]
+        out[c] = reference[c] = value if math.isfinite(value) else 0.0
+        if c == GYRO:  # the body's yaw rate as the gyro would read it: its bias, which the navigation removes
+            out[GYRO] += bias
+    if s[PAYBACK_LEFT] > 0.0:  # a frozen gyro's owed heading, re-admitted or not (the reference goes without)
+        out[GYRO] += s[PAYBACK_RATE]
+        s[PAYBACK_LEFT] -= 1.0

@@ -1,0 +1,228 @@
+"""The encoders against the other wheel and the gyro: [theta_R, theta_L], judged by their raw-to-raw
+increments.
+
+- ``nonfinite``: NaN or inf.
+- ``jump``: an increment implying a wheel speed beyond max_wheel_speed, or a change of the wheel speed
+  beyond max_wheel_acceleration T_N plus two counts against the last used increment.
+- ``stuck``: a count standing still for stuck_samples while the other wheel and the gyro say it turns
+  faster than stuck_min_speed + stuck_speed_fraction |v_other| (v_pred = v_other +- b omega: a wheel
+  held by hand, about which the robot pivots on rolling tyres, is not flagged), counted only while the
+  body does not brake against that wheel's motion harder than stuck_braking_deceleration (a hard braking
+  locks a wheel honestly). A stuck encoder's travel missed before the detection is added then.
+- ``recovering``: excluded, until its increments agree with v_pred sample by sample and, summed over a
+  block of encoder_readmission_samples, within two counts plus encoder_readmission_fraction of the
+  predicted travel; one excluded for a disagreement (suspect) needs READMISSION_TRAVEL_COUNTS of its own
+  counts in the block: at rest a sign-flipped or doubled encoder agrees with any prediction. Without a
+  prediction, one increment agreeing with the previous one suffices. No exclusion ends on a timer.
+
+An excluded encoder advances by v_pred T_N / r (encoder_outputs), else by its last increment; the first
+increment after an exclusion (it spans the gap) is never used. The prediction reads the calibration:
+v_R - v_L = b (gyro - b_g) - D v_o (systems/yaw_calibration.py).
+"""
+
+import math
+
+from slipnav.systems.compiled import jitable
+from slipnav.systems.health.layout import (
+    ENCODER_BLOCK_COUNT,
+    ENCODER_BLOCK_DIFFERENCE,
+    ENCODER_BLOCK_MOVED,
+    ENCODER_BLOCK_PREDICTED,
+    ENCODER_CODE,
+    ENCODER_INCREMENT,
+    ENCODER_LAST_RAW,
+    ENCODER_LOST,
+    ENCODER_OUTPUT_OFFSET,
+    ENCODER_RAW_INCREMENT,
+    ENCODER_STILL,
+    ENCODER_STILL_PREDICTED,
+    ENCODER_STILL_PREDICTED_ABS,
+    ENCODER_SUSPECT,
+    TRAVEL_RESTORED,
+)
+from slipnav.systems.health.parameters import JUMP, NONFINITE, RECOVERING, STUCK
+
+FIRST_ENCODER = 5
+READMISSION_TRAVEL_COUNTS = 10.0
+"""An encoder excluded for a disagreement (a jump, a stuck count, an increment or a block off the
+prediction) has its re-admission block judged only once the encoder itself has counted this many counts
+in it (five times the block's two-count allowance): at rest a sign-flipped or doubled encoder agrees with
+any prediction, so the block goes on until the wheel has turned enough to tell. One excluded for a
+non-finite reading comes back at rest."""
+
+
+@jitable
+def predicted_increment(w: int, other_increment: float, gyro: float, radius_difference: float, g) -> float:
+    """Wheel w's increment (rad) from the other wheel's and the gyro less b_g (rad/s): v_R - v_L =
+    b omega - D v_o in the nominal radii (the calibration's omega = omega_o + D v_o / b), v_o taken as the
+    other wheel's."""
+    radii = (g.radius_R, g.radius_L)
+    v_other = other_increment * radii[1 - w] / g.T_N
+    turn = g.track_width * gyro - radius_difference * v_other
+    return (v_other + (1.0 if w == 0 else -1.0) * turn) * g.T_N / radii[w]
+
+
+@jitable
+def previous_encoder_output(s) -> list:
+    """The angles the encoders output on the previous sample (rad; NaN: none yet)."""
+    last = s[ENCODER_LAST_RAW]
+    offset = s[ENCODER_OUTPUT_OFFSET]
+    return [last[w] + offset[w] for w in range(2)]
+
+
+@jitable
+def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: bool, codes, p, g) -> tuple:
+    """Judges each encoder's raw increment (module docstring: nonfinite, jump, recovering) and its
+    re-admission block; writes codes[5:7]. Returns (the accepted increments, NaN where none; True where
+    this is the encoder's first reading; True where the sample extended a re-admission block that is
+    not judged yet)."""
+    last = s[ENCODER_LAST_RAW]
+    increment = s[ENCODER_INCREMENT]
+    code = s[ENCODER_CODE]
+    lost = s[ENCODER_LOST]
+    raw_increment = s[ENCODER_RAW_INCREMENT]
+    suspect = s[ENCODER_SUSPECT]
+    block_count = s[ENCODER_BLOCK_COUNT]
+    block_difference = s[ENCODER_BLOCK_DIFFERENCE]
+    block_predicted = s[ENCODER_BLOCK_PREDICTED]
+    block_moved = s[ENCODER_BLOCK_MOVED]
+    radii = (g.radius_R, g.radius_L)
+    inc, first, in_block = [math.nan, math.nan], [False, False], [False, False]
+    candidate = [math.nan, math.nan]  # the healthy wheels' raw increments, for re-admission
+    for w in range(2):
+        x = raw[FIRST_ENCODER + w]
+        if code[w] == 0 and lost[w] == 0 and math.isfinite(x) and math.isfinite(last[w]):
+            candidate[w] = x - last[w]
+    count_speed = 2.0 * g.encoder_step / g.T_N
+    for w in range(2):
+        x = raw[FIRST_ENCODER + w]
+        if not math.isfinite(x):
+            codes[FIRST_ENCODER + w] = NONFINITE
+            continue
+        if not math.isfinite(last[w]):  # the first reading: the output starts there
+            last[w] = x
+            s[ENCODER_OUTPUT_OFFSET][w] = 0.0
+            first[w] = True
+            continue
+        d, last[w] = x - last[w], x
+        d_prev, raw_increment[w] = raw_increment[w], d
+        bound = (p.max_wheel_acceleration * g.T_N / radii[w] + count_speed) * g.T_N
+        if lost[w] > 0:
+            codes[FIRST_ENCODER + w] = RECOVERING  # this increment spans the exclusion
+        elif abs(d) * radii[w] / g.T_N > g.max_wheel_speed:
+            codes[FIRST_ENCODER + w] = JUMP
+        elif code[w] in (0, STUCK):
+            if abs(d - increment[w]) > bound:
+                codes[FIRST_ENCODER + w], suspect[w] = JUMP, 1.0
+            else:
+                inc[w] = d
+        else:  # re-admission: agree with the prediction, else (none) with the last raw increment
+            other = candidate[1 - w]
+            if math.isfinite(other) and gyro_ok:
+                expected = predicted_increment(w, other, gyro, radius_difference, g)
+                ok = abs(d - expected) <= bound
+                suspect[w] = suspect[w] if ok else 1.0
+                if ok:  # and over a block of samples, where the counts' quantisation telescopes
+                    block_count[w] += 1.0
+                    block_difference[w] += d - expected
+                    block_predicted[w] += abs(expected)
+                    block_moved[w] += abs(d)
+                    moved = block_moved[w] >= READMISSION_TRAVEL_COUNTS * g.encoder_step
+                    if block_count[w] >= p.encoder_readmission_samples and (moved or suspect[w] == 0.0):
+                        tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * block_predicted[w]
+                        ok = abs(block_difference[w]) <= tolerance
+                        suspect[w] = suspect[w] if ok else 1.0
+                    else:
+                        ok, in_block[w] = False, True
+            else:
+                ok = abs(d - d_prev) <= bound
+            if ok:
+                inc[w], suspect[w] = d, 0.0
+            else:
+                codes[FIRST_ENCODER + w] = RECOVERING
+    return inc, first, in_block
+
+
+@jitable
+def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
+    """The stuck test (module docstring) on this sample's accepted increments ``inc`` and the
+    ``predicted`` ones (rad, NaN: none); writes codes[5:7]. Returns the travel each encoder missed
+    before its detection (rad), added to its output on this sample."""
+    still = s[ENCODER_STILL]
+    still_predicted = s[ENCODER_STILL_PREDICTED]
+    still_predicted_abs = s[ENCODER_STILL_PREDICTED_ABS]
+    code = s[ENCODER_CODE]
+    suspect = s[ENCODER_SUSPECT]
+    radii = (g.radius_R, g.radius_L)
+    # the body's deceleration from the healthy tangential accelerometers (NaN if neither is)
+    a_body = math.nan
+    if codes[0] == 0 and codes[2] == 0:
+        a_body = 0.5 * (raw[0] + raw[2])
+    elif codes[0] == 0 or codes[2] == 0:
+        a_body = raw[0] if codes[0] == 0 else raw[2]
+    missed = [0.0, 0.0]
+    for w in range(2):
+        braking = math.isfinite(predicted[w]) and a_body * math.copysign(1.0, predicted[w]) < (
+            -p.stuck_braking_deceleration
+        )
+        if inc[w] == 0.0 and code[w] == STUCK:
+            codes[FIRST_ENCODER + w] = STUCK  # still stuck
+        elif inc[w] == 0.0 and math.isfinite(predicted[w]) and not braking:
+            still[w] += 1
+            still_predicted[w] += predicted[w]
+            still_predicted_abs[w] += abs(predicted[w])
+            v_other = abs(inc[1 - w]) * radii[1 - w] / g.T_N
+            mean_predicted = still_predicted_abs[w] * radii[w] / (still[w] * g.T_N)
+            if (
+                still[w] >= p.stuck_samples
+                and mean_predicted > p.stuck_min_speed + p.stuck_speed_fraction * v_other
+            ):
+                codes[FIRST_ENCODER + w], suspect[w] = STUCK, 1.0
+                missed[w] = still_predicted[w] - predicted[w]  # the travel missed before the detection
+        else:
+            still[w] = still_predicted[w] = still_predicted_abs[w] = 0.0
+            if math.isfinite(inc[w]) and code[w] == STUCK:
+                codes[FIRST_ENCODER + w], inc[w] = (
+                    RECOVERING,
+                    math.nan,
+                )  # the stuck counter resumes with a lump
+    return missed
+
+
+@jitable
+def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_output, out) -> list:
+    """Writes out[5:7]: the accepted increment, else the predicted one, else the last one, added to the
+    previous output (``previous_output``, previous_encoder_output before this sample's checks); the
+    reading itself while the encoder is healthy, less its offset from replacements. Returns the
+    increments used (rad)."""
+    last = s[ENCODER_LAST_RAW]
+    offset = s[ENCODER_OUTPUT_OFFSET]
+    increment = s[ENCODER_INCREMENT]
+    code = s[ENCODER_CODE]
+    lost = s[ENCODER_LOST]
+    used = [0.0, 0.0]
+    for w in range(2):
+        c = FIRST_ENCODER + w
+        if first[w]:
+            used[w] = 0.0
+        elif codes[c] == 0 and math.isfinite(inc[w]):
+            used[w] = inc[w]
+        elif math.isfinite(predicted[w]):
+            used[w] = predicted[w]
+        else:
+            used[w] = increment[w]
+        if first[w] or (codes[c] == 0 and used[w] == inc[w]):
+            out[c] = last[w] + offset[w]  # the reading itself, less its offset from replacements
+        elif math.isfinite(previous_output[w]):
+            out[c] = previous_output[w] + used[w] + missed[w]
+            offset[w] = out[c] - last[w]
+        else:
+            out[c] = math.nan
+        lost[w] = 1.0 if codes[c] in (NONFINITE, JUMP) else 0.0
+        code[w] = codes[c]
+        increment[w] = increment[w] if first[w] else used[w]  # the first keeps the initial speed's increment
+        if not in_block[w]:  # judged, broken, or no block: the next one starts anew
+            s[ENCODER_BLOCK_COUNT][w] = s[ENCODER_BLOCK_DIFFERENCE][w] = 0.0
+            s[ENCODER_BLOCK_PREDICTED][w] = s[ENCODER_BLOCK_MOVED][w] = 0.0
+    s[TRAVEL_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
+    return used

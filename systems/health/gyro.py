@@ -1,0 +1,225 @@
+"""The gyro against its witnesses: the wheels (through the nominal yaw dynamics) and the accelerometer
+pair (|omega| from S(3)'s centripetal difference).
+
+- ``inconsistent``: the yaw test (systems/health/yaw_witness.py) finds the gyro's yaw rate in a turn
+  unconfirmed by the wheels' witness and not supported by the pair's |omega| (gyro_yaw_check): the gyro
+  is held out until a re-admission block that turned YAW_RELEASE_HEADING agrees in sum.
+- Re-admission (gyro_readmission): an excluded gyro comes back after gyro_readmission_samples in a row
+  within its jump bound of the replacement whose summed difference from it (a heading) stays within
+  3 noise sigmas sqrt(n), two counts of each wheel and gyro_readmission_fraction of the replacement's
+  own: a scale error does not telescope. No exclusion ends on a timer.
+- A new level is a bias to estimate (gyro_bias_step_block): while the gyro is out for a jump, blocks of
+  bias_step_samples in which the wheels say the robot drives straight and the residual is steady
+  measure a bias step, which the calibration adds to b_g; the gyro less the new b_g then agrees.
+- Replacement (wheels_yaw_rate, body_yaw_rate): the yaw rate the nominal yaw dynamics give the body
+  from the wheels' calibrated speeds (yaw_follow_step, from the replacement's last value), the plain
+  odometric yaw rate without the nominal robot's figures, else the last value. A frozen gyro's
+  replacement starts from the wheels' yaw rate run through the repeats it was trusted for, and the
+  heading those repeats missed is paid back over the next stuck_samples samples (frozen_gyro_shadow).
+  A saturated gyro reads the pair's yaw rate, at least its full scale, with the gyro's sign, unless the
+  odometry says below the full scale and the pair does not say more than both it and PAIR_SPIN_MARGIN
+  times the odometric yaw rate (the gyro reads beyond the robot: the wheels' yaw rate); one clipped at a
+  rail below the range reads the wheels' yaw rate, without both encoders the pair's, at least the rail.
+"""
+
+import math
+
+from slipnav.systems.compiled import jitable
+from slipnav.systems.health.layout import (
+    ANALOG_EXCLUDED,
+    ANALOG_HOLD,
+    ANALOG_REFERENCE,
+    ANALOG_REPEATS,
+    BIAS_BLOCK_COUNT,
+    BIAS_BLOCK_SQUARES,
+    BIAS_BLOCK_SUM,
+    BIAS_BLOCK_TURN,
+    BIAS_STEP,
+    FROZEN_GYRO_OWED,
+    FROZEN_GYRO_SHADOW,
+    GYRO_BLOCK_COUNT,
+    GYRO_BLOCK_DIFFERENCE,
+    GYRO_BLOCK_TRAVEL,
+    PAIR_OMEGA_SQUARED,
+    PAYBACK_LEFT,
+    PAYBACK_RATE,
+    YAW_TEST,
+    YAW_WITNESS,
+    YAW_WITNESS_SMOOTH,
+)
+from slipnav.systems.health.parameters import INCONSISTENT, JUMP, RECOVERING, SATURATED, STUCK
+from slipnav.systems.health.yaw_witness import (
+    CUSUM,
+    GRIP_STIFFNESS_RATIO,
+    count_yaw_rate,
+    gyro_yaw_test,
+    tyre_grip,
+    yaw_follow_step,
+    yaw_witness_step,
+)
+
+GYRO = 4
+PAIR_SPIN_MARGIN = 1.5
+"""A gyro railed at its full scale while the odometry says below it reads the accelerometer pair's yaw
+rate only when the pair says more than the full scale and this many times the odometric yaw rate (a
+spin the wheels do not see: a lifted wheel's), else the wheels'. (Not the wheels' yaw dynamics: they
+carry the replacement's own last value.) On Tinyphoon's +-(0.02, 0.015) m the pair's yaw rate, averaged
+over 15 samples, reads up to 5.4 rad/s while the body turns at 4.1, above the 5.2 rad/s full scale."""
+YAW_RELEASE_HEADING = 0.05
+"""A gyro the yaw test holds out is re-admitted only by a block whose replacement turned this much (rad,
+3 deg): driving straight says nothing of a scale error."""
+BIAS_STEP_SIGMAS = 4.0
+"""An excluded gyro's residual may spread this many of its noise sigmas (plus the wheels' quantisation)
+over a block that measures a new bias (gyro_bias_step_block): a gyro that reads noise, or a turn the
+wheels do not see, is no bias."""
+
+
+@jitable
+def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
+    """The excluded gyro's re-admission block and its bias-step block (module docstring): codes[4] is
+    RECOVERING (INCONSISTENT while the yaw test holds it) until a block agrees, then 0."""
+    reference = s[ANALOG_REFERENCE]
+    hold = s[ANALOG_HOLD]
+    held = hold[GYRO] > 0.0
+    judged = codes[GYRO] == 0 or (held and codes[GYRO] == INCONSISTENT)
+    if judged and s[ANALOG_EXCLUDED][GYRO] > 0.0 and math.isfinite(reference[GYRO]):
+        out_code = INCONSISTENT if held else RECOVERING
+        s[GYRO_BLOCK_COUNT] += 1.0
+        s[GYRO_BLOCK_DIFFERENCE] += raw[GYRO] - bias - reference[GYRO]
+        s[GYRO_BLOCK_TRAVEL] += abs(reference[GYRO])
+        informative = not held or s[GYRO_BLOCK_TRAVEL] * g.T_N >= YAW_RELEASE_HEADING
+        if s[GYRO_BLOCK_COUNT] < p.gyro_readmission_samples or not informative:
+            codes[GYRO] = out_code
+        else:
+            n = s[GYRO_BLOCK_COUNT]
+            counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
+            allowed = (
+                3.0 * g.gyro_noise_std * math.sqrt(n)
+                + counts
+                + p.gyro_readmission_fraction * s[GYRO_BLOCK_TRAVEL]
+            )
+            if abs(s[GYRO_BLOCK_DIFFERENCE]) > allowed:
+                codes[GYRO] = out_code  # a new block from the next sample
+            else:
+                codes[GYRO], hold[GYRO] = 0, 0.0
+            s[GYRO_BLOCK_COUNT], s[GYRO_BLOCK_DIFFERENCE], s[GYRO_BLOCK_TRAVEL] = 0.0, 0.0, 0.0
+    else:
+        s[GYRO_BLOCK_COUNT], s[GYRO_BLOCK_DIFFERENCE], s[GYRO_BLOCK_TRAVEL] = 0.0, 0.0, 0.0
+    gyro_bias_step_block(s, codes[GYRO], raw[GYRO] - bias - reference[GYRO], reference[GYRO], p, g)
+
+
+@jitable
+def gyro_bias_step_block(s, code: int, residual: float, replacement: float, p, g) -> None:
+    """The bias step of an excluded gyro (module docstring): while the gyro is out for a jump (JUMP,
+    RECOVERING), its ``residual`` against the ``replacement`` (raw - b_g - replacement, rad/s) is summed
+    over blocks of bias_step_samples. A block in which the replacement stays within bias_step_yaw_rate
+    (the wheels say the robot drives straight, where a yaw-rate scale error reads nothing) and the
+    residual's standard deviation within BIAS_STEP_SIGMAS of the gyro's noise plus the wheels'
+    quantisation (one count of each wheel over T_N, as a yaw rate) measures a new bias: its mean
+    residual, unless within BIAS_STEP_SIGMAS of its standard error, is handed to the calibration
+    (the bias_step part, layout.gyro_bias_step), which adds it to b_g."""
+    s[BIAS_STEP] = 0.0
+    if code != JUMP and code != RECOVERING or not math.isfinite(residual):
+        s[BIAS_BLOCK_COUNT] = s[BIAS_BLOCK_SUM] = s[BIAS_BLOCK_SQUARES] = s[BIAS_BLOCK_TURN] = 0.0
+        return
+    s[BIAS_BLOCK_COUNT] += 1.0
+    s[BIAS_BLOCK_SUM] += residual
+    s[BIAS_BLOCK_SQUARES] += residual * residual
+    s[BIAS_BLOCK_TURN] = max(s[BIAS_BLOCK_TURN], abs(replacement))
+    n = s[BIAS_BLOCK_COUNT]
+    if n < p.bias_step_samples:
+        return
+    mean = s[BIAS_BLOCK_SUM] / n
+    spread = math.sqrt(max(s[BIAS_BLOCK_SQUARES] / n - mean * mean, 0.0))
+    counts = 2.0 * count_yaw_rate(g)  # one count of each wheel
+    measured = abs(mean) > BIAS_STEP_SIGMAS * max(spread, g.gyro_noise_std) / math.sqrt(n)
+    steady = spread <= BIAS_STEP_SIGMAS * g.gyro_noise_std + counts
+    if s[BIAS_BLOCK_TURN] <= p.bias_step_yaw_rate and steady and measured:
+        s[BIAS_STEP] = mean
+    s[BIAS_BLOCK_COUNT] = s[BIAS_BLOCK_SUM] = s[BIAS_BLOCK_SQUARES] = s[BIAS_BLOCK_TURN] = 0.0
+
+
+@jitable
+def frozen_gyro_shadow(s, raw, bias: float, codes, wheels, encoders_ok: bool, model: bool, p, g) -> None:
+    """A frozen gyro is trusted for stuck_samples - 2 repeats (stuck_samples - 1 equal readings): the
+    wheels' yaw rate runs through them from the last reading that changed, and the heading the repeats
+    missed against it is owed. When the stuck test flags the gyro, its reference starts from there and
+    the heading is paid back over stuck_samples samples. Anchored afresh after any exclusion.
+    ``wheels``: (v_R, v_L, v_t, v_n, omega_o, grip), the calibrated wheel speeds, the body's velocity
+    (m/s), the odometric yaw rate (rad/s) and the tyres' grip over the nominal curve's; ``encoders_ok``:
+    both encoders healthy; ``model``: the nominal yaw dynamics serve (else the odometric yaw rate)."""
+    shadow = s[FROZEN_GYRO_SHADOW]
+    if codes[GYRO] == 0 and s[ANALOG_REPEATS][GYRO] == 0:
+        s[FROZEN_GYRO_SHADOW], s[FROZEN_GYRO_OWED] = raw[GYRO] - bias, 0.0
+    elif codes[GYRO] == 0 and math.isfinite(shadow) and encoders_ok:
+        v_R, v_L, v_t, v_n, omega_o, grip = wheels
+        s[FROZEN_GYRO_SHADOW] = yaw_follow_step(shadow, v_R, v_L, v_t, v_n, g, grip) if model else omega_o
+        s[FROZEN_GYRO_OWED] += s[FROZEN_GYRO_SHADOW] - (raw[GYRO] - bias)
+    stuck_now = codes[GYRO] == STUCK and s[ANALOG_EXCLUDED][GYRO] == 0.0
+    if stuck_now and math.isfinite(shadow) and encoders_ok:
+        s[ANALOG_REFERENCE][GYRO] = shadow
+        s[PAYBACK_LEFT] = float(p.stuck_samples)
+        s[PAYBACK_RATE] = s[FROZEN_GYRO_OWED] / p.stuck_samples
+    if codes[GYRO] != 0:
+        s[FROZEN_GYRO_SHADOW], s[FROZEN_GYRO_OWED] = math.nan, 0.0
+
+
+@jitable
+def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: float, p, g) -> bool:
+    """The wheels' witness of the gyro and the yaw test (systems/health/yaw_witness.py), once per
+    sample: True when the test holds the gyro out (hold, codes[4] INCONSISTENT). The wheels witness
+    nothing while their tyres slide: the witness restarts from the gyro (else the odometric yaw rate)
+    when they grip again, and forgets that start within the tyres' lag. ``wheels``: as in
+    frozen_gyro_shadow; ``v_o``: the odometric speed (m/s)."""
+    v_R, v_L, v_t, v_n, omega_o, grip = wheels
+    witness = s[YAW_WITNESS] if math.isfinite(s[YAW_WITNESS]) else omega_o
+    gripping = encoders_ok and tyre_grip(v_R, v_L, v_t, v_n, witness, g) >= GRIP_STIFFNESS_RATIO
+    if gripping and not math.isfinite(s[YAW_WITNESS]) and codes[GYRO] == 0:
+        witness = raw[GYRO] - bias
+    s[YAW_WITNESS] = yaw_witness_step(witness, v_R, v_L, v_t, v_n, g, grip) if gripping else math.nan
+    smooth = s[YAW_WITNESS_SMOOTH] if math.isfinite(s[YAW_WITNESS_SMOOTH]) else s[YAW_WITNESS]
+    s[YAW_WITNESS_SMOOTH] = smooth + (s[YAW_WITNESS] - smooth) * min(1.0, g.T_N / p.yaw_witness_lag)
+    witness_rate = (s[YAW_WITNESS_SMOOTH] - smooth) / g.T_N if math.isfinite(s[YAW_WITNESS_SMOOTH]) else 0.0
+    test = s[YAW_TEST]
+    if codes[GYRO] == 0 and gripping and abs(s[YAW_WITNESS]) > p.bias_step_yaw_rate:  # a turn: the scale's
+        gyro = raw[GYRO] - bias
+        if gyro_yaw_test(test, gyro, s[YAW_WITNESS], witness_rate, s[PAIR_OMEGA_SQUARED], abs(v_o), p):
+            s[ANALOG_HOLD][GYRO], codes[GYRO] = 1.0, INCONSISTENT
+            return True
+    else:
+        test[CUSUM] = 0.0
+    return False
+
+
+@jitable
+def wheels_yaw_rate(s, gyro_ok: bool, wheels, model: bool, g) -> float:
+    """The wheels' yaw rate for an excluded gyro: the body's, through the nominal yaw dynamics from the
+    replacement's last value (``model``: both encoders healthy and the nominal yaw inertia known), else
+    the odometric one (rad/s)."""
+    v_R, v_L, v_t, v_n, omega_o, grip = wheels
+    reference = s[ANALOG_REFERENCE][GYRO]
+    if not gyro_ok and model and math.isfinite(reference):
+        return yaw_follow_step(reference, v_R, v_L, v_t, v_n, g, grip)
+    return omega_o
+
+
+@jitable
+def body_yaw_rate(
+    s, raw, bias: float, codes, gyro_ok: bool, encoders_ok: bool, omega_wheels, omega_o, pair_squared, p
+):
+    """The body's yaw rate this sample (rad/s, without b_g): the gyro's, else the wheels'
+    (``omega_wheels``); a saturated gyro's from the pair or the wheels (module docstring).
+    ``pair_squared``: this sample's omega^2 from the pair (NaN: none); the pair's averaged omega^2 is in
+    the state."""
+    omega = raw[GYRO] - bias if gyro_ok else omega_wheels
+    if codes[GYRO] != SATURATED:
+        return omega
+    full_scale = p.saturation_fraction * p.gyro_range
+    railed = abs(raw[GYRO]) >= full_scale  # else clipped below the data sheet's range (a plateau)
+    pair = math.sqrt(max(s[PAIR_OMEGA_SQUARED], 0.0))
+    beyond_wheels = pair > max(full_scale, PAIR_SPIN_MARGIN * abs(omega_o))  # a spin they miss
+    if encoders_ok and (not railed or (abs(omega_o) < full_scale and not beyond_wheels)):
+        return omega_wheels  # the gyro reads beyond what the robot does (railed, or its scale)
+    # this sample's pair (the averaged one lags a spin's onset)
+    this_sample = math.sqrt(max(pair_squared, 0.0)) if math.isfinite(pair_squared) else 0.0
+    return math.copysign(max(full_scale if railed else abs(raw[GYRO]), this_sample), raw[GYRO])

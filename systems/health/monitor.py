@@ -1,0 +1,178 @@
+"""The sensor checks as a Drake block (SensorHealthMonitor), the flags the navigation reads from their
+codes, and a run's report of them."""
+
+import math
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+from slipnav.systems.health.check import NUM_CHANNELS, health_check
+from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
+from slipnav.systems.health.parameters import (
+    HEALTH_CLASSES,
+    NO_CURRENTS,
+    NO_VELOCITY,
+    NO_YAW_CALIBRATION,
+    HealthGeometry,
+    SensorHealthParameters,
+    health_constants,
+)
+
+
+def health_report(t, arrays: dict, channels) -> dict:
+    """Per flagged channel of a run: the first flagged time (s), the flagged samples, and the samples of
+    each class; ``arrays[f"health_{channel}"]`` hold the codes."""
+    report = {}
+    for channel in channels:
+        codes = np.asarray(arrays[f"health_{channel}"])
+        flagged = np.flatnonzero(codes > 0)
+        if len(flagged) == 0:
+            continue
+        report[channel] = {
+            "first_s": float(t[flagged[0]]),
+            "samples": int(len(flagged)),
+            "classes": {
+                name: int(np.sum(codes == k + 1))
+                for k, name in enumerate(HEALTH_CLASSES)
+                if np.any(codes == k + 1)
+            },
+        }
+    return report
+
+
+HEALTH_STEP_LAYOUT = (
+    ("state", STATE_SIZE),
+    ("accelerometers", 4),
+    ("gyro", 1),
+    ("encoders", 2),
+    ("health", NUM_CHANNELS),
+    ("inertial_fault", 1),
+    ("encoder_fault", 1),
+    ("sensor_fault", 1),
+    ("gyro_bias_step", 1),
+)
+"""The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
+
+
+def slip_detector_blind(codes, unusable: bool = False) -> bool:
+    """S(11) cannot use the sample: both encoders excluded, one encoder excluded while the gyro is (its
+    replacement is then its last increment, not the other wheel's and the gyro's), an encoder output that
+    cannot serve (``unusable``, odometry_unusable: a stuck encoder's missed travel restored in this one
+    sample, or a non-finite angle that the odometry holds over), or both tangential accelerometers
+    excluded.
+
+    An encoder excluded otherwise advances by the other wheel's increment and the gyro's yaw rate (v_R -
+    v_L = b omega): the odometric v_t is then the healthy wheel's, and its slip is what S(11) is there to
+    see (a braking slide during an encoder outage: open square, C1 would otherwise return to the
+    odometry; a stuck encoder: C1 recovers from the slip the still counts feigned before the detection).
+    One excluded tangential axis reads its partner's plus the rotational terms (the replacement), which
+    S(11) uses: isolated by the force reference, it is the healthy sensor's reading; a gyro or lateral
+    fault alone does not touch S(11)."""
+    right, left = codes[5] > 0, codes[6] > 0
+    if unusable or (right and left) or ((right or left) and codes[4] > 0):
+        return True
+    return codes[0] > 0 and codes[2] > 0
+
+
+def odometry_unusable(state, sample) -> bool:
+    """This sample's encoder output cannot serve S(11) (slip_detector_blind): it restores a stuck
+    encoder's missed travel (travel_restored), or an angle is not finite (the checks off, or no reading
+    yet), so that the odometry holds its last speed over it."""
+    return travel_restored(state) or not (math.isfinite(sample[5]) and math.isfinite(sample[6]))
+
+
+def health_flags(codes, unusable: bool = False) -> list:
+    """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder is
+    excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind)."""
+    inertial = 1.0 if max(codes[0:5]) > 0 else 0.0
+    encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
+    return [inertial, encoder, 1.0 if slip_detector_blind(codes, unusable) else 0.0]
+
+
+class SensorHealthMonitor(LeafSystem):
+    """Checks every sensor channel, excludes and replaces the faulty ones (systems/health/check.py).
+
+    .. pydrake_system::
+
+        name: SensorHealthMonitor
+        input_ports:
+        - accelerometers
+        - gyro
+        - encoders
+        - motor_currents
+        - body_velocity
+        - tyre_peak
+        - yaw_calibration
+        output_ports:
+        - step
+
+    - inputs: the samples as read; motor_currents (optional): the drivers' current readings [i_R, i_L]
+      (A), the t axes' force reference (unconnected: the odometry's); body_velocity (optional): the
+      navigation's (v_t, v_n) of the previous sample (the EKF's state), which the excluded gyro's
+      replacement reads (yaw_follow_step; unconnected: the odometric v_t and no v_n); tyre_peak
+      (optional): the navigation's identified tyre peak of the previous sample (the velocity mixer's
+      state; unconnected: the nominal); yaw_calibration (optional): the online calibration's [b_g, D]
+      (the YawRateCalibration's state; unconnected: 0, 0), with which the gyro's replacement reads the
+      calibrated odometric yaw rate omega_o + D v_o / b plus the bias, and an encoder's v_R - v_L = b
+      (gyro - b_g) - D v_o.
+    - step (direct feedthrough), in HEALTH_STEP_LAYOUT's order: the next state; the accepted or replaced
+      samples accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]; health,
+      the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
+      k: HEALTH_CLASSES[k - 1]); inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any
+      encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
+      S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
+      stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
+      gyro_bias_step: the step of b_g measured on an excluded gyro this sample (rad/s, 0: none;
+      gyro_bias_step_block), for the calibration. One vector, so that one Python call per sample
+      computes them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+
+    Update every T_N: health_step's state.
+
+    Args:
+        params: SensorHealthParameters. geometry: HealthGeometry. initial_speed: wheels' speed before t=0.
+    """
+
+    def __init__(self, params: SensorHealthParameters, geometry: HealthGeometry, initial_speed: float = 0.0):
+        super().__init__()
+        params.__post_init__()
+        self._p, self._g = params, geometry
+        self._constants = health_constants(params, geometry)
+        self._inputs = [
+            self.DeclareVectorInputPort(name, size)
+            for name, size in (("accelerometers", 4), ("gyro", 1), ("encoders", 2))
+        ]
+        self._currents = self.DeclareVectorInputPort("motor_currents", 2)
+        self._velocity = self.DeclareVectorInputPort("body_velocity", 2)
+        self._tyre_peak = self.DeclareVectorInputPort("tyre_peak", 1)
+        self._yaw_calibration = self.DeclareVectorInputPort("yaw_calibration", 2)
+        self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
+        prereq = {
+            self.xd_ticket(),
+            self._currents.ticket(),
+            self._velocity.ticket(),
+            self._tyre_peak.ticket(),
+            self._yaw_calibration.ticket(),
+        }
+        prereq |= {port.ticket() for port in self._inputs}
+        size = sum(n for _, n in HEALTH_STEP_LAYOUT)
+        self._step = self.DeclareVectorOutputPort("step", size, self._calc, prerequisites_of_calc=prereq)
+        self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
+
+    def _calc(self, context, output):
+        raw = tuple([v for port in self._inputs for v in port.Eval(context).tolist()])
+        state = context.get_discrete_state(self._state).get_value()
+        port = self._currents
+        currents = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_CURRENTS
+        port = self._velocity
+        velocity = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_VELOCITY
+        port = self._tyre_peak
+        peak = float(port.Eval(context)[0]) if port.HasValue(context) else math.nan
+        port = self._yaw_calibration
+        calibration = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_YAW_CALIBRATION
+        state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak, calibration)
+        step = output.get_mutable_value()  # written in place: no list of the whole vector
+        step[0:STATE_SIZE] = state
+        flags = health_flags(codes, odometry_unusable(state, out))
+        step[STATE_SIZE:] = [*out, *codes, *flags, gyro_bias_step(state)]
+
+    def _update(self, context, discrete_state):
+        discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

@@ -1,0 +1,379 @@
+"""What the sensor checks know: their thresholds (SensorHealthParameters), the nominal robot and its
+sensors' data sheets (HealthGeometry), both as one plain record (HealthConstants, health_constants), and
+the health codes they report."""
+
+import collections
+import dataclasses as dc
+import math
+
+from slipnav.systems.health.layout import GAIN_WINDOW_MAX
+from slipnav.systems.health.yaw_witness import yaw_test_threshold
+
+NO_CURRENTS = (math.nan, math.nan)
+"""The motor current readings when none are read: the tangential accelerometers' reference is the
+odometry's, and the perturbation monitor has no force test."""
+PLAUSIBLE_CURRENT = 1.5
+"""A current reading beyond this many times the driver's limit is implausible: no force reference or
+force test from it."""
+HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
+"""Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
+NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
+
+
+@dc.dataclass
+class SensorHealthParameters:
+    """Thresholds of the sensor checks (systems/health/: each test's module). Defaults: the data sheets of
+    systems/sensors.py and, for the rates of change, 4-5x the largest change per sample in the fault-free
+    built-in runs (gyro 0.11 rad/s, accelerometers 6.4 m/s^2, wheel speed 0.14 m/s on Tinyphoon's
+    square).
+
+    Args:
+        enabled: check (False: only NaN/inf are replaced, by the last value, as before).
+        gyro_range: data-sheet full scale (rad/s): ADXRS300 300 deg/s.
+        accel_range: data-sheet full scale (m/s^2): ADXL210E 10 g.
+        saturation_fraction: a reading at this fraction of the full scale counts as saturated.
+        stuck_samples: repeats (analog) or still counts (encoder) before "stuck", in [2, 50] (0.1 s).
+        stuck_tolerance: an analog change at most this large is a repeat (a real ADC's quantum).
+        stuck_min_speed, stuck_speed_fraction: an encoder is stuck when it stands still while v_pred
+            exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (m/s, 1).
+        stuck_braking_deceleration: an encoder's still samples count only while the healthy
+            accelerometers' mean a_t does not oppose that wheel's predicted motion by more than this
+            (m/s^2; a braking sample restarts the count): a hard braking locks a
+            wheel while the other still turns (the square at 5.8 m/s^2, one wheel commanded to a stop),
+            and its honest standstill reads like a frozen counter. inf (default): the test counts at
+            any braking. 3.0 (above the built-ins' driving decelerations outside such slides: drag
+            0.5-1, slip control's steps) goes with mixing.slide_onset_jump (README, Sensor faults: it
+            costs a counter that freezes in a hard braking, accepted as still until the braking ends).
+        gyro_max_step: largest plausible change of the gyro in one sample (rad/s).
+        accel_max_step: the same for an accelerometer axis (m/s^2).
+        max_wheel_speed: largest plausible circumferential wheel speed (m/s); 1.5 x the motors' no-load
+            speed of the nominal robot if None.
+        max_wheel_acceleration: largest plausible change of a wheel's circumferential speed (m/s^2).
+        accel_consistency, accel_consistency_per_speed: the two accelerometers may disagree, in the
+            moving average over consistency_samples and beyond the rotational terms, by
+            accel_consistency + accel_consistency_per_speed |v_o| (m/s^2; the commotion grows with the
+            speed: 4 seeds of each built-in, matched and toleranced, peak at 0.59 of it, on the long
+            path at 4 m/s; Tinyphoon's at 0.39).
+        consistency_samples: samples of that average, in [2, 50].
+        fast_consistency_samples, fast_consistency_factor: a second, shorter average of the same
+            disagreement (fast_consistency_samples, in [1, 50]; as long as consistency_samples it is no
+            faster) flags the pair as well when it exceeds fast_consistency_factor times the bound plus
+            FAST_ROTATION_SIGMAS of its rotational terms' noise (fast_pair_ratio; inf: off), while the
+            gyro is trusted on this and the previous sample. 3 and 1.6: the built-ins' fault-free fast
+            averages (matched, tolerance draws, friction 0.5 and 0.9, mass +25 %, accelerometer scale
+            and misalignment; 3 seeds) peak at 0.60 of the bound with factor 1 on Tinyphoon and 0.90 on
+            Kurt3D's long path at 4 m/s (its commotion); the allowance does not scale with the factor,
+            so 1.6 keeps about 1.6 x of margin there and more on Tinyphoon. A 5 m/s^2 bias step is
+            flagged after 3-4 samples instead of 7-11 (open corner, seed 1: a lateral axis's bias,
+            20 -> 10 ms, 12.2 -> 8.7 x the fault-free error).
+        bias_step_samples: an excluded gyro's residual against its replacement is judged over blocks
+            of this many samples for a new bias (gyro_bias_step_block), in [2, 500]: 25 (50 ms).
+        bias_step_yaw_rate: the block measures a bias only while its replacement stays within this
+            (rad/s): 0.15, driving straight (the calibration's change_yaw_rate), where a scale error or
+            a sign flip reads nothing.
+        yaw_slip_fraction: the share of the wheels' yaw rate that the tyres' differential slip may leave
+            unexplained by the nominal yaw dynamics, in the yaw test's residual variance
+            (systems/health/yaw_witness.py), in [0, 1]: 0.2.
+        yaw_witness_lag: the witness's timing uncertainty against the gyro (s): the body's unmodelled
+            lag behind the wheels and the sensor streams' relative latency, times the witness's rate of
+            change, in the yaw test's residual variance, in (0, inf): 0.02, one T_C.
+        yaw_false_alarm_time: healthy driving (s) per false alarm of the yaw test's CUSUM, in
+            (0, inf): 3600, one an hour.
+        encoder_readmission_samples: an excluded encoder is re-admitted only after a block of this
+            many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the prediction from the
+            other wheel and the gyro, span READMISSION_TRAVEL_COUNTS of the encoder's counts, and whose
+            summed difference from it stays within two counts plus
+            encoder_readmission_fraction of the predicted travel. One sample's bound
+            (max_wheel_acceleration T_N, 0.3 m/s) lets a doubled encoder through below 0.3 m/s; the
+            quantisation telescopes over the block, a scale error does not (the square's final braking:
+            a x2 encoder re-admitted at 0.33 m/s read v_t 0.15 m/s fast). Like every channel it is
+            kept out until a block agrees.
+        encoder_readmission_fraction: the block's tolerance beyond two counts, as a fraction of the
+            predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
+        gyro_readmission_samples: an excluded gyro is re-admitted only after this many consecutive
+            samples (in [1, 50]; 1: the first within the bound) within gyro_max_step of its replacement.
+            Measured when the replacement was the odometric yaw rate, which reads 15-20 % high in a
+            skidding turn: a gyro with a 1 rad/s bias step met it within the bound for a sample (corner,
+            bias from 2.19 s: re-admitted after 60 ms and trusted for the rest of the step, 26 deg of
+            heading, 0.47 m). 5 (10 ms): 3 already kept that gyro out (2.2 deg, as an outage); an outage
+            ending in the skid cost 6.8 -> 7.2 mm with 5, 8.2 with 10. Like every channel it is
+            kept out until a block agrees.
+        gyro_readmission_fraction: the gyro's block must also agree in sum: its summed difference from
+            the replacement within 3 noise sigmas sqrt(n), two counts of each wheel's heading and this
+            fraction (in [0, 1]) of the replacement's summed magnitude. A gyro's doubled scale passes the
+            sample bound as a turn slows below gyro_max_step (the open corner, seed 1: re-admitted at
+            0.36 rad/s, 0.5 deg of heading, 7.3 mm against 1.5 fault-free; with the block 2.1 mm). In the
+            faults benchmark every other gyro fault (outages ending in the skid too) is re-admitted as
+            with the sample bound alone.
+        clip_samples, clip_window: a reading that returns to its magnitude for the clip_samples-th time
+            (runs of repeats count once) within the last clip_window readings (both in [2, 50]), with no
+            larger one between, sits at a rail: saturated, though below the data-sheet range (an
+            amplifier's or a misconfigured range's clip; the benchmark clips at half the largest reading).
+            Noise never repeats a value; with an ADC quantum (stuck_tolerance) the returns are judged
+            within it, and quantised noise needs a larger clip_samples (a quantum of the gyro's noise
+            sigma: 399 of 1000 healthy samples flagged at 3, 43 at 10, none at 20) or 0 (off).
+        gain_threshold: the pair's gain test (pair_gain.pair_gain_ratio) flags the pair when
+            its statistic exceeds this (in (0, inf]; inf: off). 4: over 104 fault-free runs of the
+            built-ins (corner and square 10 seeds, long path and circle 3, matched and toleranced, open
+            and closed loop) the statistic peaks at 2.76; the open corner's x2 scales of a tangential
+            axis, which the averages above miss, are flagged 38-118 ms after their onset.
+        gain_tolerance: the relative gain between the two accelerometers of an axis that the test allows
+            (in [0, 1)): 0.1, the preset's sensitivity tolerances (+-2 % each) and the misalignment's
+            cross-coupling with margin; a x2 scale on one of them is 0.67, a x0.5 one -0.67.
+        gain_samples: the test's sums are over this many informative samples, the last ones (in [2, 50]).
+        gain_block_samples: the disagreement and the regressors are first averaged over this many
+            samples (exponential, in [1, 50]), which takes the white noise and most of the commotion out.
+        gain_cross_coupling: the other axis's acceleration, times this, counts as noise of the
+            disagreement (in [0, inf)): in a hard braking (the square at 5.5 m/s^2) the lateral axes
+            disagree by about 5 % of a_t on the nominal robot itself.
+        gain_offset_allowance: an error of the learned offset between the two sensors (m/s^2, in
+            [0, inf)) that the test allows for: it puts offset / |r| into the gain. 0 (default): the
+            offset is trusted; the built-ins stand still for their first second, where the offset is
+            learned and the test learns nothing (at rest the pair's mean is the sensors' biases: the
+            tolerance preset's corner seed 6 flagged accel2_t there). For a robot that drives off at
+            once, the two sensors' initial biases (0.05 m/s^2 each, data sheet) differ by up to 0.2.
+        gain_release: a pair the gain test alone flagged is cleared once its statistic is below half
+            the threshold and |beta| plus GAIN_RELEASE_SIGMAS of its standard deviations below this (in
+            (gain_tolerance, 1]): the evidence of a healthy gain. Cleared on the statistic alone, a
+            doubled sensor came back at a dip of its evidence (beta 0.38 for 0.67, two sigmas low on
+            40 samples) in the middle of its fault; on the bound alone, a well-measured gain of 0.25
+            was flagged and cleared on alternate samples (the square's clipped accel2_t: accel1_t
+            blamed). A pair the averages flagged is cleared on their evidence as before (a bias's
+            regression on a weak signal can hold the bound above this for seconds).
+    """
+
+    enabled: bool = True
+    gyro_range: float = math.radians(300.0)
+    accel_range: float = 10 * 9.81
+    saturation_fraction: float = 0.99
+    stuck_samples: int = 5
+    stuck_tolerance: float = 0.0
+    stuck_min_speed: float = 0.1
+    stuck_speed_fraction: float = 0.3
+    stuck_braking_deceleration: float = math.inf
+    gyro_max_step: float = 0.5
+    accel_max_step: float = 25.0
+    max_wheel_speed: float | None = None
+    max_wheel_acceleration: float = 150.0
+    accel_consistency: float = 1.0
+    accel_consistency_per_speed: float = 1.0
+    consistency_samples: int = 15
+    fast_consistency_samples: int = 3
+    fast_consistency_factor: float = 1.6
+    bias_step_samples: int = 25
+    bias_step_yaw_rate: float = 0.15
+    yaw_slip_fraction: float = 0.2
+    yaw_witness_lag: float = 0.02
+    yaw_false_alarm_time: float = 3600.0
+    encoder_readmission_samples: int = 10
+    encoder_readmission_fraction: float = 0.2
+    gyro_readmission_samples: int = 5
+    gyro_readmission_fraction: float = 0.3
+    clip_samples: int = 3
+    clip_window: int = 50
+    gain_threshold: float = 4.0
+    gain_tolerance: float = 0.1
+    gain_samples: int = 40
+    gain_block_samples: int = 5
+    gain_cross_coupling: float = 0.06
+    gain_offset_allowance: float = 0.0
+    gain_release: float = 0.3
+
+    def __post_init__(self):
+        for name in (
+            "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
+            "bias_step_yaw_rate yaw_false_alarm_time yaw_witness_lag stuck_min_speed"
+        ).split():
+            _positive(name, getattr(self, name))
+        if self.max_wheel_speed is not None:
+            _positive("max_wheel_speed", self.max_wheel_speed)
+        if not (
+            isinstance(self.saturation_fraction, (int, float)) and 0.5 <= self.saturation_fraction <= 1.0
+        ):
+            raise ValueError(
+                f"saturation_fraction={self.saturation_fraction!r} is out of range: allowed [0.5, 1]"
+            )
+        value = self.clip_samples
+        if isinstance(value, bool) or not isinstance(value, int) or not (value == 0 or 2 <= value <= 50):
+            raise ValueError(
+                f"clip_samples={value!r} is out of range: allowed 0 (off) or integers in [2, 50]"
+            )
+        for name in ("stuck_samples", "consistency_samples", "clip_window"):  # clip_window 50: the ring
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
+                raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
+        value = self.bias_step_samples
+        if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 500):
+            raise ValueError(f"bias_step_samples={value!r} is out of range: allowed integers in [2, 500]")
+        value = self.gain_samples
+        if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= GAIN_WINDOW_MAX):
+            raise ValueError(f"gain_samples={value!r} is out of range: allowed integers in [2, 50]")
+        value = self.gain_tolerance
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value < 1.0):
+            raise ValueError(f"gain_tolerance={value!r} is out of range: allowed [0, 1)")
+        value = self.gain_release
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 < value <= 1.0):
+            raise ValueError(f"gain_release={value!r} is out of range: allowed (0, 1]")
+        if not value > self.gain_tolerance:
+            raise ValueError(
+                f"gain_release={value!r} is out of range: allowed above "
+                f"gain_tolerance={self.gain_tolerance!r} (a gain within the tolerance must clear the pair)"
+            )
+        for name in (
+            "fast_consistency_samples",
+            "encoder_readmission_samples",
+            "gyro_readmission_samples",
+            "gain_block_samples",
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
+                raise ValueError(f"{name}={value!r} is out of range: allowed integers in [1, 50]")
+        for name in ("encoder_readmission_fraction", "gyro_readmission_fraction", "yaw_slip_fraction"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
+                raise ValueError(f"{name}={value!r} is out of range: allowed [0, 1]")
+        for name in (
+            "stuck_tolerance",
+            "stuck_speed_fraction",
+            "accel_consistency_per_speed",
+            "gain_cross_coupling",
+            "gain_offset_allowance",
+        ):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
+        for name, unit in (
+            ("fast_consistency_factor", ""),
+            ("stuck_braking_deceleration", " m/s^2"),
+            ("gain_threshold", ""),
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
+                raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf]{unit}")
+
+
+def _positive(name: str, value) -> None:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not (math.isfinite(value) and value > 0)
+    ):
+        raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf)")
+
+
+@dc.dataclass(frozen=True)
+class HealthGeometry:
+    """What the checks know of the robot and its sensors: nominal values only (data sheet, tape).
+
+    Args:
+        radius_R, radius_L: nominal (or calibrated) rolling radii (m). track_width: b (m).
+        T_N: period (s). encoder_step: rad per count. accelerometer_position: (x, y) of accelerometer 1
+        (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
+        gyro_noise_std: the gyro's white noise per sample (rad/s, data sheet): the fast pair test's
+            allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
+        accel_noise_std, accel_vibration_per_speed, accel_vibration_time_constant: the accelerometers'
+            white noise and commotion (data sheet and S(3)'s model, systems/sensors.py): the gain test's
+            noise (pair_gain_ratio) and the pair offset's (pair_offset_update).
+        accel_initial_bias_std, accel_drift_density: the accelerometers' initial bias and its random
+            walk (data sheet): the pair offset's prior and drift (pair_offset_update).
+        tyre_peak_acceleration: the nominal robot's tyre curve's peak mu g f_w (m/s^2; inf: none): the
+            navigation's identified peak over it scales the replacement's tyre forces (yaw_follow_step's
+            grip), so that a calibrated floor (mixing.tyre_peak_acceleration) counts from the start.
+        mass ... shoe_normal_load: the nominal robot's figures (RobotParameters' names) for the force
+            reference of the tangential accelerometers (accelerometer_pair.force_reference); mass 0: none.
+        yaw_inertia ... slip_speed_floor: the nominal robot's yaw inertia, wheel load and tyre curve
+            (RobotParameters' names) for the excluded gyro's replacement (yaw_follow_step); yaw_inertia 0:
+            the odometric yaw rate itself.
+    """
+
+    radius_R: float
+    radius_L: float
+    track_width: float
+    T_N: float
+    encoder_step: float
+    accelerometer_position: tuple
+    max_wheel_speed: float
+    gyro_noise_std: float = 0.014
+    accel_noise_std: float = 0.062
+    accel_vibration_per_speed: float = 0.3
+    accel_vibration_time_constant: float = 0.005
+    accel_initial_bias_std: float = 0.05
+    accel_drift_density: float = 0.0065
+    tyre_peak_acceleration: float = math.inf
+    mass: float = 0.0
+    wheel_inertia: float = 0.0
+    motor_constant: float = 0.0
+    motor_current_limit: float = 0.0
+    bearing_drag: float = 0.0
+    shoe_offset: float = 0.0
+    shoe_friction: float = 0.0
+    shoe_viscous_drag: float = 0.0
+    shoe_slip_speed: float = 0.01
+    shoe_normal_load: float = 0.0
+    yaw_inertia: float = 0.0
+    wheel_normal_load: float = 0.0
+    tyre_friction: float = 0.0
+    tyre_stiffness_factor: float = 0.0
+    tyre_shape_factor: float = 0.0
+    slip_speed_floor: float = 0.3
+
+
+HealthConstants = collections.namedtuple(
+    "HealthConstants",
+    "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
+    "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
+    "accel_consistency "
+    "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
+    "bias_step_samples bias_step_yaw_rate yaw_slip_fraction yaw_witness_lag yaw_threshold "
+    "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
+    "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
+    "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
+    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
+    "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant accel_initial_bias_std "
+    "accel_drift_density tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit "
+    "bearing_drag shoe_offset "
+    "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
+    "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
+)
+"""What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
+is the bound in force)."""
+_GEOMETRY_FIELDS = HealthConstants._fields[HealthConstants._fields.index("radius_R") :]
+FORCE_REFERENCE_FIELDS = HealthConstants._fields[HealthConstants._fields.index("mass") :]
+"""HealthGeometry's figures of the nominal robot for the force reference and the yaw dynamics
+(RobotParameters' names)."""
+NO_VELOCITY = (math.nan, math.nan)
+"""health_check's ``velocity`` when the navigation's estimate is not read: the odometric v_t, no v_n."""
+NO_YAW_CALIBRATION = (0.0, 0.0)
+"""health_check's ``yaw_calibration`` without a calibration: gyro bias 0, rolling-radius difference 0."""
+
+
+def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
+    """The parameters and the geometry as one plain tuple in HealthConstants' order (bool, int or float;
+    accelerometer_position a pair of floats), as health_check takes them."""
+    values = []
+    for name in HealthConstants._fields:
+        if name == "yaw_threshold":  # the yaw test's CUSUM threshold (systems/health/yaw_witness.py)
+            values.append(yaw_test_threshold(p.yaw_false_alarm_time, g.T_N))
+            continue
+        value = getattr(g if name in _GEOMETRY_FIELDS else p, name)
+        if name == "accelerometer_position":
+            value = (float(value[0]), float(value[1]))
+        elif name == "enabled":
+            value = bool(value)
+        elif name in (
+            "stuck_samples",
+            "consistency_samples",
+            "fast_consistency_samples",
+            "encoder_readmission_samples",
+            "gyro_readmission_samples",
+            "clip_samples",
+            "clip_window",
+            "gain_samples",
+            "gain_block_samples",
+            "bias_step_samples",
+        ):
+            value = int(value)
+        else:
+            value = float(value)
+        values.append(value)
+    return tuple(values)
