@@ -10,9 +10,10 @@ from slipnav.diagrams.navigation import add_navigation
 from slipnav.diagrams.open_loop import LoggedDiagram, add_loggers, check_robot_inputs, robot_ports
 from slipnav.diagrams.robot import add_robot_with_sensors
 from slipnav.systems.checks import check_follower_gains, check_start_time, require_instance
+from slipnav.systems.health.perturbation import PerturbationParameters
+from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
-from slipnav.systems.perturbation_monitor import PerturbationParameters, add_perturbation_monitor
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration

@@ -20,8 +20,9 @@ from slipnav.systems.checks import (
     require_table,
 )
 from slipnav.systems.feedforward import TrajectoryFeedforward
+from slipnav.systems.health.perturbation import PerturbationParameters
+from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.perturbation_monitor import PerturbationParameters, add_perturbation_monitor
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration

@@ -5,8 +5,9 @@ from __future__ import annotations
 from pydrake.systems.framework import DiagramBuilder
 from slipnav.diagrams.navigation import NAVIGATION_OUTPUTS, SensorReplay, build_navigation_diagram
 from slipnav.diagrams.open_loop import add_loggers
+from slipnav.systems.health.perturbation import PerturbationParameters
+from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
-from slipnav.systems.perturbation_monitor import PerturbationParameters, add_perturbation_monitor
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters

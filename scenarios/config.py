@@ -29,9 +29,9 @@ from slipnav.scenarios.trajectories import (
 )
 from slipnav.systems.checks import check_follower_gains, check_robot_physics, check_start_time
 from slipnav.systems.faults import FaultEvent, check_fault_events
+from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
-from slipnav.systems.perturbation_monitor import PerturbationParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import SensorCalibration
@@ -109,7 +109,7 @@ class Scenario:
         faults: timed sensor faults between the sensors and the navigation (systems/faults.py
             FaultEvent: kind, channel, start, duration, value), e.g. ``faults: [{kind: dropout,
             channel: gyro, start: 2.0, duration: 0.5}]``.
-        perturbation_monitor: thresholds of the perturbation flags (systems/perturbation_monitor.py: a
+        perturbation_monitor: thresholds of the perturbation flags (systems/health/perturbation.py: a
             wheel held, pushed or lifted, the body pushed), from the wheel commands, the encoders and the
             navigation's estimate.
         paper: the papers' equations exactly as printed, every extension off (scenarios/paper.py

@@ -21,15 +21,7 @@ from slipnav.systems.faults import (
     has_sensor_faults,
     plant_disturbance,
 )
-from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
-from slipnav.systems.path_follower import (
-    bounded_speed,
-    check_path_curvature,
-    follower_step,
-    saturate_wheel_speeds,
-    speed_law,
-)
-from slipnav.systems.perturbation_monitor import (
+from slipnav.systems.health.perturbation import (
     FORCE_CHANNELS,
     PERTURBATION_CHANNELS,
     PerturbationParameters,
@@ -37,6 +29,14 @@ from slipnav.systems.perturbation_monitor import (
     perturbation_initial_state,
     perturbation_step,
     sideways_push,
+)
+from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
+from slipnav.systems.path_follower import (
+    bounded_speed,
+    check_path_curvature,
+    follower_step,
+    saturate_wheel_speeds,
+    speed_law,
 )
 from slipnav.systems.plant import (
     NO_DISTURBANCE,

@@ -33,8 +33,8 @@ from slipnav.scenarios.runner import (
     final_position_errors,
 )
 from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_sensor_log
+from slipnav.systems.health.perturbation import perturbation_report
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
-from slipnav.systems.perturbation_monitor import perturbation_report
 
 
 @dc.dataclass

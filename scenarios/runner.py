@@ -42,7 +42,7 @@ from slipnav.scenarios.trajectories import (
 from slipnav.systems.checks import require_seed
 from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.health import health_report
-from slipnav.systems.perturbation_monitor import FORCE_CHANNELS, PERTURBATION_CHANNELS, perturbation_report
+from slipnav.systems.health.perturbation import FORCE_CHANNELS, PERTURBATION_CHANNELS, perturbation_report
 from slipnav.systems.plant import RobotParameters, tyre_slip
 
 TRUTH_KEYS = (

@@ -42,7 +42,7 @@ from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.sweep import session
 from slipnav.systems.faults import ENCODER_CHANNELS, SENSOR_CHANNELS, FaultEvent, apply_sensor_faults
-from slipnav.systems.perturbation_monitor import PERTURBATION_CHANNELS
+from slipnav.systems.health.perturbation import PERTURBATION_CHANNELS
 
 FAULT_DURATION = 0.5
 DETECTION_LIMIT = 0.1

@@ -15,7 +15,7 @@ Default figures (tinyphoon) from data sheets of parts of the paper's era:
   perfect sensor, as the data sheet's typical figure) and drawn from tolerances for a real robot
   (scenarios/tolerances.py).
 - Motor current (the drivers' current sense, not used by the paper's navigation; the perturbation monitor's
-  force balance, systems/perturbation_monitor.py): a shunt amplifier and a 10-bit ADC over twice the
+  force balance, systems/health/perturbation.py): a shunt amplifier and a 10-bit ADC over twice the
   driver's current limit (Tinyphoon +-3 A: 5.9 mA a count, Kurt3D +-24 A: 47 mA), with white noise of
   about two counts rms from the PWM ripple (assumption) and a gain tolerance (current_scale_error).
 - "Commotion" (§IV-A): vibration of the accelerometer readings, a first-order Gauss-Markov process with a

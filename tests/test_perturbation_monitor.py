@@ -1,4 +1,4 @@
-"""The perturbation monitor (systems/perturbation_monitor.py): each flag from scripted commands,
+"""The perturbation monitor (systems/health/perturbation.py): each flag from scripted commands,
 encoders and estimates by hand, the LeafSystem as the pure function, and on the closed loop a held
 wheel flagged while the fault-free run stays clean."""
 
@@ -10,17 +10,18 @@ from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.faults import FaultEvent
-from slipnav.systems.perturbation_monitor import (
-    _SLIDE,
-    _YAW,
+from slipnav.systems.health.perturbation import (
+    HELD_DEMAND,
+    SLIDE_VELOCITY,
     WHEEL_BRAKED,
     WHEEL_DRIVEN,
-    PerturbationMonitor,
+    YAW_RESIDUAL,
     PerturbationParameters,
     perturbation_initial_state,
     perturbation_step,
     sideways_push,
 )
+from slipnav.systems.health.perturbation_monitor import PerturbationMonitor
 from slipnav.systems.plant import NO_DISTURBANCE, motor_currents, plant_advance, tinyphoon
 
 T_N, R, B = 0.002, 0.015, 0.068
@@ -108,7 +109,7 @@ def test_yaw_test_pauses_while_the_wheels_slide():
     first = int(np.argmax(fresh[:, 2] > 0))
     assert fresh[-1, 2] == 1 and not fresh[:, :2].any() and first > P.confirm_samples
     held, state, theta = run(100, True)
-    assert not held.any() and state[_YAW] == 0.0
+    assert not held.any() and state[YAW_RESIDUAL] == 0.0
     after, _, _ = run(100, False, state, theta)
     assert int(np.argmax(after[:, 2] > 0)) == first
 
@@ -149,7 +150,7 @@ def test_body_flag_on_a_side_slip_no_tyre_explains():
     first = int(np.argmax(rows[:, 3] > 0))
     assert first == n - 1 + P.confirm_samples and not rows[:, :3].any()
     L_end = q * (1 - q ** (n + 9)) / (1 - q) * T_N * 1.8  # the first sample starts L at the estimate
-    np.testing.assert_allclose(state[_SLIDE], L_end, rtol=1e-12)
+    np.testing.assert_allclose(state[SLIDE_VELOCITY], L_end, rtol=1e-12)
     turning = (1.0 + 0.5 * B * 2.0, 1.0 - 0.5 * B * 2.0)  # 2 rad/s at 1 m/s: v_t omega = 2 m/s^2
     rows, _, _ = drive(n + 10, turning, turning, (1.0, 0.0, 2.0, 0.0, 3.8))
     assert not rows.any()
@@ -204,9 +205,9 @@ def test_slide_test_keys_take_inf_and_reject_what_is_not_a_bound():
                 PerturbationParameters(**{key: bad})
     turning = (1.0 + 0.5 * B * 2.0, 1.0 - 0.5 * B * 2.0)
     _, state, theta = drive(10, turning, turning, (1.0, 0.0, 2.0, 0.0, 2.0))  # held demand 2 m/s^2
-    held = state[_SLIDE + 1]
+    held = state[HELD_DEMAND]
     state = perturbation_step(state, turning, theta, (1.0, 0.0, math.nan, 0.0, 2.0), P, (R, R), B, T_N)
-    np.testing.assert_allclose(state[_SLIDE + 1], held * math.exp(-T_N / P.slide_demand_hold), rtol=1e-12)
+    np.testing.assert_allclose(state[HELD_DEMAND], held * math.exp(-T_N / P.slide_demand_hold), rtol=1e-12)
     straight, pushed = (1.0, 1.0), (1.0, 0.0, 0.0, 0.0, 1.8)
     assert drive(60, straight, straight, pushed)[0][-1, 3] == 1
     off = PerturbationParameters(slide_threshold=math.inf)  # no slide test

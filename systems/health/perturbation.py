@@ -59,9 +59,9 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from pydrake.systems.framework import LeafSystem
-from slipnav.systems.health import NO_CURRENTS, PLAUSIBLE_CURRENT
+from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT
 from slipnav.systems.plant import RobotParameters, shoe_drag
+from slipnav.systems.state_layout import layout_indices, layout_size
 
 PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
 """Output layout: [wheel_R, wheel_L, yaw, body]; a wheel's code is 1 braked, 2 driven; yaw, body 0/1."""
@@ -178,22 +178,51 @@ class PerturbationParameters:
         return self
 
 
-# State: reference (2), wheel residual PT1 (2), yaw PT1, lateral PT1, counts (4), last encoder (2), the
-# force balance's two PT1 stages (5 each: wheel rates (2), yaw rate, along, yaw), the slide test's
-# lateral velocity L and held demand, the sideways push's count, flag, veto and evidence, forces per
-# side (2), flags (4).
-STATE_SIZE = 34
-_REF, _RES, _YAW, _LAT, _CNT, _ENC, _STAGE1, _STAGE2 = 0, 2, 4, 5, 6, 10, 12, 17
-_SLIDE, _DEMAND, _SIDE_CNT, _SIDE, _SIDE_VETO, _SIDE_SEEN, _FORCE, _FLAGS = 22, 23, 24, 25, 26, 27, 28, 30
+PERTURBATION_LAYOUT = (
+    ("reference", 2),  # each wheel's reference, following its command at most at reference_acceleration
+    ("wheel_residual", 2),  # each wheel's speed beyond its band (PT1, m/s)
+    ("yaw_residual", 1),  # the body's yaw rate less the wheels' (PT1, rad/s)
+    ("lateral_residual", 1),  # a_n less v_t omega (PT1, m/s^2)
+    ("confirm_counts", 4),  # the samples each condition has held (PERTURBATION_CHANNELS)
+    ("last_encoder", 2),  # the wheel angles of the previous sample (rad; NaN: none)
+    ("force_stage1", 5),  # the force balance's first PT1: wheel rates (2), yaw rate, along, yaw moment
+    ("force_stage2", 5),  # and its second (NaN: none yet)
+    ("slide_velocity", 1),  # the slide test's lateral velocity L (m/s; NaN: none yet)
+    ("held_demand", 1),  # the turn's lateral demand |v_t omega|, its peak held (m/s^2)
+    ("sideways_count", 1),  # the samples the sideways condition has held
+    ("sideways_push", 1),  # 1 while the navigation takes a sideways push (sideways_push)
+    ("sideways_veto", 1),  # 1 once a wheel or yaw flag rose in the episode
+    ("sideways_seen", 1),  # 1 once the episode held below push_demand
+    ("force_residual", 2),  # each side's unexplained force per unit mass (m/s^2; FORCE_CHANNELS)
+    ("flags", 4),  # the confirmed flags (PERTURBATION_CHANNELS)
+)
+"""The monitor's state, in order (name, size); the flags last."""
+_INDEX = layout_indices(PERTURBATION_LAYOUT)
+STATE_SIZE = layout_size(PERTURBATION_LAYOUT)
+REFERENCE, WHEEL_RESIDUAL, YAW_RESIDUAL = (
+    _INDEX["reference"],
+    _INDEX["wheel_residual"],
+    _INDEX["yaw_residual"],
+)
+LATERAL_RESIDUAL, CONFIRM_COUNTS = _INDEX["lateral_residual"], _INDEX["confirm_counts"]
+LAST_ENCODER, FORCE_STAGE1, FORCE_STAGE2 = (
+    _INDEX["last_encoder"],
+    _INDEX["force_stage1"],
+    _INDEX["force_stage2"],
+)
+SLIDE_VELOCITY, HELD_DEMAND = _INDEX["slide_velocity"], _INDEX["held_demand"]
+SIDEWAYS_COUNT, SIDEWAYS_PUSH = _INDEX["sideways_count"], _INDEX["sideways_push"]
+SIDEWAYS_VETO, SIDEWAYS_SEEN = _INDEX["sideways_veto"], _INDEX["sideways_seen"]
+FORCE_RESIDUAL, FLAGS = _INDEX["force_residual"], _INDEX["flags"]
 FORCE_CHANNELS = ("force_R", "force_L")
 """The force_residual output: each side's force the motors do not explain, per unit mass (m/s^2)."""
 
 
 def perturbation_initial_state() -> list[float]:
+    """Nothing read yet: the encoders' last angles, the force balance's filters and L NaN."""
     state = [0.0] * STATE_SIZE
-    state[_ENC], state[_ENC + 1] = math.nan, math.nan
-    state[_STAGE1] = math.nan  # the force balance's filters start at the first full sample
-    state[_SLIDE] = math.nan  # L starts at the estimate
+    for index in (*LAST_ENCODER, FORCE_STAGE1[0], SLIDE_VELOCITY):
+        state[index] = math.nan
     return state
 
 
@@ -211,10 +240,122 @@ def force_model(robot: RobotParameters) -> ForceModel:
     return ForceModel(*[float(getattr(robot, name)) for name in ForceModel._fields])
 
 
+def perturbation_step(
+    state,
+    command,
+    encoders,
+    estimate,
+    params,
+    radii,
+    track_width: float,
+    T_N: float,
+    currents=NO_CURRENTS,
+    robot: ForceModel | RobotParameters | None = None,
+    sliding: bool = False,
+):
+    """One T_N update (module docstring).
+
+    Args:
+        state: PERTURBATION_LAYOUT's values (perturbation_initial_state at first).
+        command: the wheel speed commands [v_R, v_L] (m/s) in force.
+        encoders: the wheel angles [theta_R, theta_L] (rad) as the sensor checks pass them: an excluded
+            encoder's replacement (the other wheel and the gyro), so that a count that is stuck, jumps
+            or spans an exclusion is not read as a wheel held or pushed.
+        estimate: the navigation's mixed estimate [v_t, v_n, omega, a_t, a_n].
+        radii: the believed rolling radii (r_R, r_L) (m).
+        currents: the drivers' current readings [i_R, i_L] (A); NaN or beyond PLAUSIBLE_CURRENT times
+            the limit: no force test in this sample.
+        robot: the believed robot (its mass, inertias, motor constant, drags) for the force test, its
+            ForceModel (faster) or RobotParameters; None: no force test.
+        sliding: the navigation's slide-onset test holds this sample (the wheels slide): no yaw test.
+
+    Returns:
+        the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
+    """
+    s = [float(v) for v in state]
+    if not params.enabled:
+        return s
+    a = math.exp(-T_N / params.time_constant)
+    # 1. each wheel against its command's band
+    expected, outside, rates = wheel_band_test(s, command, encoders, radii, a, params, T_N)
+    # 4. the force balance (with the current sense)
+    along = force_test(s, command, rates, currents, estimate, robot, outside, a, params, T_N)
+    # 2. the body's yaw rate against the wheels'; 3. the lateral acceleration and the side slip
+    omega_wheels = (expected[0] - expected[1]) / track_width
+    yaw_beyond, sideways = body_tests(s, estimate, omega_wheels, sliding, a, params, T_N)
+    conditions = (
+        outside[0],
+        outside[1],
+        1 if not any(outside) and yaw_beyond else 0,
+        1 if along or sideways else 0,
+    )
+    for j, condition in enumerate(conditions):  # confirmed over confirm_samples
+        s[CONFIRM_COUNTS[j]] = s[CONFIRM_COUNTS[j]] + 1.0 if condition else 0.0
+        s[FLAGS[j]] = float(condition) if s[CONFIRM_COUNTS[j]] >= params.confirm_samples else 0.0
+    sideways_push_update(s, sideways, params)
+    return s
+
+
+def wheel_band_test(s, command, encoders, radii, a: float, params, T_N: float) -> tuple:
+    """Test 1. (module docstring) on both wheels, updating their references, residuals and last angles
+    in ``s``: returns (each wheel's speed clipped to its band (m/s), each wheel's condition (0,
+    WHEEL_BRAKED, WHEEL_DRIVEN), each wheel's encoder rate (rad/s, NaN: none))."""
+    expected, outside, rates = [0.0, 0.0], [0, 0], [math.nan, math.nan]
+    step = params.reference_acceleration * T_N
+    for w in range(2):
+        cmd = float(command[w])
+        s[REFERENCE[w]] = min(max(cmd, s[REFERENCE[w]] - step), s[REFERENCE[w]] + step)
+        low, high = min(cmd, s[REFERENCE[w]]), max(cmd, s[REFERENCE[w]])
+        theta, last = float(encoders[w]), s[LAST_ENCODER[w]]
+        if math.isfinite(theta) and math.isfinite(last):
+            rates[w] = (theta - last) / T_N
+            speed = rates[w] * radii[w]
+            expected[w] = min(max(speed, low), high)
+            s[WHEEL_RESIDUAL[w]] = a * s[WHEEL_RESIDUAL[w]] + (1.0 - a) * (speed - expected[w])
+        else:  # a missing sample, the first after it (it spans the gap) and the very first: the
+            expected[w] = cmd  # residual holds, the wheel taken as commanded
+        s[LAST_ENCODER[w]] = theta
+        bound = params.speed_threshold + params.speed_fraction * max(abs(low), abs(high))
+        sign = 1.0 if high > 0.0 else (-1.0 if low < 0.0 else 0.0)
+        residual = s[WHEEL_RESIDUAL[w]]
+        if sign == 0.0:  # commanded to stand: any motion beyond the bound is driven
+            outside[w] = WHEEL_DRIVEN if abs(residual) > bound else 0
+        elif residual * sign < -bound:
+            outside[w] = WHEEL_BRAKED
+        elif residual * sign > bound:
+            outside[w] = WHEEL_DRIVEN
+    return expected, outside, rates
+
+
+def force_test(s, command, rates, currents, estimate, robot, outside, a: float, params, T_N: float) -> bool:
+    """Test 4. (module docstring), with plausible currents and a believed robot: each side's unexplained
+    force (stored in ``s``) beyond its bound on one side only sets that wheel's condition in ``outside``
+    (braked against its motion, driven along it) unless set; True when both sides are beyond it alike (a
+    push on the body)."""
+    testable = (
+        robot is not None
+        and math.isfinite(params.force_threshold)
+        and abs(currents[0]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit  # False for NaN
+        and abs(currents[1]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit
+    )
+    forces = unexplained_force(s, rates, currents, estimate, robot, a, T_N) if testable else None
+    if forces is None:
+        return False
+    s[FORCE_RESIDUAL[0]], s[FORCE_RESIDUAL[1]] = forces
+    bound = params.force_threshold + params.force_fraction * abs(float(estimate[3]))
+    beyond = [abs(f) > bound for f in forces]
+    if beyond[0] and beyond[1] and forces[0] * forces[1] > 0.0:
+        return True  # both sides alike: a push on the body
+    for w in range(2):
+        if beyond[w] and not outside[w]:
+            direction = float(command[w]) or s[REFERENCE[w]]
+            outside[w] = WHEEL_BRAKED if forces[w] * direction < 0.0 else WHEEL_DRIVEN
+    return False
+
+
 def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float):
-    """Update the force balance's filters in ``s`` (perturbation_step's state) and return each side's
-    force the motors do not explain per unit mass [e_R, e_L] (m/s^2; module docstring, 4.), or None
-    while a rate is missing.
+    """Update the force balance's filters in ``s`` and return each side's force the motors do not
+    explain per unit mass [e_R, e_L] (m/s^2; module docstring, 4.), or None while a rate is missing.
 
     Every term passes the same two PT1 stages (a PT2: the wheel and yaw accelerations are differences of
     quantised rates, Kurt3D's odometric yaw rate steps by 0.15 rad/s a sample); the accelerations are the
@@ -236,15 +377,15 @@ def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float)
         m * a_t - drive[0] - drive[1] - shoe_t,
         -half * (drive[0] - drive[1]) - shoe_moment,
     )
-    if math.isnan(s[_STAGE1]):
-        s[_STAGE1 : _STAGE1 + 5] = x
-        s[_STAGE2 : _STAGE2 + 5] = x
+    if math.isnan(s[FORCE_STAGE1[0]]):
+        for i in range(5):
+            s[FORCE_STAGE1[i]] = s[FORCE_STAGE2[i]] = x[i]
         return None
-    last = s[_STAGE2 : _STAGE2 + 5]
+    last = [s[index] for index in FORCE_STAGE2]
     for i in range(5):
-        s[_STAGE1 + i] = a * s[_STAGE1 + i] + (1.0 - a) * x[i]
-        s[_STAGE2 + i] = a * s[_STAGE2 + i] + (1.0 - a) * s[_STAGE1 + i]
-    f = s[_STAGE2 : _STAGE2 + 5]
+        s[FORCE_STAGE1[i]] = a * s[FORCE_STAGE1[i]] + (1.0 - a) * x[i]
+        s[FORCE_STAGE2[i]] = a * s[FORCE_STAGE2[i]] + (1.0 - a) * s[FORCE_STAGE1[i]]
+    f = [s[index] for index in FORCE_STAGE2]
     inertia = [J * (f[w] - last[w]) / (T_N * r[w]) for w in range(2)]
     along = (f[3] + inertia[0] + inertia[1]) / m
     yaw = f[4] + robot.yaw_inertia * (f[2] - last[2]) / T_N + half * (inertia[0] - inertia[1])
@@ -252,104 +393,15 @@ def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float)
     return [0.5 * (along + yaw), 0.5 * (along - yaw)]
 
 
-def slide_step(s, v_t: float, v_n: float, centripetal: float, a_n: float, params, T_N: float) -> bool:
-    """Update the slide test's state in ``s`` (L and the held demand; module docstring, 3.) and return
-    whether the side slip is one no tyre explains (``centripetal``: v_t omega, the turn's demand)."""
-    demand = abs(centripetal)
-    held = math.exp(-T_N / params.slide_demand_hold) * s[_DEMAND]
-    s[_DEMAND] = max(demand, held) if math.isfinite(demand) else held  # a NaN sample keeps the peak
-    L = s[_SLIDE] + T_N * (a_n - centripetal)
-    if not math.isfinite(L):  # the first sample
-        L = v_n
-    s[_SLIDE] = v_n + math.exp(-T_N / params.slide_time_constant) * (L - v_n)
-    bound = params.slide_threshold + params.slide_per_speed * abs(v_t)
-    return s[_DEMAND] < params.slide_demand and abs(s[_SLIDE]) > bound
-
-
-def perturbation_step(
-    state,
-    command,
-    encoders,
-    estimate,
-    params,
-    radii,
-    track_width: float,
-    T_N: float,
-    currents=NO_CURRENTS,
-    robot: ForceModel | RobotParameters | None = None,
-    sliding: bool = False,
-):
-    """One T_N update (module docstring).
-
-    Args:
-        state: perturbation_initial_state() layout.
-        command: the wheel speed commands [v_R, v_L] (m/s) in force.
-        encoders: the wheel angles [theta_R, theta_L] (rad) as the sensor checks pass them: an excluded
-            encoder's replacement (the other wheel and the gyro), so that a count that is stuck, jumps
-            or spans an exclusion is not read as a wheel held or pushed.
-        estimate: the navigation's mixed estimate [v_t, v_n, omega, a_t, a_n].
-        radii: the believed rolling radii (r_R, r_L) (m).
-        currents: the drivers' current readings [i_R, i_L] (A); NaN or beyond PLAUSIBLE_CURRENT times
-            the limit: no force test in this sample.
-        robot: the believed robot (its mass, inertias, motor constant, drags) for the force test, its
-            ForceModel (faster) or RobotParameters; None: no force test.
-        sliding: the navigation's slide-onset test holds this sample (the wheels slide): no yaw test.
-
-    Returns:
-        the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
-    """
-    s = [float(v) for v in state]
-    if not params.enabled:
-        return s
-    a = math.exp(-T_N / params.time_constant)
-    expected, outside, rates = [0.0, 0.0], [0, 0], [math.nan, math.nan]
-    step = params.reference_acceleration * T_N
-    for w in range(2):
-        cmd = float(command[w])
-        s[_REF + w] = min(max(cmd, s[_REF + w] - step), s[_REF + w] + step)
-        low, high = min(cmd, s[_REF + w]), max(cmd, s[_REF + w])
-        theta, last = float(encoders[w]), s[_ENC + w]
-        if math.isfinite(theta) and math.isfinite(last):
-            rates[w] = (theta - last) / T_N
-            speed = rates[w] * radii[w]
-            expected[w] = min(max(speed, low), high)
-            s[_RES + w] = a * s[_RES + w] + (1.0 - a) * (speed - expected[w])
-        else:  # a missing sample, the first after it (it spans the gap) and the very first: the
-            expected[w] = cmd  # residual holds, the wheel taken as commanded
-        s[_ENC + w] = theta
-        bound = params.speed_threshold + params.speed_fraction * max(abs(low), abs(high))
-        sign = 1.0 if high > 0.0 else (-1.0 if low < 0.0 else 0.0)
-        residual = s[_RES + w]
-        if sign == 0.0:  # commanded to stand: any motion beyond the bound is driven
-            outside[w] = WHEEL_DRIVEN if abs(residual) > bound else 0
-        elif residual * sign < -bound:
-            outside[w] = WHEEL_BRAKED
-        elif residual * sign > bound:
-            outside[w] = WHEEL_DRIVEN
-    along = False
-    testable = (
-        robot is not None
-        and math.isfinite(params.force_threshold)
-        and abs(currents[0]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit  # False for NaN
-        and abs(currents[1]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit
-    )
-    forces = unexplained_force(s, rates, currents, estimate, robot, a, T_N) if testable else None
-    if forces is not None:
-        s[_FORCE], s[_FORCE + 1] = forces
-        bound = params.force_threshold + params.force_fraction * abs(float(estimate[3]))
-        beyond = [abs(f) > bound for f in forces]
-        if beyond[0] and beyond[1] and forces[0] * forces[1] > 0.0:
-            along = True  # both sides alike: a push on the body
-        else:
-            for w in range(2):
-                if beyond[w] and not outside[w]:
-                    direction = float(command[w]) or s[_REF + w]
-                    outside[w] = WHEEL_BRAKED if forces[w] * direction < 0.0 else WHEEL_DRIVEN
-    omega_wheels = (expected[0] - expected[1]) / track_width
+def body_tests(s, estimate, omega_wheels: float, sliding: bool, a: float, params, T_N: float) -> tuple:
+    """Tests 2. and 3. (module docstring) on the navigation's ``estimate`` [v_t, v_n, omega, a_t, a_n]:
+    returns (the yaw residual beyond its bound, the lateral acceleration or the side slip beyond
+    theirs). ``omega_wheels``: the wheels' yaw rate in their bands (rad/s); ``sliding``: the yaw test
+    pauses, its PT1 at 0."""
     v_t, omega, a_n = float(estimate[0]), float(estimate[2]), float(estimate[4])
-    s[_YAW] = 0.0 if sliding else a * s[_YAW] + (1.0 - a) * (omega - omega_wheels)
+    s[YAW_RESIDUAL] = 0.0 if sliding else a * s[YAW_RESIDUAL] + (1.0 - a) * (omega - omega_wheels)
     centripetal = v_t * omega
-    s[_LAT] = a * s[_LAT] + (1.0 - a) * (a_n - centripetal)
+    s[LATERAL_RESIDUAL] = a * s[LATERAL_RESIDUAL] + (1.0 - a) * (a_n - centripetal)
     yaw_bound = params.yaw_threshold + params.yaw_fraction * abs(omega_wheels)
     lateral_bound = (
         params.lateral_threshold
@@ -357,30 +409,37 @@ def perturbation_step(
         + params.lateral_fraction * abs(centripetal)
     )
     slide = slide_step(s, v_t, float(estimate[1]), centripetal, a_n, params, T_N)
-    sideways = slide or abs(s[_LAT]) > lateral_bound
-    conditions = (
-        outside[0],
-        outside[1],
-        1 if not any(outside) and abs(s[_YAW]) > yaw_bound else 0,
-        1 if along or sideways else 0,
-    )
-    for j, condition in enumerate(conditions):
-        s[_CNT + j] = s[_CNT + j] + 1.0 if condition else 0.0
-        s[_FLAGS + j] = float(condition) if s[_CNT + j] >= params.confirm_samples else 0.0
-    # The sideways push the navigation takes (sideways_push): the lateral and slide conditions,
-    # confirmed, in an episode that held once while the turn's held demand was below push_demand (after
-    # a turn, side slip the curve misses is the floor's) and raised no wheel or yaw flag (a wheel held,
-    # pushed or lifted turns the body about it: those lateral traces are the pivot's).
-    s[_SIDE_CNT] = s[_SIDE_CNT] + 1.0 if sideways else 0.0
+    return abs(s[YAW_RESIDUAL]) > yaw_bound, slide or abs(s[LATERAL_RESIDUAL]) > lateral_bound
+
+
+def slide_step(s, v_t: float, v_n: float, centripetal: float, a_n: float, params, T_N: float) -> bool:
+    """Update the slide test's state in ``s`` (L and the held demand; module docstring, 3.) and return
+    whether the side slip is one no tyre explains (``centripetal``: v_t omega, the turn's demand)."""
+    demand = abs(centripetal)
+    held = math.exp(-T_N / params.slide_demand_hold) * s[HELD_DEMAND]
+    s[HELD_DEMAND] = max(demand, held) if math.isfinite(demand) else held  # a NaN sample keeps the peak
+    L = s[SLIDE_VELOCITY] + T_N * (a_n - centripetal)
+    if not math.isfinite(L):  # the first sample
+        L = v_n
+    s[SLIDE_VELOCITY] = v_n + math.exp(-T_N / params.slide_time_constant) * (L - v_n)
+    bound = params.slide_threshold + params.slide_per_speed * abs(v_t)
+    return s[HELD_DEMAND] < params.slide_demand and abs(s[SLIDE_VELOCITY]) > bound
+
+
+def sideways_push_update(s, sideways: bool, params) -> None:
+    """The sideways push the navigation takes (sideways_push): the lateral and slide conditions,
+    confirmed, in an episode that held once while the turn's held demand was below push_demand (after a
+    turn, side slip the curve misses is the floor's) and raised no wheel or yaw flag (a wheel held,
+    pushed or lifted turns the body about it: those lateral traces are the pivot's)."""
+    s[SIDEWAYS_COUNT] = s[SIDEWAYS_COUNT] + 1.0 if sideways else 0.0
     if not sideways:
-        s[_SIDE_VETO] = s[_SIDE_SEEN] = 0.0
-    elif s[_DEMAND] < params.push_demand:
-        s[_SIDE_SEEN] = 1.0
-    if s[_FLAGS] or s[_FLAGS + 1] or s[_FLAGS + 2]:
-        s[_SIDE_VETO] = 1.0
-    confirmed = s[_SIDE_CNT] >= params.confirm_samples
-    s[_SIDE] = 1.0 if confirmed and s[_SIDE_SEEN] and not s[_SIDE_VETO] else 0.0
-    return s
+        s[SIDEWAYS_VETO] = s[SIDEWAYS_SEEN] = 0.0
+    elif s[HELD_DEMAND] < params.push_demand:
+        s[SIDEWAYS_SEEN] = 1.0
+    if s[FLAGS[0]] or s[FLAGS[1]] or s[FLAGS[2]]:
+        s[SIDEWAYS_VETO] = 1.0
+    confirmed = s[SIDEWAYS_COUNT] >= params.confirm_samples
+    s[SIDEWAYS_PUSH] = 1.0 if confirmed and s[SIDEWAYS_SEEN] and not s[SIDEWAYS_VETO] else 0.0
 
 
 def sideways_push(state) -> bool:
@@ -388,121 +447,7 @@ def sideways_push(state) -> bool:
     lateral and slide conditions, confirmed, in an episode that held once below push_demand and raised no
     wheel or yaw flag (the navigation's tyre curve does not explain the side slip: mixing.mix_checked's
     ``external_force``)."""
-    return state[_SIDE] > 0.5
-
-
-class PerturbationMonitor(LeafSystem):
-    """Flags a wheel held, pushed or lifted and a push on the body (module docstring).
-
-    .. pydrake_system::
-
-        name: PerturbationMonitor
-        input_ports:
-        - wheel_speed_command
-        - encoders
-        - mixed_estimate
-        - motor_currents
-        - slide_onset
-        output_ports:
-        - perturbation
-        - force_residual
-        - external_force
-
-    - wheel_speed_command: the commands [v_R, v_L] (m/s) the motors get.
-    - encoders: the wheel angles [theta_R, theta_L] (rad) the sensor checks pass on (the navigation
-      subsystem's ``checked_encoders``: an excluded encoder's replacement).
-    - mixed_estimate: the navigation's [v_t, v_n, omega, a_t, a_n].
-    - motor_currents (optional): the drivers' current readings [i_R, i_L] (A); unconnected (a replayed
-      log without currents) or NaN: no force test.
-    - slide_onset (optional): the navigation's [1 while its slide-onset test holds, else 0]; unconnected:
-      0.
-    - perturbation: [wheel_R, wheel_L, yaw, body] (state, a copy of the flags that the update stores):
-      a wheel 1 braked, 2 driven; yaw and body 1 when flagged.
-    - force_residual: each side's force the motors do not explain per unit mass [e_R, e_L] (m/s^2,
-      state; FORCE_CHANNELS).
-    - external_force: 1 while the monitor flags a sideways push the navigation should take
-      (sideways_push: the body test's lateral and slide conditions, confirmed, in an episode that held
-      once while the held turn demand was below push_demand and raised no wheel or yaw flag, the sample
-      before it included; state), else 0: the navigation's mixer reads it (mixing.mix_checked), one
-      sample later as every flag. A push along the heading does not set it (the lateral tyre curve
-      holds).
-
-    Update every T_N: perturbation_step.
-
-    Args:
-        params: PerturbationParameters. radii: the believed rolling radii (r_R, r_L) (m). track_width: the
-            believed track (m). T_N: period (s). robot: the believed robot for the force test (None: no
-            force test).
-    """
-
-    def __init__(
-        self,
-        params: PerturbationParameters,
-        radii,
-        track_width: float,
-        T_N: float,
-        robot: RobotParameters | None = None,
-    ):
-        super().__init__()
-        self._p = params.validate()
-        self._radii, self._b, self._T_N = (float(radii[0]), float(radii[1])), float(track_width), T_N
-        self._robot = None if robot is None else force_model(robot)
-        self._command = self.DeclareVectorInputPort("wheel_speed_command", 2)
-        self._encoders = self.DeclareVectorInputPort("encoders", 2)
-        self._estimate = self.DeclareVectorInputPort("mixed_estimate", 5)
-        self._currents = self.DeclareVectorInputPort("motor_currents", 2)
-        self._sliding = self.DeclareVectorInputPort("slide_onset", 1)
-        state0 = perturbation_initial_state()
-        self._state = self.DeclareDiscreteState(state0)
-        # state[_FLAGS:] and state[_FORCE:_FLAGS], as outputs
-        self._flags = self.DeclareDiscreteState(np.array(state0[_FLAGS:], float))
-        self._forces = self.DeclareDiscreteState(np.array(state0[_FORCE:_FLAGS], float))
-        self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
-        self.DeclareStateOutputPort("perturbation", self._flags)
-        self.DeclareStateOutputPort("force_residual", self._forces)
-        self._side = self.DeclareDiscreteState([state0[_SIDE]])  # state[_SIDE] (no Python output call)
-        self.DeclareStateOutputPort("external_force", self._side)
-
-    def _update(self, context, discrete_state):
-        currents = self._currents.Eval(context).tolist() if self._currents.HasValue(context) else NO_CURRENTS
-        state = perturbation_step(
-            discrete_state.get_value(self._state).tolist(),
-            self._command.Eval(context).tolist(),
-            self._encoders.Eval(context).tolist(),
-            self._estimate.Eval(context).tolist(),
-            self._p,
-            self._radii,
-            self._b,
-            self._T_N,
-            currents,
-            self._robot,
-            self._sliding.HasValue(context) and self._sliding.Eval(context).tolist()[0] > 0.5,
-        )
-        discrete_state.set_value(self._state, state)
-        discrete_state.set_value(self._flags, state[_FLAGS:])
-        discrete_state.set_value(self._forces, state[_FORCE:_FLAGS])
-        discrete_state.set_value(self._side, state[_SIDE : _SIDE + 1])
-
-
-def add_perturbation_monitor(
-    builder, params, command_port, encoders_port, navigation, robot, T_N, currents_port=None
-):
-    """Add a PerturbationMonitor reading ``command_port``, ``encoders_port``, the navigation subsystem's
-    mixed estimate and slide-onset flag and the drivers' ``currents_port`` (None: no force test); returns
-    the monitor."""
-    monitor = builder.AddSystem(
-        PerturbationMonitor(params, (robot.radius_R, robot.radius_L), robot.track_width, T_N, robot)
-    )
-    monitor.set_name("Perturbation monitor")
-    builder.Connect(command_port, monitor.GetInputPort("wheel_speed_command"))
-    builder.Connect(encoders_port, monitor.GetInputPort("encoders"))
-    builder.Connect(navigation.GetOutputPort("mixed_estimate"), monitor.GetInputPort("mixed_estimate"))
-    builder.Connect(navigation.GetOutputPort("slide_onset"), monitor.GetInputPort("slide_onset"))
-    if navigation.HasInputPort("external_force"):  # the sideways push, back to the mixer
-        builder.Connect(monitor.GetOutputPort("external_force"), navigation.GetInputPort("external_force"))
-    if currents_port is not None:
-        builder.Connect(currents_port, monitor.GetInputPort("motor_currents"))
-    return monitor
+    return state[SIDEWAYS_PUSH] > 0.5
 
 
 def perturbation_report(t, arrays: dict) -> dict:
