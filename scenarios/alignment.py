@@ -247,6 +247,19 @@ def fresh_counts(t, counts, gap_factor: float = 3.0) -> tuple[np.ndarray, np.nda
     return np.concatenate(times), np.vstack(values), interval
 
 
+def longest_hold(t, values) -> float:
+    """The longest time (s) over which a stream stamped ``t`` repeats its reading exactly: from the first
+    message of a run of equal values to the last (0 when no two consecutive values are equal)."""
+    t, values = np.asarray(t, float), np.asarray(values, float)
+    longest, start = 0.0, 0
+    for k in range(1, len(values)):
+        if values[k] != values[k - 1]:
+            start = k
+        else:
+            longest = max(longest, float(t[k] - t[start]))
+    return longest
+
+
 def on_grid(t_grid, t, values, mode: str) -> np.ndarray:
     """``values`` (N,) or (N, k) stamped ``t`` at the instants ``t_grid``: ``interpolate`` (linear between
     the neighbouring samples) or ``hold`` (the latest sample at or before the instant; the first sample

@@ -11,7 +11,9 @@ What the import estimates from the data (scenarios/alignment.py) and reports (``
 - the gyro's yaw axis and sign (largest correlation), the accelerometer's vertical axis (gravity) and the
   angle of its horizontal axes about it (fit against the Vicon's accelerations; the log uses the nearest
   quarter turn, the board's axes lying along the robot's);
-- the Vicon object's rigid offset from the robot (the forward axis's angle and the axle centre's offset).
+- the Vicon object's rigid offset from the robot (the forward axis's angle and the axle centre's offset);
+- the longest time the navX repeats a reading (imu_hold): a model that states no inertial_hold_time gets
+  HOLD_MARGIN times it, so that the stuck test does not read the device's own holds as a frozen sensor.
 
 The log (scenarios/sensor_log.py) holds every stream on the T_N grid of the model over the interval all
 three cover, ``interpolate``d (linear between samples; the wheel ticks between the messages that carry a
@@ -24,6 +26,7 @@ Vicon's frame.
 
 from __future__ import annotations
 
+import dataclasses as dc
 import math
 from pathlib import Path as FilePath
 
@@ -37,7 +40,7 @@ from slipnav.scenarios.importers import (
     read_table,
     resolve_model,
 )
-from slipnav.scenarios.model import RobotModel
+from slipnav.scenarios.model import RobotModel, model_text
 from slipnav.scenarios.sensor_log import SensorLog
 
 KOBUKI_TICKS_PER_REVOLUTION = 7735.0 / 3.0
@@ -50,6 +53,9 @@ SMOOTHING = 0.2
 """Window (s) of the Savitzky-Golay derivatives of the truth and of the streams compared with it."""
 ACCEL_SMOOTHING = 0.5
 """Window (s) of the accelerations the accelerometer's mapping is fitted on (second derivatives)."""
+HOLD_MARGIN = 2.0
+"""A model that states no inertial_hold_time gets this many times the longest hold the trial's navX
+shows (imu_hold): the stuck test judges a reading frozen only beyond it."""
 
 
 def default_model() -> RobotModel:
@@ -308,6 +314,15 @@ def estimate_clocks(files: dict, model: RobotModel) -> dict:
     }
 
 
+def imu_hold(est: dict) -> float:
+    """The longest time (s) the navX repeats a reading on a channel the log uses (the gyro's yaw axis,
+    the accelerometer's horizontal axes), its repeated rows already dropped (read_navx): the device
+    reports an unchanged value with a new navx time."""
+    i, j = est["frames"]["horizontal"]
+    channels = (est["gyro"][:, est["gyro_fit"]["axis"]], est["accel"][:, i], est["accel"][:, j])
+    return max(al.longest_hold(est["t_imu"], values) for values in channels)
+
+
 def build_log(est: dict, model: RobotModel, resample: str, name: str) -> tuple[SensorLog, dict, dict]:
     """The sensor log on the model's T_N grid over the span all streams cover, the truth table on the log's
     clock, and the grid's description."""
@@ -381,6 +396,11 @@ def import_trial(trial_dir, model_path=None, resample: str = "interpolate") -> I
     model, text = resolve_model(model_path, default_model)
     name = f"phil-turtlebot-{FilePath(trial_dir).resolve().name}"
     est = estimate_clocks(files, model)
+    hold = imu_hold(est)
+    if model.sensor_parameters().inertial_hold_time == 0.0:  # not stated: the trial's own, with a margin
+        overrides = {**model.sensor_overrides, "inertial_hold_time": HOLD_MARGIN * hold}
+        model = dc.replace(model, sensor_overrides=overrides).validate()
+        text = model_text(model)
     log, table, grid = build_log(est, model, resample, name)
     g, frames = est["gyro_fit"], est["frames"]
     offset, rotation = frames["offset"], frames["rotation"]
@@ -416,6 +436,10 @@ def import_trial(trial_dir, model_path=None, resample: str = "interpolate") -> I
             "lever_m": rotation["lever"],
             "bias_m_s2": rotation["bias"],
             "both_pairs": "the one IMU fills acc1 and acc2 (acc1 = acc2)",
+        },
+        "imu_stream": {
+            "longest_hold_s": hold,
+            "model_inertial_hold_time_s": model.sensor_parameters().inertial_hold_time,
         },
         "truth_offset": {
             "forward_axis_in_object_frame_deg": math.degrees(offset["angle"]),

@@ -210,6 +210,7 @@ def health_geometry(
         accel_vibration_time_constant=sensors.accel_vibration_time_constant,
         accel_initial_bias_std=sensors.accel_initial_bias_std,
         accel_drift_density=sensors.accel_drift_density,
+        inertial_hold_time=sensors.inertial_hold_time,
         tyre_peak_acceleration=robot.traction_limit_acceleration if robot is not None else math.inf,
         **force,
     )

@@ -68,6 +68,10 @@ class SensorParameters:
         current_resolution: one count of the motor drivers' current sense (A).
         current_noise_std: its white noise per sample (A).
         current_scale_error: relative gain error of both current senses.
+        inertial_hold_time: the longest time the accelerometers' and the gyro's stream repeats a reading
+            while healthy (s, in [0, 1]): a driver that republishes its last message when the device has
+            no new one. 0: every sample fresh (the simulated sensors). The stuck test allows it on top
+            of its repeats (systems/health/analog.py).
     """
 
     accelerometer_position: tuple[float, float] = (0.02, 0.015)
@@ -90,6 +94,7 @@ class SensorParameters:
     current_resolution: float = 6.0 / 1024
     current_noise_std: float = 0.012
     current_scale_error: float = 0.0
+    inertial_hold_time: float = 0.0
 
     def __post_init__(self):
         nonneg = (
@@ -119,6 +124,10 @@ class SensorParameters:
             value = getattr(self, name)
             if not (math.isfinite(value) and abs(value) < 0.5 * math.pi):
                 raise ValueError(f"{name}={value!r} is out of range: allowed (-pi/2, pi/2) rad")
+        if not (math.isfinite(self.inertial_hold_time) and 0.0 <= self.inertial_hold_time <= 1.0):
+            raise ValueError(
+                f"inertial_hold_time={self.inertial_hold_time!r} is out of range: allowed [0, 1] s"
+            )
         if len(self.accelerometer_position) != 2:
             raise ValueError("accelerometer_position must be a pair (x, y) in metres")
 

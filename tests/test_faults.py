@@ -130,12 +130,12 @@ def stream(n, v=1.0, omega=0.0, seed=0):
     return np.column_stack([acc, gyro, theta_R, theta_L])
 
 
-def check(rows, params=None, v0=1.0):
+def check(rows, params=None, v0=1.0, geometry=GEOMETRY):
     params = params or SensorHealthParameters()
-    state = health_initial_state(GEOMETRY, v0)
+    state = health_initial_state(geometry, v0)
     outs, codes = [], []
     for row in rows:
-        state, out, code = health_step(state, row, params, GEOMETRY)
+        state, out, code = health_step(state, row, params, geometry)
         outs.append(out)
         codes.append(code)
     return np.array(outs), np.array(codes)
@@ -256,6 +256,19 @@ def test_saturated_and_stuck_gyro_are_flagged_and_excluded():
     assert not codes[:103, 4].any() and np.all(codes[103:150, 4] == STUCK)
     # Re-admitted once it moves and has agreed with the odometry for a block of 5 samples.
     assert np.all(codes[150:154, 4] == RECOVERING) and not codes[154:, 4].any()
+
+
+@pytest.mark.parametrize("hold, first_flagged", [(0.0, 103), (0.01, 108), (0.0101, 109)])
+def test_a_stream_that_holds_its_readings_is_stuck_only_beyond_its_hold(hold, first_flagged):
+    """inertial_hold_time allows ceil(hold / T_N) repeats on top of stuck_samples - 1: 0.01 s at T_N 2 ms
+    is 5 more (nine repeats, ten equal readings from row 99), 0.0101 s six more."""
+    rows = stream(200, 1.0, 0.0)
+    rows[100:150, 0] = rows[99, 0]  # accelerometer 1's t axis and the gyro frozen
+    rows[100:150, 4] = rows[99, 4]
+    _, codes = check(rows, geometry=dc.replace(GEOMETRY, inertial_hold_time=hold))
+    for channel in (0, 4):
+        assert not codes[:first_flagged, channel].any()
+        assert np.all(codes[first_flagged:150, channel] == STUCK)
 
 
 def test_a_frozen_gyros_missed_heading_is_paid_back_when_the_stuck_test_flags_it():

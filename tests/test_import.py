@@ -13,6 +13,8 @@ from slipnav.scenarios.importers import write_import
 from slipnav.scenarios.model import load_model
 from slipnav.scenarios.replay import replay_log
 from slipnav.scenarios.sensor_log import SensorLog, read_sensor_log
+from slipnav.systems.faults import SENSOR_CHANNELS
+from slipnav.systems.health import STUCK
 
 DATASETS = Path(__file__).resolve().parents[1].parent / "shared" / "datasets"
 TURTLEBOT = DATASETS / "phil-turtlebot2-vicon"
@@ -88,6 +90,13 @@ def test_accelerometer_rotation_and_vertical_axis():
     assert al.horizontal_axes(2, 1) == (0, 1) and al.horizontal_axes(2, -1) == (1, 0)
 
 
+def test_longest_hold_is_the_longest_run_of_equal_readings_in_time():
+    t = np.array([0.0, 0.02, 0.04, 0.06, 0.08, 0.10, 0.13, 0.15])
+    values = np.array([1.0, 1.0, 2.0, 3.0, 3.0, 3.0, 4.0, 4.0])
+    assert al.longest_hold(t, values) == pytest.approx(0.04)  # 3.0 from 0.06 to 0.10
+    assert al.longest_hold(t, np.arange(8.0)) == 0.0
+
+
 def test_fresh_counts_interpolate_bursts_and_hold_standstills():
     t = np.arange(0.0, 2.0, 0.024)
     true = np.where(t < 1.0, 100.0 * t, 100.0)  # drives 1 s at 100 counts/s, then stands
@@ -127,6 +136,9 @@ def test_turtlebot_import_estimates_clocks_axes_and_the_truth_frame(trial_2):
     assert np.array_equal(c["acc1_t"], c["acc2_t"]) and np.array_equal(c["acc1_n"], c["acc2_n"])
     assert np.all(c["enc_R"] == np.round(c["enc_R"]))
     assert r["log"]["rows"] == len(c["t"]) and 45.0 < r["log"]["duration_s"] < 48.0
+    # the navX reports one reading for up to 0.1 s (five 50 Hz messages): the model allows twice that
+    assert 0.09 < r["imu_stream"]["longest_hold_s"] < 0.11
+    assert trial_2.model.sensor_parameters().inertial_hold_time == 2.0 * r["imu_stream"]["longest_hold_s"]
 
 
 @needs_turtlebot
@@ -149,6 +161,10 @@ def test_turtlebot_import_writes_a_log_replay_reads_and_replays(trial_2, tmp_pat
     errors = result.summary["final_position_error_m"]
     assert errors["odometry"] < 0.05 and errors["gyrodometry"] < 0.05
     assert np.isfinite(result.arrays["est_x"]).all()
+    hold = trial_2.model.sensor_parameters().inertial_hold_time
+    assert model.sensor_parameters().inertial_hold_time == hold
+    for channel in SENSOR_CHANNELS:  # the device's own holds are no frozen sensor
+        assert not np.any(result.arrays[f"health_{channel}"] == STUCK), channel
 
 
 @needs_turtlebot

@@ -5,8 +5,9 @@ against its data sheet and its last accepted value (health codes 1-4), and the v
 2. ``saturated``: a reading at saturation_fraction of its data-sheet range (gyro 300 deg/s,
    accelerometers 10 g), or at a rail below it: the clip_samples-th return to one magnitude within
    clip_window readings with none larger between (clip_returns; a run of repeats counts once).
-3. ``stuck``: a reading exactly repeated stuck_samples times (the sensors' white noise makes a repeat
-   practically impossible; a real ADC's quantum is stuck_tolerance).
+3. ``stuck``: a reading exactly repeated stuck_samples times beyond the stream's longest healthy hold
+   (inertial_hold_time: a driver that republishes its last message; the sensors' white noise makes a
+   repeat of a fresh reading practically impossible; a real ADC's quantum is stuck_tolerance).
 4. ``jump``: the innovation test of S(2)'s prediction of omega and a (random walks: the prediction is
    the last accepted value, the gyro's less b_g) against what the robot can do in one sample
    (gyro_max_step, accel_max_step); ``recovering`` while the channel is excluded and still beyond it.
@@ -62,7 +63,8 @@ def checks_off(s, raw) -> tuple:
 @jitable
 def analog_checks(s, raw, bias: float, codes, p) -> None:
     """Writes codes[0:5] (module docstring, 1-4; ``inconsistent`` while a hold stands), the repeat counts,
-    the last readings and the clip ring; ``bias``: the calibration's b_g."""
+    the last readings and the clip ring; ``bias``: the calibration's b_g; ``p``: HealthConstants."""
+    stuck_repeats = p.stuck_samples - 1 + math.ceil(p.inertial_hold_time / p.T_N - 1e-9)
     reference = s[ANALOG_REFERENCE]
     last = s[ANALOG_LAST]
     repeats = s[ANALOG_REPEATS]
@@ -85,7 +87,7 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
             p.clip_samples > 0 and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, p) >= p.clip_samples
         ):
             codes[c] = SATURATED
-        elif repeats[c] >= p.stuck_samples - 1:
+        elif repeats[c] >= stuck_repeats:
             codes[c] = STUCK
         elif math.isfinite(reference[c]) and abs(x - (bias if c == GYRO else 0.0) - reference[c]) > steps[c]:
             codes[c] = RECOVERING if excluded[c] > 0 else JUMP

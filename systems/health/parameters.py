@@ -276,6 +276,8 @@ class HealthGeometry:
             noise (pair_gain_ratio) and the pair offset's (pair_offset_update).
         accel_initial_bias_std, accel_drift_density: the accelerometers' initial bias and its random
             walk (data sheet): the pair offset's prior and drift (pair_offset_update).
+        inertial_hold_time: the longest time the inertial stream repeats a reading while healthy (s,
+            data sheet or the import's measurement; SensorParameters): the stuck test allows it.
         tyre_peak_acceleration: the nominal robot's tyre curve's peak mu g f_w (m/s^2; inf: none): the
             navigation's identified peak over it scales the replacement's tyre forces (yaw_follow_step's
             grip), so that a calibrated floor (mixing.tyre_peak_acceleration) counts from the start.
@@ -299,6 +301,7 @@ class HealthGeometry:
     accel_vibration_time_constant: float = 0.005
     accel_initial_bias_std: float = 0.05
     accel_drift_density: float = 0.0065
+    inertial_hold_time: float = 0.0
     tyre_peak_acceleration: float = math.inf
     mass: float = 0.0
     wheel_inertia: float = 0.0
@@ -330,7 +333,8 @@ HealthConstants = collections.namedtuple(
     "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
     "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant accel_initial_bias_std "
-    "accel_drift_density tyre_peak_acceleration mass wheel_inertia motor_constant motor_current_limit "
+    "accel_drift_density inertial_hold_time tyre_peak_acceleration mass wheel_inertia motor_constant "
+    "motor_current_limit "
     "bearing_drag shoe_offset "
     "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
     "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
