@@ -50,9 +50,9 @@ import numpy as np
 from scipy.optimize import least_squares
 from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
+from slipnav.scenarios.artifact_arrays import collect_arrays
 from slipnav.scenarios.config import Scenario, ScenarioError
 from slipnav.scenarios.model import RobotModel, SensorCalibration
-from slipnav.scenarios.runner import collect_arrays
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.systems.navigation import NavigationParameters

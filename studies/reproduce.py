@@ -38,7 +38,8 @@ from slipnav.scenarios.plots import (  # noqa: E402
     retimed_reference,
     save_figure_atomically,
 )
-from slipnav.scenarios.runner import follower_path, run_scenario  # noqa: E402
+from slipnav.scenarios.run_plan import follower_path  # noqa: E402
+from slipnav.scenarios.runner import run_scenario  # noqa: E402
 from slipnav.systems.mixing import logsig  # noqa: E402
 
 MODES = ("default", "paper")

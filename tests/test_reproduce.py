@@ -13,7 +13,7 @@ import pytest
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.paper import paper_mode
-from slipnav.scenarios.runner import follower_path
+from slipnav.scenarios.run_plan import follower_path
 from slipnav.studies import reproduce as rp
 from slipnav.systems.mixing import MixingParameters, logsig
 
