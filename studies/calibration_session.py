@@ -31,8 +31,8 @@ import tempfile
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
-from slipnav.scenarios.config import ScenarioError, _check, _load_yaml
 from slipnav.scenarios.sensor_log import SensorLogError, read_sensor_log, write_sensor_log
+from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
 from slipnav.studies.calibration import HEADING_STD, POSITION_STD, Manoeuvre, manoeuvre_plan
 from slipnav.systems.plant import ROBOTS, robot_parameters
 from slipnav.systems.rates import SampleRates
@@ -124,11 +124,11 @@ def read_session(path) -> tuple[CalibrationSession, list[Manoeuvre]]:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise ScenarioError(f"{where} cannot be read: {getattr(e, 'strerror', None) or e}") from None
-    raw = _load_yaml(text)
+    raw = load_yaml(text)
     if not isinstance(raw, dict):
         raise ScenarioError(f"{where}: expected a mapping of keys (README.md: Calibration sessions)")
     try:
-        _check(CalibrationSession, raw, "")
+        check_schema(CalibrationSession, raw, "")
     except ScenarioError as e:
         raise ScenarioError(f"{where}: {e}") from None
     session = yaml_load_typed(schema=CalibrationSession, data=text)

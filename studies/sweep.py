@@ -40,14 +40,9 @@ import time
 from pathlib import Path as FilePath
 
 import numpy as np
-from slipnav.scenarios.config import (
-    ScenarioError,
-    check_duration,
-    load_scenario,
-    parse_value,
-    with_keys,
-)
+from slipnav.scenarios.config import ScenarioError, check_duration, load_scenario, with_keys
 from slipnav.scenarios.plots import save_figure_atomically
+from slipnav.scenarios.typed_yaml import parse_value
 
 DEFAULT_WORKERS = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 """Worker processes of the local cluster: one per core this process may use."""
