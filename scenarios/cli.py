@@ -238,14 +238,14 @@ def _faults(args) -> int:
 def _calibrate(args) -> int:
     """slipnav calibrate: a session file, or a simulated session of a built-in robot (studies/)."""
     from slipnav.scenarios.artifacts import check_output_directory
-    from slipnav.studies.calibration import calibrate_command
+    from slipnav.studies.calibration_commands import calibrate_command
     from slipnav.systems.checks import require_seed
     from slipnav.systems.plant import ROBOTS
 
     if (args.session is None) == (args.simulate is None):
         raise ScenarioError("give a calibration session SESSION.yaml or --simulate ROBOT (one of them)")
     if args.session is not None:
-        from slipnav.studies.calibration_session import calibrate_session_command
+        from slipnav.studies.calibration_commands import calibrate_session_command
 
         check_output_directory(args.out)
         calibrate_session_command(args.session, args.out)
