@@ -35,8 +35,8 @@ def build_log_replay_diagram(
     perturbation_monitor=None,
 ):
     """SensorReplay (the log's rows, row k at t_k = k T_N) -> navigation diagram, every navigation output
-    but the covariance logged every T_N through diagrams.open_loop.add_loggers, keyed ``nav_<output>``
-    as in a run (so runner.collect_navigation reads them).
+    but the covariance logged every T_N through diagrams.loggers.add_loggers, keyed ``nav_<output>``
+    as in a run (so artifact_arrays.collect_navigation reads them).
 
     Args:
         params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration: as

@@ -397,7 +397,7 @@ def animate_file(run, out=None, fps: float = FRAMES_PER_SECOND) -> FilePath:
 
 def write_run_animation(result, out_dir) -> FilePath:
     """``slipnav run --animate``: the run's animation as ``out_dir/<stem>.html`` beside its artifact
-    (stem: runner.artifact_stem), at FRAMES_PER_SECOND."""
+    (stem: artifacts.artifact_stem), at FRAMES_PER_SECOND."""
     from slipnav.scenarios.artifacts import artifact_stem
 
     stem = artifact_stem(result)

@@ -55,7 +55,7 @@ def main(argv=None) -> int:
 def _engine(args) -> dict:
     """The sweep engine's options (studies/sweep.py), checked before any run."""
     from slipnav.scenarios.artifacts import check_output_directory
-    from slipnav.studies.sweep import check_engine_options
+    from slipnav.studies.engine import check_engine_options
 
     check_engine_options(args.workers, args.scheduler)
     check_output_directory(args.out)

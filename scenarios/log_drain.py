@@ -7,7 +7,7 @@ import numpy as np
 
 
 class LogDrain:
-    """Moves the samples of a diagram's shared log (open_loop.add_loggers: one VectorLogSink) into
+    """Moves the samples of a diagram's shared log (loggers.add_loggers: one VectorLogSink) into
     preallocated arrays after every simulator step and clears the sink, so that a run's memory is one
     float64 per logged channel and sample (Drake's log would double its capacity as it grows, and
     collect_arrays copy it). ``loggers()`` gives SignalLog look-alikes over the drained samples.

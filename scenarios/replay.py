@@ -209,7 +209,7 @@ def replay_file(log_path, model_path=None) -> ReplayResult:
 
 def write_replay_artifacts(result: ReplayResult, out_dir, figures: bool = True) -> list[FilePath]:
     """``<name>-replay.npz``, figures (``.path.png``, ``.navigation.png``) and ``<name>-replay.summary.json``
-    (last), atomically as runner.write_artifacts."""
+    (last), atomically as artifacts.write_artifacts."""
     from slipnav.scenarios.plots import write_replay_figures
 
     out = check_output_directory(out_dir)

@@ -30,7 +30,7 @@ from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.tolerances import RobotDeviations
 from slipnav.studies import calibration as procedure
 from slipnav.studies import calibration_identify, calibration_manoeuvres, calibration_signals
-from slipnav.studies.sweep import run_jobs
+from slipnav.studies.engine import run_jobs
 
 CALIBRATION_PROCEDURE = (procedure, calibration_manoeuvres, calibration_signals, calibration_identify)
 """The modules of the calibration procedure, whose sources key a calibrated model kept for reuse."""
@@ -102,7 +102,7 @@ def robustness(
     scheduler=None,
     resume=False,
 ) -> list:
-    """Run every case of every scenario over seeds 0..seeds-1 on the sweep engine (studies/sweep.py:
+    """Run every case of every scenario over seeds 0..seeds-1 on the sweep engine (studies/engine.py:
     ``workers`` processes, default one per core, or ``scheduler``; results in ``out_dir``/robustness.csv,
     ``resume``); print the table and the last line, write ``out_dir/robustness.png``; returns the
     per-run figures."""
