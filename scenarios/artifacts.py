@@ -12,7 +12,6 @@ import tempfile
 from pathlib import Path as FilePath
 
 import numpy as np
-from slipnav.scenarios import plots
 from slipnav.scenarios.config import Scenario, ScenarioError
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.model import RobotModel, model_text
@@ -121,6 +120,8 @@ def write_artifacts(result: RunResult, out_dir, figures: bool = True) -> list[Fi
             staged.append(staging / f"{stem}.model.yaml")
             staged[-1].write_text(model_text(result.model))
         if figures:
+            from slipnav.scenarios import plots  # matplotlib, set to Agg: only where figures are written
+
             staged += plots.write_figures(figure_arrays(result.arrays), result.reference, staging, stem)
         return publish_artifacts(staging, staged, stem, result.summary, out)
     finally:
