@@ -6,12 +6,11 @@ import dataclasses as dc
 import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import MatrixGain
-from slipnav.diagrams.navigation import add_navigation
-from slipnav.diagrams.open_loop import LoggedDiagram, add_loggers, check_robot_inputs, robot_ports
-from slipnav.diagrams.robot import add_robot_with_sensors
+from slipnav.diagrams.loggers import LoggedDiagram, add_loggers, robot_ports
+from slipnav.diagrams.onboard import add_command_monitor, add_robot_and_navigation
+from slipnav.diagrams.robot import check_robot_inputs
 from slipnav.systems.checks import check_follower_gains, check_start_time, require_instance
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
 from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
@@ -208,6 +207,62 @@ def build_closed_loop_diagram(
     ``perturbation_monitor``: PerturbationParameters of the PerturbationMonitor on the wheel commands,
     the encoders and the navigation (default PerturbationParameters()).
     ``faults``: sensor FaultEvents between the sensors and the navigation (systems/faults.py)."""
+    check_closed_loop_inputs(
+        robot, sensor_params, rates, navigation, control, seed, initial_pose, initial_speed, plant_time_step
+    )
+    builder = DiagramBuilder()
+    handles, nav, nav_ports = add_robot_and_navigation(
+        builder,
+        robot,
+        sensor_params,
+        rates,
+        seed,
+        initial_pose,
+        initial_speed,
+        plant_time_step,
+        plant,
+        faults,
+        navigation,
+        nominal_sensors,
+        calibration,
+    )
+    ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
+    pose, speed = localisation_ports(builder, control.localisation, nav, handles.plant)
+    builder.Connect(pose, ctrl.GetInputPort("estimated_pose"))
+    builder.Connect(speed, ctrl.GetInputPort("estimated_speed"))
+    if control.mode == "trajectory":
+        builder.Connect(nav.GetOutputPort("C1"), ctrl.GetInputPort("C1"))
+        builder.Connect(nav.GetOutputPort("side_slip_angle"), ctrl.GetInputPort("side_slip_angle"))
+    command = ctrl.GetOutputPort("wheel_speed_command")
+    builder.Connect(command, handles.plant.GetInputPort("wheel_speed_command"))
+    monitor = add_command_monitor(builder, perturbation_monitor, command, nav, robot, rates, handles)
+    loggers = {}
+    if log:
+        ports = robot_ports(handles)
+        ports.update(nav_ports)
+        ports["command"] = command
+        ports["perturbation"] = monitor.GetOutputPort("perturbation")
+        ports["force_residual"] = monitor.GetOutputPort("force_residual")
+        names = CONTROL_OUTPUTS[1:] + (TRAJECTORY_OUTPUTS if control.mode == "trajectory" else ())
+        ports.update({name: ctrl.GetOutputPort(name) for name in names})
+        loggers = add_loggers(builder, ports, rates.T_N)
+    diagram = builder.Build()
+    diagram.set_name("closed_loop")
+    return LoggedDiagram(diagram=diagram, robot=handles, loggers=loggers)
+
+
+def check_closed_loop_inputs(
+    robot: RobotParameters,
+    sensor_params: SensorParameters,
+    rates: SampleRates,
+    navigation: NavigationParameters,
+    control: ControlSettings,
+    seed: int,
+    initial_pose,
+    initial_speed: float,
+    plant_time_step: float,
+) -> None:
+    """build_closed_loop_diagram's inputs (Python API): ValueError naming the parameter."""
     check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
     require_instance("navigation", navigation, NavigationParameters)
     navigation.validate()
@@ -231,61 +286,3 @@ def build_closed_loop_diagram(
             f"control.start_time={control.start_time!r} needs a robot at rest: initial_speed="
             f"{initial_speed!r}, allowed 0 (or start_time 0)"
         )
-    builder = DiagramBuilder()
-    handles = add_robot_with_sensors(
-        builder,
-        plant or robot,
-        sensor_params,
-        rates.T_N,
-        seed,
-        initial_pose,
-        initial_speed,
-        plant_time_step,
-        faults,
-    )
-    nav, nav_ports = add_navigation(
-        builder,
-        handles.readings,
-        navigation,
-        rates,
-        robot,
-        initial_speed,
-        initial_pose,
-        nominal_sensors,
-        calibration,
-        handles.sensors.GetOutputPort("motor_currents"),
-    )
-    ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
-    pose, speed = localisation_ports(builder, control.localisation, nav, handles.plant)
-    builder.Connect(pose, ctrl.GetInputPort("estimated_pose"))
-    builder.Connect(speed, ctrl.GetInputPort("estimated_speed"))
-    if control.mode == "trajectory":
-        builder.Connect(nav.GetOutputPort("C1"), ctrl.GetInputPort("C1"))
-        builder.Connect(nav.GetOutputPort("side_slip_angle"), ctrl.GetInputPort("side_slip_angle"))
-    builder.Connect(
-        ctrl.GetOutputPort("wheel_speed_command"), handles.plant.GetInputPort("wheel_speed_command")
-    )
-    monitor = add_perturbation_monitor(
-        builder,
-        perturbation_monitor or PerturbationParameters(),
-        ctrl.GetOutputPort("wheel_speed_command"),
-        nav.GetOutputPort("checked_encoders"),
-        nav,
-        robot,
-        rates.T_N,
-        handles.sensors.GetOutputPort("motor_currents"),
-    )
-
-    loggers = {}
-    if log:
-        ports = robot_ports(handles)
-        ports.update(nav_ports)
-        ports["command"] = ctrl.GetOutputPort("wheel_speed_command")
-        ports["perturbation"] = monitor.GetOutputPort("perturbation")
-        ports["force_residual"] = monitor.GetOutputPort("force_residual")
-        names = CONTROL_OUTPUTS[1:] + (TRAJECTORY_OUTPUTS if control.mode == "trajectory" else ())
-        ports.update({name: ctrl.GetOutputPort(name) for name in names})
-        loggers = add_loggers(builder, ports, rates.T_N)
-    diagram = builder.Build()
-    diagram.set_name("closed_loop")
-    return LoggedDiagram(diagram=diagram, robot=handles, loggers=loggers)

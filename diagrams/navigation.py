@@ -4,11 +4,9 @@ Inputs: the sensor signals. Outputs: the navigation estimate and internals. Bloc
 systems/navigation.py (the sequential reference loop documents the same ordering).
 """
 
-import math
+import dataclasses as dc
 
-import numpy as np
-from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem
-from pydrake.systems.primitives import LogVectorOutput
+from pydrake.systems.framework import Diagram, DiagramBuilder
 from slipnav.diagrams.split import split_port
 from slipnav.systems.baselines import Baselines
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
@@ -121,36 +119,90 @@ def build_navigation_diagram(
     """
     params.validate()
     initial = initial or NavigationInitialState()
-    T_N, T_C = rates.T_N, rates.T_C
     b = DiagramBuilder()
-
-    def add(system, name):
-        system.set_name(name)
-        return b.AddSystem(system)
-
-    geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed, robot)
+    geometry = health_geometry(params, wheel_radius, track_width, rates.T_N, sensors, no_load_speed, robot)
     check_slide_onset(params.mixing, geometry)
-    monitor = add(SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
+    blocks = _add_navigation_blocks(
+        b, params, rates, wheel_radius, track_width, initial, geometry, calibration
+    )
+    signals = _connect_sensor_signals(b, blocks, params, geometry, rates.T_N, calibration)
+    _connect_fusion(b, blocks, signals, params)
+    _export_navigation_outputs(b, blocks, signals)
+    diagram = b.Build()
+    diagram.set_name("navigation")
+    return diagram
+
+
+@dc.dataclass
+class NavigationBlocks:
+    """The navigation diagram's blocks and the split signals (split_port) of their vector outputs."""
+
+    monitor: object
+    check: object
+    odometry_block: object
+    odometry: object
+    ekf: object
+    gain: object
+    detector: object
+    c1: object
+    c23_block: object
+    c23: object
+    yaw_calibration: object
+    mixer_block: object
+    mixer: object
+    sideslip: object
+    pose: object
+    baselines: object
+
+
+@dc.dataclass
+class NavigationSignals:
+    """The sensor signals as the fusion reads them: ``acc`` (checked, calibrated, less the standstill's
+    biases), ``gyro`` (checked, calibrated), ``raw_odo`` (the odometry the calibration reads), ``odo``
+    (the calibrated odometry the fusion reads) and the split outputs ``calibrated``, ``learned`` (the yaw
+    calibration's) and ``zupt`` (the standstill detector's)."""
+
+    acc: object
+    gyro: object
+    raw_odo: object
+    odo: object
+    calibrated: object
+    learned: object
+    zupt: object
+
+
+def _add(b: DiagramBuilder, system, name: str):
+    system.set_name(name)
+    return b.AddSystem(system)
+
+
+def _add_navigation_blocks(b, params, rates, wheel_radius, track_width, initial, geometry, calibration):
+    """Add the navigation's blocks (in the diagram's order) and split their vector outputs; exports the
+    ``motor_currents`` input."""
+    T_N, T_C = rates.T_N, rates.T_C
+    monitor = _add(b, SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
     b.ExportInput(monitor.GetInputPort("motor_currents"), "motor_currents")
     check = split_port(b, monitor.GetOutputPort("step"), HEALTH_STEP_LAYOUT, "Sensor checks' signals")
-    odometry_block = add(Odometry(wheel_radius, track_width, T_N, initial.speed), "Odometry")
+    odometry_block = _add(b, Odometry(wheel_radius, track_width, T_N, initial.speed), "Odometry")
     odometry = split_port(b, odometry_block.GetOutputPort("step"), ODOMETRY_STEP_LAYOUT, "Odometry's signals")
-    ekf = add(InertialEkf(params.ekf, T_N, initial.ekf_state()), "EKF")
+    ekf = _add(b, InertialEkf(params.ekf, T_N, initial.ekf_state()), "EKF")
     Q, _, P0 = params.ekf.matrices()
-    gain = add(
-        KalmanGain(params.ekf, T_C, ekf_prior_covariance(P0, initial.ekf_state(), Q, T_N)), "Kalman gain"
+    gain = _add(
+        b, KalmanGain(params.ekf, T_C, ekf_prior_covariance(P0, initial.ekf_state(), Q, T_N)), "Kalman gain"
     )
-    detector = add(
+    detector = _add(
+        b,
         TangentialSlipDetector(T_N, T_C, initial.speed, params.mixing.delta_v_running_integral),
         "Tangential slip detector",
     )
-    c1 = add(MixerC1(params.mixing, T_C), "Mixer C1")
-    c23_block = add(MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
+    c1 = _add(b, MixerC1(params.mixing, T_C), "Mixer C1")
+    c23_block = _add(b, MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
     c23 = split_port(b, c23_block.GetOutputPort("step"), C2C3_STEP_LAYOUT, "Mixer C2 C3's signals")
-    yaw_calibration = add(
-        YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
+    yaw_calibration = _add(
+        b, YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
     )
-    mixer_block = add(
+    mixer_block = _add(
+        b,
         VelocityMixer(
             params.mixing,
             T_N,
@@ -160,186 +212,154 @@ def build_navigation_diagram(
         "Velocity mixer",
     )
     mixer = split_port(b, mixer_block.GetOutputPort("mixing"), MIXER_LAYOUT, "Velocity mixer's signals")
-    sideslip = add(SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
-    pose = add(PoseIntegrator(T_N, initial.pose), "Pose integration")
-    baselines = add(
+    sideslip = _add(b, SideSlipEstimator(params.sideslip, T_C), "Side-slip angle")
+    pose = _add(b, PoseIntegrator(T_N, initial.pose), "Pose integration")
+    baselines = _add(
+        b,
         Baselines(
             params.gyrodometry, wheel_radius, track_width, T_N, initial.pose, initial.speed, calibration
         ),
         "Baselines",
     )
+    return NavigationBlocks(
+        monitor=monitor,
+        check=check,
+        odometry_block=odometry_block,
+        odometry=odometry,
+        ekf=ekf,
+        gain=gain,
+        detector=detector,
+        c1=c1,
+        c23_block=c23_block,
+        c23=c23,
+        yaw_calibration=yaw_calibration,
+        mixer_block=mixer_block,
+        mixer=mixer,
+        sideslip=sideslip,
+        pose=pose,
+        baselines=baselines,
+    )
 
-    b.ExportInput(monitor.GetInputPort("accelerometers"), "accelerometers")
-    b.ExportInput(monitor.GetInputPort("gyro"), "gyro")
-    b.ExportInput(monitor.GetInputPort("encoders"), "encoders")
-    b.ConnectInput("encoders", baselines.GetInputPort("encoders"))  # the raw sensors
-    b.ConnectInput("gyro", baselines.GetInputPort("gyro"))
-    b.Connect(check["encoders"], odometry_block.GetInputPort("encoders"))
+
+def _connect_sensor_signals(b, blocks: NavigationBlocks, params, geometry, T_N: float, calibration):
+    """Export the sensor inputs and connect them through the sensor checks, the model's calibration
+    (a SensorCorrection unless it is the identity), the yaw calibration and the standstill detector;
+    returns the signals the fusion reads."""
+    b.ExportInput(blocks.monitor.GetInputPort("accelerometers"), "accelerometers")
+    b.ExportInput(blocks.monitor.GetInputPort("gyro"), "gyro")
+    b.ExportInput(blocks.monitor.GetInputPort("encoders"), "encoders")
+    b.ConnectInput("encoders", blocks.baselines.GetInputPort("encoders"))  # the raw sensors
+    b.ConnectInput("gyro", blocks.baselines.GetInputPort("gyro"))
+    b.Connect(blocks.check["encoders"], blocks.odometry_block.GetInputPort("encoders"))
 
     acc, gyro, raw_odo = (
-        check["accelerometers"],
-        check["gyro"],
-        odometry["odometry"],
+        blocks.check["accelerometers"],
+        blocks.check["gyro"],
+        blocks.odometry["odometry"],
     )
     if calibration is not None and not calibration.is_identity():
-        correction = add(SensorCorrection(calibration), "Sensor calibration")
+        correction = _add(b, SensorCorrection(calibration), "Sensor calibration")
         b.Connect(acc, correction.GetInputPort("accelerometers"))
         b.Connect(gyro, correction.GetInputPort("gyro"))
         acc, gyro = correction.GetOutputPort("accelerometers"), correction.GetOutputPort("gyro")
     calibrated = split_port(
-        b, yaw_calibration.GetOutputPort("calibrated"), CALIBRATED_LAYOUT, "Calibrated gyro and odometry"
+        b,
+        blocks.yaw_calibration.GetOutputPort("calibrated"),
+        CALIBRATED_LAYOUT,
+        "Calibrated gyro and odometry",
     )
     learned = split_port(
-        b, yaw_calibration.GetOutputPort("parameters"), PARAMETERS_LAYOUT, "Learned gyro bias and D"
+        b, blocks.yaw_calibration.GetOutputPort("parameters"), PARAMETERS_LAYOUT, "Learned gyro bias and D"
     )
-    standstill = add(StandstillDetector(standstill_constants(params.standstill, geometry, T_N)), "Standstill")
+    standstill = _add(
+        b, StandstillDetector(standstill_constants(params.standstill, geometry, T_N)), "Standstill"
+    )
     b.Connect(acc, standstill.GetInputPort("accelerometers"))
     b.Connect(calibrated["gyro"], standstill.GetInputPort("gyro"))
-    b.Connect(check["encoders"], standstill.GetInputPort("encoders"))
+    b.Connect(blocks.check["encoders"], standstill.GetInputPort("encoders"))
     zupt = split_port(b, standstill.GetOutputPort("step"), STANDSTILL_STEP_LAYOUT, "Standstill's signals")
     acc = zupt["accelerometers"]  # less the biases: what every later block reads
     odo = calibrated["odometry"]  # what the fusion reads; the calibration reads raw_odo
-    b.Connect(acc, ekf.GetInputPort("accelerometers"))
-    b.Connect(gyro, yaw_calibration.GetInputPort("gyro"))
-    b.Connect(raw_odo, yaw_calibration.GetInputPort("odometry"))
-    b.Connect(c1.GetOutputPort("C1"), yaw_calibration.GetInputPort("C1"))
-    b.Connect(check["inertial_fault"], yaw_calibration.GetInputPort("inertial_fault"))
-    b.Connect(check["encoder_fault"], yaw_calibration.GetInputPort("encoder_fault"))
-    b.Connect(check["gyro_bias_step"], yaw_calibration.GetInputPort("gyro_bias_step"))
+    return NavigationSignals(
+        acc=acc, gyro=gyro, raw_odo=raw_odo, odo=odo, calibrated=calibrated, learned=learned, zupt=zupt
+    )
+
+
+def _connect_fusion(b, blocks: NavigationBlocks, signals: NavigationSignals, params) -> None:
+    """Connect the fusion of Fig. 3: the yaw calibration, the EKF and its gain, the slip detector, the
+    mixers, the side-slip angle, the pose and the sensor checks' feedback (replacements, tyre peak)."""
+    b.Connect(signals.acc, blocks.ekf.GetInputPort("accelerometers"))
+    b.Connect(signals.gyro, blocks.yaw_calibration.GetInputPort("gyro"))
+    b.Connect(signals.raw_odo, blocks.yaw_calibration.GetInputPort("odometry"))
+    b.Connect(blocks.c1.GetOutputPort("C1"), blocks.yaw_calibration.GetInputPort("C1"))
+    b.Connect(blocks.check["inertial_fault"], blocks.yaw_calibration.GetInputPort("inertial_fault"))
+    b.Connect(blocks.check["encoder_fault"], blocks.yaw_calibration.GetInputPort("encoder_fault"))
+    b.Connect(blocks.check["gyro_bias_step"], blocks.yaw_calibration.GetInputPort("gyro_bias_step"))
     if params.standstill.enabled:  # a rest the detector confirms (else the wheels' alone)
-        b.Connect(zupt["standstill"], yaw_calibration.GetInputPort("standstill"))
-    b.Connect(calibrated["gyro"], ekf.GetInputPort("gyro"))
-    b.Connect(gain.GetOutputPort("kalman_gain"), ekf.GetInputPort("kalman_gain"))
-    b.Connect(ekf.GetOutputPort("prior_covariance"), gain.GetInputPort("prior_covariance"))
-    b.Connect(odo, detector.GetInputPort("odometry"))
-    b.Connect(acc, detector.GetInputPort("accelerometers"))
-    b.Connect(check["sensor_fault"], detector.GetInputPort("sensor_fault"))
-    b.Connect(detector.GetOutputPort("delta_v"), c1.GetInputPort("delta_v"))
-    b.Connect(ekf.GetOutputPort("inertial_estimate"), c23_block.GetInputPort("inertial_estimate"))
-    b.Connect(odo, c23_block.GetInputPort("odometry"))
-    b.Connect(odo, mixer_block.GetInputPort("odometry"))
-    b.Connect(ekf.GetOutputPort("inertial_estimate"), mixer_block.GetInputPort("inertial_estimate"))
-    b.Connect(c1.GetOutputPort("C1"), mixer_block.GetInputPort("C1"))
-    b.Connect(c23["C2_C3"], mixer_block.GetInputPort("C2_C3"))
-    b.Connect(ekf.GetOutputPort("estimate"), mixer_block.GetInputPort("previous_estimate"))
+        b.Connect(signals.zupt["standstill"], blocks.yaw_calibration.GetInputPort("standstill"))
+    b.Connect(signals.calibrated["gyro"], blocks.ekf.GetInputPort("gyro"))
+    b.Connect(blocks.gain.GetOutputPort("kalman_gain"), blocks.ekf.GetInputPort("kalman_gain"))
+    b.Connect(blocks.ekf.GetOutputPort("prior_covariance"), blocks.gain.GetInputPort("prior_covariance"))
+    b.Connect(signals.odo, blocks.detector.GetInputPort("odometry"))
+    b.Connect(signals.acc, blocks.detector.GetInputPort("accelerometers"))
+    b.Connect(blocks.check["sensor_fault"], blocks.detector.GetInputPort("sensor_fault"))
+    b.Connect(blocks.detector.GetOutputPort("delta_v"), blocks.c1.GetInputPort("delta_v"))
+    b.Connect(
+        blocks.ekf.GetOutputPort("inertial_estimate"), blocks.c23_block.GetInputPort("inertial_estimate")
+    )
+    b.Connect(signals.odo, blocks.c23_block.GetInputPort("odometry"))
+    b.Connect(signals.odo, blocks.mixer_block.GetInputPort("odometry"))
+    b.Connect(
+        blocks.ekf.GetOutputPort("inertial_estimate"), blocks.mixer_block.GetInputPort("inertial_estimate")
+    )
+    b.Connect(blocks.c1.GetOutputPort("C1"), blocks.mixer_block.GetInputPort("C1"))
+    b.Connect(blocks.c23["C2_C3"], blocks.mixer_block.GetInputPort("C2_C3"))
+    b.Connect(blocks.ekf.GetOutputPort("estimate"), blocks.mixer_block.GetInputPort("previous_estimate"))
     velocity_layout = (("body_velocity", 2), ("rest", 3))
-    estimate = split_port(b, ekf.GetOutputPort("estimate"), velocity_layout, "EKF's v_t, v_n")
-    b.Connect(estimate["body_velocity"], monitor.GetInputPort("body_velocity"))  # the gyro's replacement
-    tyre_state = mixer_block.GetOutputPort("tyre_model_state")
+    estimate = split_port(b, blocks.ekf.GetOutputPort("estimate"), velocity_layout, "EKF's v_t, v_n")
+    b.Connect(
+        estimate["body_velocity"], blocks.monitor.GetInputPort("body_velocity")
+    )  # the gyro's replacement
+    tyre_state = blocks.mixer_block.GetOutputPort("tyre_model_state")
     tyre = split_port(b, tyre_state, TYRE_MODEL_STATE_LAYOUT, "Identified tyre peak")
-    b.Connect(tyre["tyre_peak"], monitor.GetInputPort("tyre_peak"))
-    b.Connect(learned["estimate"], monitor.GetInputPort("yaw_calibration"))  # the replacements read them
-    b.Connect(check["inertial_fault"], mixer_block.GetInputPort("inertial_fault"))
-    b.Connect(check["encoder_fault"], mixer_block.GetInputPort("encoder_fault"))
-    b.Connect(acc, mixer_block.GetInputPort("accelerometers"))
-    b.ExportInput(mixer_block.GetInputPort("external_force"), "external_force")
-    b.Connect(zupt["standstill"], mixer_block.GetInputPort("standstill"))
-    b.Connect(mixer["mixed_estimate"], ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
-    b.Connect(mixer["mixing_gain"], ekf.GetInputPort("mixing_gain"))  # the mixing in P
-    b.Connect(mixer["body_velocity"], sideslip.GetInputPort("body_velocity"))
-    b.Connect(mixer["body_velocity"], pose.GetInputPort("body_velocity"))
-
-    b.ExportOutput(pose.GetOutputPort("pose"), "pose")
-    b.ExportOutput(mixer["mixed_estimate"], "mixed_estimate")
-    b.ExportOutput(sideslip.GetOutputPort("side_slip_angle"), "side_slip_angle")
-    b.ExportOutput(sideslip.GetOutputPort("track_speed"), "track_speed")
-    b.ExportOutput(c1.GetOutputPort("C1"), "C1")
-    b.ExportOutput(mixer["slide_onset"], "slide_onset")
-    b.ExportOutput(c23["C2_C3"], "C2_C3")
-    b.ExportOutput(mixer["tyre_model_check"], "tyre_model_check")
-    b.ExportOutput(c1.GetOutputPort("delta_v_held"), "delta_v")
-    b.ExportOutput(raw_odo, "odometry")
-    b.ExportOutput(baselines.GetOutputPort("odometry_pose"), "odometry_pose")
-    b.ExportOutput(baselines.GetOutputPort("gyrodometry_pose"), "gyrodometry_pose")
-    b.ExportOutput(check["inertial_fault"], "inertial_fault")
-    b.ExportOutput(check["encoder_fault"], "encoder_fault")
-    b.ExportOutput(ekf.GetOutputPort("covariance"), "covariance")
-    b.ExportOutput(yaw_calibration.GetOutputPort("bias"), "gyro_bias")
-    b.ExportOutput(yaw_calibration.GetOutputPort("parameters"), "yaw_calibration")
-    b.ExportOutput(check["health"], "health")
-    b.ExportOutput(check["encoders"], "checked_encoders")
-    b.ExportOutput(zupt["standstill"], "standstill")
-    b.ExportOutput(zupt["accelerometer_bias"], "accelerometer_bias")
-    diagram = b.Build()
-    diagram.set_name("navigation")
-    return diagram
+    b.Connect(tyre["tyre_peak"], blocks.monitor.GetInputPort("tyre_peak"))
+    b.Connect(
+        signals.learned["estimate"], blocks.monitor.GetInputPort("yaw_calibration")
+    )  # the replacements read them
+    b.Connect(blocks.check["inertial_fault"], blocks.mixer_block.GetInputPort("inertial_fault"))
+    b.Connect(blocks.check["encoder_fault"], blocks.mixer_block.GetInputPort("encoder_fault"))
+    b.Connect(signals.acc, blocks.mixer_block.GetInputPort("accelerometers"))
+    b.ExportInput(blocks.mixer_block.GetInputPort("external_force"), "external_force")
+    b.Connect(signals.zupt["standstill"], blocks.mixer_block.GetInputPort("standstill"))
+    b.Connect(blocks.mixer["mixed_estimate"], blocks.ekf.GetInputPort("mixed_estimate"))  # Fig. 3 feedback
+    b.Connect(blocks.mixer["mixing_gain"], blocks.ekf.GetInputPort("mixing_gain"))  # the mixing in P
+    b.Connect(blocks.mixer["body_velocity"], blocks.sideslip.GetInputPort("body_velocity"))
+    b.Connect(blocks.mixer["body_velocity"], blocks.pose.GetInputPort("body_velocity"))
 
 
-class SensorReplay(LeafSystem):
-    """Plays back logged sensor rows: at t in [t_k, t_k+1) the outputs hold row k.
-
-    .. pydrake_system::
-
-        name: SensorReplay
-        output_ports:
-        - accelerometers
-        - gyro
-        - encoders
-        - motor_currents
-        - wheel_speed_command
-
-    A row k of a run artifact is what the navigation blocks read at t_k, so replaying the ``meas_*`` keys
-    through build_navigation_diagram reproduces the run's navigation exactly.
-    ``wheel_speed_command`` is declared only with ``commands`` (for the perturbation monitor).
-
-    Args:
-        T_N: period of the rows (s). accelerometers (N, 4), gyro (N,), encoders (N, 2); currents (N, 2)
-        the motor drivers' readings (A; None: NaN, no force reference); commands (N, 2) the wheel speed
-        commands [v_R, v_L] (m/s; None: no such port).
-    """
-
-    def __init__(self, T_N: float, accelerometers, gyro, encoders, currents=None, commands=None):
-        super().__init__()
-        self._T_N = T_N
-        gyro = np.asarray(gyro, float).reshape(-1, 1)
-        if currents is None:
-            currents = np.full((len(gyro), 2), np.nan)
-        columns = [np.asarray(accelerometers, float), gyro, np.asarray(encoders, float)]
-        columns.append(np.asarray(currents, float))
-        ports = [
-            ("accelerometers", slice(0, 4)),
-            ("gyro", slice(4, 5)),
-            ("encoders", slice(5, 7)),
-            ("motor_currents", slice(7, 9)),
-        ]
-        if commands is not None:
-            columns.append(np.asarray(commands, float))
-            ports.append(("wheel_speed_command", slice(9, 11)))
-        self._rows = np.column_stack(columns)
-        time_only = {self.time_ticket()}
-        for name, cols in ports:
-            self.DeclareVectorOutputPort(
-                name,
-                cols.stop - cols.start,
-                lambda c, o, cols=cols: o.SetFromVector(self._row(c)[cols]),
-                prerequisites_of_calc=time_only,
-            )
-
-    def _row(self, context):
-        k = int(math.floor(context.get_time() / self._T_N + 1e-6))
-        return self._rows[min(k, len(self._rows) - 1)]
-
-
-def build_navigation_replay(
-    params, rates, wheel_radius, track_width, accelerometers, gyro, encoders, initial=None
-):
-    """SensorReplay -> navigation diagram, with the navigation outputs logged every T_N.
-
-    Returns (diagram, loggers keyed by navigation output name).
-    """
-    b = DiagramBuilder()
-    replay = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders))
-    replay.set_name("Sensor replay")
-    nav = b.AddSystem(build_navigation_diagram(params, rates, wheel_radius, track_width, initial))
-    for name in ("accelerometers", "gyro", "encoders"):
-        b.Connect(replay.GetOutputPort(name), nav.GetInputPort(name))
-    loggers = {}
-    for name in NAVIGATION_OUTPUTS:
-        loggers[name] = LogVectorOutput(nav.GetOutputPort(name), b, rates.T_N)
-        loggers[name].set_name(f"log {name}")
-    diagram = b.Build()
-    diagram.set_name("navigation_replay")
-    return diagram, loggers
+def _export_navigation_outputs(b, blocks: NavigationBlocks, signals: NavigationSignals) -> None:
+    """Export the navigation's outputs (NAVIGATION_OUTPUTS, ``checked_encoders``)."""
+    b.ExportOutput(blocks.pose.GetOutputPort("pose"), "pose")
+    b.ExportOutput(blocks.mixer["mixed_estimate"], "mixed_estimate")
+    b.ExportOutput(blocks.sideslip.GetOutputPort("side_slip_angle"), "side_slip_angle")
+    b.ExportOutput(blocks.sideslip.GetOutputPort("track_speed"), "track_speed")
+    b.ExportOutput(blocks.c1.GetOutputPort("C1"), "C1")
+    b.ExportOutput(blocks.mixer["slide_onset"], "slide_onset")
+    b.ExportOutput(blocks.c23["C2_C3"], "C2_C3")
+    b.ExportOutput(blocks.mixer["tyre_model_check"], "tyre_model_check")
+    b.ExportOutput(blocks.c1.GetOutputPort("delta_v_held"), "delta_v")
+    b.ExportOutput(signals.raw_odo, "odometry")
+    b.ExportOutput(blocks.baselines.GetOutputPort("odometry_pose"), "odometry_pose")
+    b.ExportOutput(blocks.baselines.GetOutputPort("gyrodometry_pose"), "gyrodometry_pose")
+    b.ExportOutput(blocks.check["inertial_fault"], "inertial_fault")
+    b.ExportOutput(blocks.check["encoder_fault"], "encoder_fault")
+    b.ExportOutput(blocks.ekf.GetOutputPort("covariance"), "covariance")
+    b.ExportOutput(blocks.yaw_calibration.GetOutputPort("bias"), "gyro_bias")
+    b.ExportOutput(blocks.yaw_calibration.GetOutputPort("parameters"), "yaw_calibration")
+    b.ExportOutput(blocks.check["health"], "health")
+    b.ExportOutput(blocks.check["encoders"], "checked_encoders")
+    b.ExportOutput(signals.zupt["standstill"], "standstill")
+    b.ExportOutput(signals.zupt["accelerometer_bias"], "accelerometer_bias")
 
 
 def add_navigation(

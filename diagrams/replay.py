@@ -1,10 +1,15 @@
-"""The navigation diagram alone, fed by a sensor log instead of the plant and its sensors."""
+"""The navigation diagram alone, fed by logged sensor rows (SensorReplay) instead of the plant and its
+sensors: a sensor log's replay, and the replay of a run's ``meas_*`` keys."""
 
 from __future__ import annotations
 
-from pydrake.systems.framework import DiagramBuilder
-from slipnav.diagrams.navigation import NAVIGATION_OUTPUTS, SensorReplay, build_navigation_diagram
-from slipnav.diagrams.open_loop import add_loggers
+import math
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import LogVectorOutput
+from slipnav.diagrams.loggers import add_loggers
+from slipnav.diagrams.navigation import NAVIGATION_OUTPUTS, build_navigation_diagram
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
@@ -31,8 +36,8 @@ def build_log_replay_diagram(
     perturbation_monitor=None,
 ):
     """SensorReplay (the log's rows, row k at t_k = k T_N) -> navigation diagram, every navigation output
-    but the covariance logged every T_N through diagrams.open_loop.add_loggers, keyed ``nav_<output>``
-    as in a run (so runner.collect_navigation reads them).
+    but the covariance logged every T_N through diagrams.loggers.add_loggers, keyed ``nav_<output>``
+    as in a run (so artifact_arrays.collect_navigation reads them).
 
     Args:
         params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration: as
@@ -73,6 +78,83 @@ def build_log_replay_diagram(
         ports["perturbation"] = monitor.GetOutputPort("perturbation")
         ports["force_residual"] = monitor.GetOutputPort("force_residual")
     loggers = add_loggers(b, ports, rates.T_N)
+    diagram = b.Build()
+    diagram.set_name("navigation_replay")
+    return diagram, loggers
+
+
+class SensorReplay(LeafSystem):
+    """Plays back logged sensor rows: at t in [t_k, t_k+1) the outputs hold row k.
+
+    .. pydrake_system::
+
+        name: SensorReplay
+        output_ports:
+        - accelerometers
+        - gyro
+        - encoders
+        - motor_currents
+        - wheel_speed_command
+
+    A row k of a run artifact is what the navigation blocks read at t_k, so replaying the ``meas_*`` keys
+    through build_navigation_diagram reproduces the run's navigation exactly.
+    ``wheel_speed_command`` is declared only with ``commands`` (for the perturbation monitor).
+
+    Args:
+        T_N: period of the rows (s). accelerometers (N, 4), gyro (N,), encoders (N, 2); currents (N, 2)
+        the motor drivers' readings (A; None: NaN, no force reference); commands (N, 2) the wheel speed
+        commands [v_R, v_L] (m/s; None: no such port).
+    """
+
+    def __init__(self, T_N: float, accelerometers, gyro, encoders, currents=None, commands=None):
+        super().__init__()
+        self._T_N = T_N
+        gyro = np.asarray(gyro, float).reshape(-1, 1)
+        if currents is None:
+            currents = np.full((len(gyro), 2), np.nan)
+        columns = [np.asarray(accelerometers, float), gyro, np.asarray(encoders, float)]
+        columns.append(np.asarray(currents, float))
+        ports = [
+            ("accelerometers", slice(0, 4)),
+            ("gyro", slice(4, 5)),
+            ("encoders", slice(5, 7)),
+            ("motor_currents", slice(7, 9)),
+        ]
+        if commands is not None:
+            columns.append(np.asarray(commands, float))
+            ports.append(("wheel_speed_command", slice(9, 11)))
+        self._rows = np.column_stack(columns)
+        time_only = {self.time_ticket()}
+        for name, cols in ports:
+            self.DeclareVectorOutputPort(
+                name,
+                cols.stop - cols.start,
+                lambda c, o, cols=cols: o.SetFromVector(self._row(c)[cols]),
+                prerequisites_of_calc=time_only,
+            )
+
+    def _row(self, context):
+        k = int(math.floor(context.get_time() / self._T_N + 1e-6))
+        return self._rows[min(k, len(self._rows) - 1)]
+
+
+def build_navigation_replay(
+    params, rates, wheel_radius, track_width, accelerometers, gyro, encoders, initial=None
+):
+    """SensorReplay -> navigation diagram, with the navigation outputs logged every T_N.
+
+    Returns (diagram, loggers keyed by navigation output name).
+    """
+    b = DiagramBuilder()
+    replay = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders))
+    replay.set_name("Sensor replay")
+    nav = b.AddSystem(build_navigation_diagram(params, rates, wheel_radius, track_width, initial))
+    for name in ("accelerometers", "gyro", "encoders"):
+        b.Connect(replay.GetOutputPort(name), nav.GetInputPort(name))
+    loggers = {}
+    for name in NAVIGATION_OUTPUTS:
+        loggers[name] = LogVectorOutput(nav.GetOutputPort(name), b, rates.T_N)
+        loggers[name].set_name(f"log {name}")
     diagram = b.Build()
     diagram.set_name("navigation_replay")
     return diagram, loggers

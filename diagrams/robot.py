@@ -8,7 +8,13 @@ import numpy as np
 from pydrake.common import RandomGenerator
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
-from slipnav.systems.checks import require_seed
+from slipnav.systems.checks import (
+    check_robot_physics,
+    require_finite,
+    require_instance,
+    require_pose,
+    require_seed,
+)
 from slipnav.systems.faults import (
     PlantDisturbance,
     SensorFaultInjector,
@@ -17,6 +23,7 @@ from slipnav.systems.faults import (
     has_sensor_faults,
 )
 from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
+from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensors import ProprioceptiveSensors, SensorNoise, SensorParameters, initial_biases
 
 
@@ -95,3 +102,15 @@ def make_simulator(diagram, seed: int, max_step: float) -> Simulator:
     diagram.SetRandomContext(simulator.get_mutable_context(), RandomGenerator(seed))
     simulator.Initialize()
     return simulator
+
+
+def check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step):
+    """The builders' common inputs (Python API): ValueError naming the parameter."""
+    require_instance("robot", robot, RobotParameters)
+    check_robot_physics(robot, "robot.")
+    require_instance("sensor_params", sensor_params, SensorParameters)
+    require_instance("rates", rates, SampleRates)
+    require_seed(seed)
+    require_pose("initial_pose", initial_pose)
+    require_finite("initial_speed", initial_speed, 0.0, robot.wheel_speed_limit)
+    require_finite("plant_time_step", plant_time_step, 0.0, 0.01)

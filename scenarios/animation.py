@@ -137,7 +137,7 @@ def check_fps(fps: float) -> float:
 def check_animation_output(out) -> FilePath:
     """``out`` as a Path when it names an .html file in a writable directory (created if missing); else
     ScenarioError naming --out."""
-    from slipnav.scenarios.runner import check_output_directory
+    from slipnav.scenarios.artifacts import check_output_directory
 
     out = FilePath(out)
     if out.suffix.lower() not in (".html", ".htm"):
@@ -397,8 +397,8 @@ def animate_file(run, out=None, fps: float = FRAMES_PER_SECOND) -> FilePath:
 
 def write_run_animation(result, out_dir) -> FilePath:
     """``slipnav run --animate``: the run's animation as ``out_dir/<stem>.html`` beside its artifact
-    (stem: runner.artifact_stem), at FRAMES_PER_SECOND."""
-    from slipnav.scenarios.runner import artifact_stem
+    (stem: artifacts.artifact_stem), at FRAMES_PER_SECOND."""
+    from slipnav.scenarios.artifacts import artifact_stem
 
     stem = artifact_stem(result)
     return write_animation(result.arrays, FilePath(out_dir) / f"{stem}.html", stem)

@@ -8,7 +8,7 @@ from pathlib import Path as FilePath
 from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram, build_control_diagram
 from slipnav.diagrams.navigation import build_navigation_diagram
 from slipnav.scenarios.config import ScenarioError, load_scenario
-from slipnav.scenarios.runner import follower_path, reference_for
+from slipnav.scenarios.run_plan import follower_path, reference_for
 
 DIAGRAM_NAMES = ("navigation", "control", "closed_loop")
 FORMATS = (".dot", ".svg", ".png")

@@ -54,8 +54,8 @@ def main(argv=None) -> int:
 
 def _engine(args) -> dict:
     """The sweep engine's options (studies/sweep.py), checked before any run."""
-    from slipnav.scenarios.runner import check_output_directory
-    from slipnav.studies.sweep import check_engine_options
+    from slipnav.scenarios.artifacts import check_output_directory
+    from slipnav.studies.engine import check_engine_options
 
     check_engine_options(args.workers, args.scheduler)
     check_output_directory(args.out)
@@ -130,7 +130,7 @@ def _command(args) -> int:
         print(animate_file(args.run, args.out, args.fps))
         return 0
     if args.command == "reproduce":
-        from slipnav.scenarios.runner import check_output_directory
+        from slipnav.scenarios.artifacts import check_output_directory
         from slipnav.studies.reproduce import reproduce
 
         check_output_directory(args.out)
@@ -159,12 +159,9 @@ def _command(args) -> int:
 def _run(args) -> int:
     """slipnav run: simulate, write the artifact (and the animation), report; 3 if the run stopped early."""
     from slipnav.scenarios.animation import write_run_animation
-    from slipnav.scenarios.runner import (
-        check_output_directory,
-        check_run_options,
-        run_scenario,
-        write_artifacts,
-    )
+    from slipnav.scenarios.artifacts import check_output_directory
+    from slipnav.scenarios.run_plan import check_run_options
+    from slipnav.scenarios.runner import run_scenario, write_artifacts
 
     scenario = load_scenario(args.scenario)
     if args.paper:
@@ -240,15 +237,15 @@ def _faults(args) -> int:
 
 def _calibrate(args) -> int:
     """slipnav calibrate: a session file, or a simulated session of a built-in robot (studies/)."""
-    from slipnav.scenarios.runner import check_output_directory
-    from slipnav.studies.calibration import calibrate_command
+    from slipnav.scenarios.artifacts import check_output_directory
+    from slipnav.studies.calibration_commands import calibrate_command
     from slipnav.systems.checks import require_seed
     from slipnav.systems.plant import ROBOTS
 
     if (args.session is None) == (args.simulate is None):
         raise ScenarioError("give a calibration session SESSION.yaml or --simulate ROBOT (one of them)")
     if args.session is not None:
-        from slipnav.studies.calibration_session import calibrate_session_command
+        from slipnav.studies.calibration_commands import calibrate_session_command
 
         check_output_directory(args.out)
         calibrate_session_command(args.session, args.out)
@@ -323,8 +320,8 @@ def _check_study(args, duration=None) -> None:
 
 
 def _replay(args) -> int:
+    from slipnav.scenarios.artifacts import check_output_directory
     from slipnav.scenarios.replay import replay_file, write_replay_artifacts
-    from slipnav.scenarios.runner import check_output_directory
 
     check_output_directory(args.out)
     result = replay_file(args.log, args.model)  # every log or model mistake before the simulation

@@ -4,17 +4,14 @@ Unknown keys, wrong types, unknown segment tags and malformed YAML raise Scenari
 (e.g. ``trajectory.segments[2].length``). Values are range-checked when the scenario is built.
 """
 
-import copy as _copy
 import dataclasses as dc
 import math
-import re
-import types
-import typing
 from pathlib import Path as FilePath
 
-import yaml
 from pydrake.common.yaml import yaml_load_typed
 from slipnav.diagrams.closed_loop import LOCALISATION_SOURCES
+from slipnav.scenarios.model import ModelError, load_model
+from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.tolerances import (
     TOLERANCE_PRESET,
     PlantTruth,
@@ -26,6 +23,14 @@ from slipnav.scenarios.trajectories import (
     TrajectoryConfig,
     check_path_size,
     check_trajectory_size,
+)
+from slipnav.scenarios.typed_yaml import (
+    ScenarioError,
+    check_field_types,
+    check_schema,
+    key_steps,
+    load_yaml,
+    replaced_at,
 )
 from slipnav.systems.checks import check_follower_gains, check_robot_physics, check_start_time
 from slipnav.systems.faults import FaultEvent, check_fault_events
@@ -42,10 +47,6 @@ BUILTIN_DIR = FilePath(__file__).resolve().parent / "builtin"
 MODES = ("trajectory", "max_speed")
 CONTROLLERS = ("closed_loop", "feedforward")
 SPEED_LAWS = ("bounded", "constant")
-
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be loaded or built; the message names the offending key."""
 
 
 @dc.dataclass
@@ -172,8 +173,6 @@ class Scenario:
         of the model file, or the model's robot or periods where they differ from the scenario's."""
         if self.model is None:
             return None
-        from slipnav.scenarios.model import ModelError, load_model
-
         try:
             model = load_model(self.model)
         except ModelError as e:
@@ -202,8 +201,6 @@ class Scenario:
             navigation = _wrap(lambda: model.navigation_over(navigation))
             calibration = model.calibration
             if self.paper:
-                from slipnav.scenarios.paper import paper_mode
-
                 navigation = paper_mode(dc.replace(self, navigation=navigation, model=None)).navigation
         return Belief(robot, sensors, navigation, calibration, model)
 
@@ -318,122 +315,10 @@ def _override(base, overrides: dict[str, float], where: str):
     return dc.replace(base, **changes)
 
 
-# ---------------------------------------------------------------------------------------------------
-# Strict structural check of raw YAML data against the dataclass schema (names the key path).
-
-
-def _type_name(t) -> str:
-    return getattr(t, "__name__", str(t))
-
-
-def _check(schema, data, where: str):
-    origin = typing.get_origin(schema)
-    args = typing.get_args(schema)
-    if origin in (typing.Union, types.UnionType):
-        if data is None and type(None) in args:
-            return
-        options = [a for a in args if a is not type(None)]
-        if len(options) == 1:
-            return _check(options[0], data, where)
-        if not isinstance(data, dict) or "_tag" not in data:
-            tags = ", ".join("!" + _type_name(a) for a in options)
-            raise ScenarioError(f"{where}: needs a type tag, one of {tags}")
-        tag = data["_tag"].lstrip("!")
-        for option in options:
-            if _type_name(option) == tag:
-                return _check(option, {k: v for k, v in data.items() if k != "_tag"}, where)
-        tags = ", ".join("!" + _type_name(a) for a in options)
-        raise ScenarioError(f"{where}: type tag !{tag} is unknown: allowed {tags}")
-    if origin in (list, list):
-        if not isinstance(data, list):
-            raise ScenarioError(f"{where}: expected a list, got {data!r}")
-        for i, item in enumerate(data):
-            _check(args[0], item, f"{where}[{i}]")
-        return
-    if origin in (dict, dict):
-        if not isinstance(data, dict):
-            raise ScenarioError(f"{where}: expected a mapping, got {data!r}")
-        for key, value in data.items():
-            _check(args[1], value, f"{where}.{key}")
-        return
-    if dc.is_dataclass(schema):
-        if not isinstance(data, dict):
-            raise ScenarioError(f"{where or 'scenario'}: expected a mapping, got {data!r}")
-        hints = typing.get_type_hints(schema)
-        for key, value in data.items():
-            path = f"{where}.{key}" if where else str(key)
-            if key == "_tag":
-                continue
-            if key not in hints:
-                raise ScenarioError(f"{path} is an unknown key: allowed {sorted(hints)}")
-            _check(hints[key], value, path)
-        return
-    if schema is float:
-        ok = isinstance(data, (int, float)) and not isinstance(data, bool)
-    elif schema is int:
-        ok = isinstance(data, int) and not isinstance(data, bool)
-    elif schema is bool:
-        ok = isinstance(data, bool)
-    elif schema is str:
-        ok = isinstance(data, str)
-    else:
-        ok = True
-    if not ok:
-        raise ScenarioError(f"{where}: expected {_type_name(schema)}, got {data!r}")
-
-
-# ---------------------------------------------------------------------------------------------------
-# YAML parsing: duplicate keys rejected, YAML 1.1 exponent floats (1e-8, 1.0e6) read as numbers.
-
-
-class _StrictLoader(yaml.SafeLoader):
-    """SafeLoader with Drake's type tags (``!Straight {...}`` -> mapping with ``_tag``), an error on
-    duplicate keys, and floats written without a dot or an exponent sign (``1e-8``, ``1.0e6``), which
-    YAML 1.1 (PyYAML) would read as strings."""
-
-    def construct_mapping(self, node, deep=False):
-        seen = {}
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=True)
-            if key in seen:
-                raise ScenarioError(
-                    f"duplicate key {key!r} (lines {seen[key] + 1} and {key_node.start_mark.line + 1}): "
-                    "allowed once per mapping"
-                )
-            seen[key] = key_node.start_mark.line
-        return super().construct_mapping(node, deep=deep)
-
-
-def _tagged(loader, tag, node):
-    result = loader.construct_mapping(node)
-    result["_tag"] = tag
-    return result
-
-
-_StrictLoader.add_multi_constructor("", _tagged)
-_StrictLoader.yaml_implicit_resolvers = {
-    first: list(resolvers) for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
-_StrictLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
-)
-
-
-def _load_yaml(text: str):
-    try:
-        return yaml.load(text, Loader=_StrictLoader)
-    except ScenarioError:
-        raise
-    except yaml.YAMLError as e:
-        raise ScenarioError(f"malformed YAML: {' '.join(str(e).split())}") from None
-
-
 def scenario_from_yaml(text: str, name: str = "", folder=None) -> Scenario:
     """Parse and validate a scenario from YAML text; ``folder``: where a relative ``model`` path is
     read from (the scenario file's folder; default the working directory)."""
-    raw = _load_yaml(text)
+    raw = load_yaml(text)
     if raw is None:
         raise ScenarioError(
             "the scenario is empty (no keys, or comments only): give at least 'trajectory: {segments: "
@@ -441,7 +326,7 @@ def scenario_from_yaml(text: str, name: str = "", folder=None) -> Scenario:
         )
     if not isinstance(raw, dict):
         raise ScenarioError(f"scenario: expected a mapping of keys (docs/scenario-schema.md), got {raw!r}")
-    _check(Scenario, raw, "")
+    check_schema(Scenario, raw, "")
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text)
     except Exception as e:
@@ -457,8 +342,6 @@ def with_paper_mode(scenario: Scenario) -> Scenario:
     """``scenario``, in paper mode (scenarios/paper.py) when its ``paper`` key is true."""
     if not scenario.paper:
         return scenario
-    from slipnav.scenarios.paper import paper_mode
-
     return paper_mode(scenario)
 
 
@@ -555,27 +438,6 @@ def _non_finite(value, where: str):
     return None
 
 
-def check_field_types(value, where: str) -> None:
-    """Every field of a dataclass tree has its declared kind (a Python-built Scenario may hold None or
-    a wrong object where the YAML schema would not allow it)."""
-    hints = typing.get_type_hints(type(value))
-    for field in dc.fields(value):
-        item, path = getattr(value, field.name), f"{where}{field.name}"
-        declared = hints[field.name]
-        union = typing.get_origin(declared) in (typing.Union, types.UnionType)
-        options = typing.get_args(declared) if union else (declared,)
-        kinds = tuple(typing.get_origin(o) or o for o in options)
-        if float in kinds:
-            kinds += (int,)
-        if not all(isinstance(k, type) for k in kinds):
-            continue
-        if not isinstance(item, kinds) or (isinstance(item, bool) and bool not in kinds):
-            names = " or ".join("None" if k is type(None) else k.__name__ for k in kinds)
-            raise ScenarioError(f"{path}={item!r}: expected {names}")
-        if dc.is_dataclass(item):
-            check_field_types(item, path + ".")
-
-
 def check_plausible(scenario: Scenario) -> None:
     """Reject settings that are physically impossible or that the models cannot represent (README:
     Scenario files; systems/checks.py for the robot and follower limits)."""
@@ -611,84 +473,11 @@ def check_plausible(scenario: Scenario) -> None:
         _wrap(lambda: check_path_size(scenario.path))
 
 
-# ---------------------------------------------------------------------------------------------------
-# Changing keys of a loaded scenario by dotted path (``slipnav sweep --set``).
-
-_KEY_PART = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$")
-
-
-def parse_value(text: str):
-    """A value as the scenario YAML reads it: ``0.05`` -> float, ``true`` -> bool, ``[0, 0, 1]`` -> list,
-    ``bounded`` -> str."""
-    return _load_yaml(text)
-
-
-def _key_steps(key: str) -> list:
-    """``trajectory.segments[1].length`` -> ['trajectory', 'segments', 1, 'length']."""
-    steps = []
-    for part in key.split("."):
-        match = _KEY_PART.match(part)
-        if not match:
-            raise ScenarioError(
-                f"{key!r} is not a key path: allowed e.g. navigation.mixing.b1 or segments[1]"
-            )
-        steps.append(match.group(1))
-        steps += [int(i) for i in re.findall(r"\[(\d+)\]", match.group(2))]
-    return steps
-
-
-def _replaced(node, hint, steps: list, value, where: str):
-    """``node`` (of declared type ``hint``) with the item at ``steps`` set to ``value``, type-checked."""
-    if not steps:
-        _check(hint, value, where)
-        return _as_declared(hint, value)
-    step, rest = steps[0], steps[1:]
-    if node is None:
-        raise ScenarioError(f"{where} is not set in this scenario: it has no {step!r} to change")
-    if isinstance(step, int):
-        if not isinstance(node, list):
-            raise ScenarioError(f"{where}[{step}]: {where} is not a list")
-        if not 0 <= step < len(node):
-            raise ScenarioError(f"{where}[{step}] is out of range: allowed index 0 .. {len(node) - 1}")
-        item_hint = typing.get_args(hint)[0] if typing.get_origin(hint) is list else typing.Any
-        if dc.is_dataclass(node[step]):
-            item_hint = type(node[step])
-        copy = list(node)
-        copy[step] = _replaced(node[step], item_hint, rest, value, f"{where}[{step}]")
-        return copy
-    path = f"{where}.{step}" if where else step
-    if isinstance(node, dict):
-        if rest:
-            raise ScenarioError(f"{path}.{rest[0]}: {path} is a number, it has no keys")
-        return {**node, step: _replaced(None, typing.get_args(hint)[1], [], value, path)}
-    if not dc.is_dataclass(node):
-        raise ScenarioError(f"{path}: {where} is a single value, it has no keys")
-    hints = typing.get_type_hints(type(node))
-    if step not in hints:
-        raise ScenarioError(f"{path} is an unknown key: allowed {sorted(hints)}")
-    child = getattr(node, step)
-    child_hint = type(child) if dc.is_dataclass(child) else hints[step]
-    copy = _copy.copy(node)  # no __post_init__ here: validate() range-checks the whole scenario afterwards
-    object.__setattr__(copy, step, _replaced(child, child_hint, rest, value, path))
-    return copy
-
-
-def _as_declared(hint, value):
-    """``value`` (checked against ``hint``) with integers where floats are declared made floats."""
-    union = typing.get_origin(hint) in (typing.Union, types.UnionType)
-    options = [a for a in typing.get_args(hint) if a is not type(None)] if union else [hint]
-    if float in options and isinstance(value, int) and not isinstance(value, bool):
-        return float(value)
-    if isinstance(value, list) and typing.get_origin(options[0]) is list:
-        return [_as_declared(typing.get_args(options[0])[0], v) for v in value]
-    return value
-
-
 def with_keys(scenario: Scenario, changes: dict) -> Scenario:
     """A copy of ``scenario`` with ``{dotted key path: value}`` set (e.g. ``navigation.mixing.b1``,
     ``plant.robot_overrides.mass``, ``trajectory.segments[1].length``), validated as a loaded scenario:
     unknown keys, wrong types and out-of-range values raise ScenarioError naming the key."""
     for key, value in changes.items():
-        steps = _key_steps(key)
-        scenario = _replaced(scenario, Scenario, steps, value, "")
+        steps = key_steps(key)
+        scenario = replaced_at(scenario, Scenario, steps, value, "")
     return with_paper_mode(scenario.validate())

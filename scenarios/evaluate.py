@@ -277,7 +277,7 @@ def load_estimates(log, truth_path, model=None, out_dir="runs") -> tuple[str, di
 def evaluate_command(log, truth_path, out_dir="runs", model=None) -> dict:
     """``slipnav evaluate``: check the inputs, replay where needed, evaluate, write, print one line per
     estimate."""
-    from slipnav.scenarios.runner import check_output_directory
+    from slipnav.scenarios.artifacts import check_output_directory
 
     truth = read_truth(truth_path)
     out = check_output_directory(out_dir)

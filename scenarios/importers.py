@@ -111,7 +111,7 @@ def truth_text(table: dict, source: str = "") -> str:
 def write_import(result: ImportResult, out_dir) -> list[FilePath]:
     """``<name>.sensors.csv``, ``<name>.model.yaml`` (slipnav replay's companion), ``<name>.truth.csv`` and
     ``<name>.import.json`` in ``out_dir``, each written atomically."""
-    from slipnav.scenarios.runner import check_output_directory
+    from slipnav.scenarios.artifacts import check_output_directory
 
     out = check_output_directory(out_dir)
     stem = out / result.name
@@ -132,7 +132,7 @@ def import_command(adapter: str, trial_dir, out_dir, model_path=None, resample="
     """``slipnav import``: import, write, print the files and one line of estimates."""
     if adapter not in ADAPTERS:
         raise LogImportError(f"ADAPTER={adapter!r} is unknown: allowed {', '.join(ADAPTERS)}")
-    from slipnav.scenarios.runner import check_output_directory
+    from slipnav.scenarios.artifacts import check_output_directory
 
     check_output_directory(out_dir)
     if adapter == "phil-turtlebot":

@@ -21,6 +21,8 @@ import math
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from slipnav.scenarios.sensor_log import write_text_atomically
+from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.plant import ROBOTS, RobotParameters, robot_parameters
 from slipnav.systems.rates import SampleRates
@@ -124,17 +126,15 @@ def _apply(base, overrides: dict, where: str):
 
 def model_from_text(text: str, where: str = "model") -> RobotModel:
     """Parse and validate a model YAML text (strict: unknown keys are errors)."""
-    from slipnav.scenarios.config import ScenarioError, _check, _load_yaml
-
     try:
-        raw = _load_yaml(text)
+        raw = load_yaml(text)
         if not isinstance(raw, dict):
             raise ModelError(f"{where}: expected a mapping of keys (README.md: Model files), got {raw!r}")
         hints = {f.name for f in dc.fields(RobotModel)}
         for key in raw:
             if key not in hints:
                 raise ModelError(f"{where}: {key} is an unknown key: allowed {sorted(hints)}")
-        _check(RobotModel, raw, "")
+        check_schema(RobotModel, raw, "")
     except ScenarioError as e:
         raise ModelError(f"{where}: {e}") from None
     try:
@@ -170,6 +170,4 @@ def model_text(model: RobotModel) -> str:
 
 def write_model(model: RobotModel, path) -> FilePath:
     """Write ``model`` to ``path`` atomically (sensor_log.write_text_atomically)."""
-    from slipnav.scenarios.sensor_log import write_text_atomically
-
     return write_text_atomically(path, [model_text(model)])

@@ -182,11 +182,16 @@ DEVIATIONS = (
 """Every extension and deviation, in the order of README's Paper mode table."""
 
 
+@dc.dataclass
+class _NavigationOnly:
+    """What DEVIATIONS' navigation rows read and change of a scenario: its ``navigation``."""
+
+    navigation: object
+
+
 def paper_navigation(navigation):
     """NavigationParameters with every navigation extension off (DEVIATIONS' navigation rows)."""
-    from slipnav.scenarios.config import Scenario
-
-    scenario = Scenario(navigation=navigation)
+    scenario = _NavigationOnly(navigation)
     for deviation in DEVIATIONS:
         if deviation.key.startswith("navigation."):
             scenario = deviation.to_paper(scenario)

@@ -119,126 +119,193 @@ def run_plain_loop(
     """
     if not plant_time_step > 0.0:
         raise ValueError(f"plant_time_step={plant_time_step!r} is out of range: allowed (0, 0.01] s")
-    T_N, T_C, p = rates.T_N, rates.T_C, robot
-    world = plant or robot
-    n = int(round(T_C / T_N))
-    k_start = int(round(control.start_time / T_N))  # the controller's first instant (the standstill before)
-    plant_steps = substeps_per(T_N, plant_time_step, "T_N")
+    plant_steps = substeps_per(rates.T_N, plant_time_step, "T_N")
+    noise = checked_noise(noise, seed, num_steps)
+    world = PlainPlant(plant or robot, initial_pose, initial_speed, rates.T_N, plant_steps, plant_time_step)
+    sensors = PlainSensors(sensor_params, seed, world.initial_wheel_speeds, rates.T_N)
+    nav = NavigationLoop(
+        navigation,
+        (robot.radius_R, robot.radius_L),
+        robot.track_width,
+        rates.T_N,
+        rates.T_C,
+        NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
+        nominal_sensors or default_sensor_parameters(robot.name),
+        robot.no_load_speed,
+        calibration,
+        robot,
+    )
+    # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
+    ctrl = PlainControl(control, robot, rates.T_C)
+    faults = check_fault_events(faults)
+    monitor = PlainMonitor(perturbation_monitor, robot, rates.T_N)
+    spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
+    out = _step_plain_loop(world, sensors, nav, ctrl, monitor, faults, rates, noise, spent)
+    if timings is not None:
+        timings.update(spent)
+    return {key: out[:, i].copy() for i, key in enumerate(PLAIN_LOOP_KEYS)}
+
+
+def checked_noise(noise, seed: int, num_steps: int) -> list:
+    """The sensors' standard-normal draws as lists of floats (as the diagram's sensors read them): the
+    seed's, ``sensor_noise(seed, num_steps)``, for None; ValueError for a wrong shape."""
     if noise is None:
         noise = sensor_noise(seed, num_steps)
     noise = np.asarray(noise, float)
     if noise.shape != (num_steps, NOISE_CHANNELS):
         raise ValueError(f"noise must have shape ({num_steps}, {NOISE_CHANNELS}), got {noise.shape}")
-    noise = noise.tolist()  # floats, as the diagram's sensors read them
+    return noise.tolist()
 
-    # Plant (DifferentialDrivePlant, discrete).
-    w0 = [initial_speed / world.radius_R, initial_speed / world.radius_L]
-    x = [*initial_pose, initial_speed, 0.0, 0.0, 0.0, 0.0, *w0]
-    loop = [0.0] * 4
-    currents = (motor_current(0.0, w0[0], world), motor_current(0.0, w0[1], world))
-    acc = list(plant_derivatives(x, currents, world)[1])
-    # Sensors (ProprioceptiveSensors): outputs hold the previous sample.
-    bias0 = initial_biases(sensor_params, np.random.default_rng(seed))
-    internal = np.concatenate([bias0, np.zeros(4)])
-    step = sensor_params.encoder_step
-    meas_acc, meas_gyro = bias0[0:4].copy(), float(bias0[4])
-    meas_enc = np.floor(-np.array(w0) * T_N / step) * step
-    meas_current, current_draws = [math.nan, math.nan], current_noise(seed)
-    nav = NavigationLoop(
-        navigation,
-        (p.radius_R, p.radius_L),
-        p.track_width,
-        T_N,
-        T_C,
-        NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
-        nominal_sensors or default_sensor_parameters(p.name),
-        p.no_load_speed,
-        calibration,
-        p,
-    )
-    # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
-    ctrl = PlainControl(control, p, T_C)
-    after = control_offset(control, rates, p) > 0.0
 
-    def instant(j):
-        """K if sample j is a control instant t_K, else None."""
-        return (j - k_start) // n if j >= k_start and (j - k_start) % n == 0 else None
-
-    out = np.empty((num_steps, len(PLAIN_LOOP_KEYS)))
-    clock = time.perf_counter
-    spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
-    faults = check_fault_events(faults)
+def _step_plain_loop(
+    world, sensors, nav, ctrl, monitor, faults, rates: SampleRates, noise, spent
+) -> np.ndarray:
+    """Step the loop over the samples of ``noise``, in the order of Drake's pre-update semantics; returns
+    the rows of PLAIN_LOOP_KEYS and adds each part's wall time to ``spent``."""
+    T_N, p = rates.T_N, ctrl.robot
+    n = int(round(rates.T_C / T_N))
+    k_start = int(
+        round(ctrl.control.start_time / T_N)
+    )  # the controller's first instant (the standstill before)
+    after = control_offset(ctrl.control, rates, p) > 0.0
     perturbed, faulty = has_plant_events(faults), has_sensor_faults(faults)
-    # PerturbationMonitor
-    monitor_params = (perturbation_monitor or PerturbationParameters()).validate()
-    monitor, radii, force = perturbation_initial_state(), (p.radius_R, p.radius_L), force_model(p)
-    held = previous = None
-    for k in range(num_steps):
+    out = np.empty((len(noise), len(PLAIN_LOOP_KEYS)))
+    clock = time.perf_counter
+    for k in range(len(noise)):
         t0 = clock()
         if faulty:  # SensorFaultInjector: what the navigation reads at t_k
-            raw = [*meas_acc, meas_gyro, *meas_enc]
-            held = (
-                raw if held is None else [r if math.isnan(h) else h for r, h in zip(raw, held, strict=True)]
-            )
-            previous = raw if previous is None else previous
-            held = apply_sensor_faults(k * T_N, raw, held, previous, faults, T_N, sensor_params.encoder_step)
-            previous = raw
-            meas_acc, meas_gyro, meas_enc = held[0:4], held[4], held[5:7]
-        nav_row = nav.step(meas_acc, meas_gyro, meas_enc, meas_current, sideways_push(monitor))
+            sensors.apply_faults(k, faults)
+        nav_row = nav.step(sensors.acc, sensors.gyro, sensors.encoders, sensors.current, monitor.push())
         t1 = clock()
         spent["navigation"] += t1 - t0
-        if after and instant(k - 1) is not None:  # t_K + offset: the navigation's outputs after sample k
-            ctrl.step(instant(k - 1), nav_row, x)
+        if after and control_instant(k - 1, k_start, n) is not None:  # t_K + offset: the navigation after k
+            ctrl.step(control_instant(k - 1, k_start, n), nav_row, world.x)
         follower = ctrl.follower
         command = saturate_wheel_speeds(follower[1], follower[2], p.wheel_speed_limit)
         out[k] = (
-            *x,
-            *meas_acc,
-            meas_gyro,
-            *meas_enc,
+            *world.x,
+            *sensors.acc,
+            sensors.gyro,
+            *sensors.encoders,
             *command,
             follower[3],
             follower[0],
             ctrl.delta,
             ctrl.progress,
             *nav_row,
-            *monitor[-4:],
-            *monitor[-6:-4],
-            *meas_current,
+            *monitor.state[-4:],
+            *monitor.state[-6:-4],
+            *sensors.current,
         )
-        mixed = [nav_row[i] for i in MIXED_ESTIMATE_COLUMNS]
-        monitor = perturbation_step(
-            monitor,
-            command,
-            nav.checked_encoders,
-            mixed,
-            monitor_params,
-            radii,
-            p.track_width,
-            T_N,
-            meas_current,
-            force,
-            nav.slide_onset,
-        )
-
-        if not after and instant(k) is not None:  # control instant: pre-update values of t_K
-            ctrl.step(instant(k), nav_row, x)
+        monitor.step(command, nav, nav_row, sensors.current)
+        if not after and control_instant(k, k_start, n) is not None:  # control instant: pre-update values
+            ctrl.step(control_instant(k, k_start, n), nav_row, world.x)
         t2 = clock()
         spent["control"] += t2 - t1
-        internal, meas_acc, gyro, meas_enc = sensor_update(internal, x, acc, noise[k], sensor_params, T_N)
-        meas_gyro = float(gyro[0])
-        meas_current = current_sense(currents, current_draws.row(k), sensor_params)
+        sensors.update(k, world, noise[k])
         t3 = clock()
         spent["sensors"] += t3 - t2
         disturbance = plant_disturbance(k * T_N, faults, T_N) if perturbed else NO_DISTURBANCE
-        x, loop, acc = plant_advance(
-            x, loop, command, k * plant_steps, plant_steps, plant_time_step, world, disturbance
-        )
-        currents = motor_currents(loop, x, world)
+        world.advance(k, command, disturbance)
         spent["plant"] += clock() - t3
-    if timings is not None:
-        timings.update(spent)
-    return {key: out[:, i].copy() for i, key in enumerate(PLAIN_LOOP_KEYS)}
+    return out
+
+
+def control_instant(j: int, k_start: int, n: int):
+    """K if sample j is a control instant t_K (every ``n``-th sample from ``k_start``), else None."""
+    return (j - k_start) // n if j >= k_start and (j - k_start) % n == 0 else None
+
+
+class PlainPlant:
+    """DifferentialDrivePlant (discrete) as plain state: ``x`` (PlantState), the speed loops' state, the
+    motor currents and the body accelerations the sensors read; ``advance`` steps one T_N."""
+
+    def __init__(
+        self, world: RobotParameters, initial_pose, initial_speed, T_N, steps: int, time_step: float
+    ):
+        self.world, self.steps, self.time_step = world, steps, time_step
+        w0 = [initial_speed / world.radius_R, initial_speed / world.radius_L]
+        self.initial_wheel_speeds = w0
+        self.x = [*initial_pose, initial_speed, 0.0, 0.0, 0.0, 0.0, *w0]
+        self.loop = [0.0] * 4
+        self.currents = (motor_current(0.0, w0[0], world), motor_current(0.0, w0[1], world))
+        self.acc = list(plant_derivatives(self.x, self.currents, world)[1])
+
+    def advance(self, k: int, command, disturbance) -> None:
+        """From t_k to t_k+1 under the wheel-speed ``command`` and a fault's ``disturbance``."""
+        self.x, self.loop, self.acc = plant_advance(
+            self.x, self.loop, command, k * self.steps, self.steps, self.time_step, self.world, disturbance
+        )
+        self.currents = motor_currents(self.loop, self.x, self.world)
+
+
+class PlainSensors:
+    """ProprioceptiveSensors (and the SensorFaultInjector after them) as plain state: the samples the
+    navigation reads at t_k (``acc``, ``gyro``, ``encoders``, the motor drivers' ``current``), which hold
+    the previous sample's values."""
+
+    def __init__(self, params: SensorParameters, seed: int, wheel_speeds, T_N: float):
+        self.params, self.T_N = params, T_N
+        bias0 = initial_biases(params, np.random.default_rng(seed))
+        self.internal = np.concatenate([bias0, np.zeros(4)])
+        step = params.encoder_step
+        self.acc, self.gyro = bias0[0:4].copy(), float(bias0[4])
+        self.encoders = np.floor(-np.array(wheel_speeds) * T_N / step) * step
+        self.current, self.current_draws = [math.nan, math.nan], current_noise(seed)
+        self.held = self.previous = None
+
+    def apply_faults(self, k: int, faults) -> None:
+        """The SensorFaultInjector at t_k: the samples as the navigation reads them (apply_sensor_faults)."""
+        raw = [*self.acc, self.gyro, *self.encoders]
+        held = self.held
+        held = raw if held is None else [r if math.isnan(h) else h for r, h in zip(raw, held, strict=True)]
+        self.previous = raw if self.previous is None else self.previous
+        T_N = self.T_N
+        held = apply_sensor_faults(k * T_N, raw, held, self.previous, faults, T_N, self.params.encoder_step)
+        self.previous, self.held = raw, held
+        self.acc, self.gyro, self.encoders = held[0:4], held[4], held[5:7]
+
+    def update(self, k: int, world: PlainPlant, noise_row) -> None:
+        """Sample k of the plant ``world`` with the draws ``noise_row``: the samples read at t_k+1."""
+        self.internal, self.acc, gyro, self.encoders = sensor_update(
+            self.internal, world.x, world.acc, noise_row, self.params, self.T_N
+        )
+        self.gyro = float(gyro[0])
+        self.current = current_sense(world.currents, self.current_draws.row(k), self.params)
+
+
+class PlainMonitor:
+    """The PerturbationMonitor as plain state (``state``: perturbation_initial_state's layout)."""
+
+    def __init__(self, parameters: PerturbationParameters | None, robot: RobotParameters, T_N: float):
+        self.params = (parameters or PerturbationParameters()).validate()
+        self.state, self.radii, self.force = (
+            perturbation_initial_state(),
+            (robot.radius_R, robot.radius_L),
+            force_model(robot),
+        )
+        self.track_width, self.T_N = robot.track_width, T_N
+
+    def push(self):
+        """The sideways push the navigation reads (sideways_push)."""
+        return sideways_push(self.state)
+
+    def step(self, command, nav: NavigationLoop, nav_row, current) -> None:
+        """One T_N of the monitor on the ``command``, the navigation's checked encoders and estimate."""
+        mixed = [nav_row[i] for i in MIXED_ESTIMATE_COLUMNS]
+        self.state = perturbation_step(
+            self.state,
+            command,
+            nav.checked_encoders,
+            mixed,
+            self.params,
+            self.radii,
+            self.track_width,
+            self.T_N,
+            current,
+            self.force,
+            nav.slide_onset,
+        )
 
 
 class PlainControl:
@@ -308,7 +375,7 @@ def run_scenario_plain_loop(
 ) -> dict:
     """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (same overrides)."""
     from slipnav.scenarios.config import with_paper_mode
-    from slipnav.scenarios.runner import closed_loop_settings
+    from slipnav.scenarios.run_plan import closed_loop_settings
 
     scenario = with_paper_mode(scenario)
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control

@@ -21,17 +21,12 @@ from pathlib import Path as FilePath
 import numpy as np
 from pydrake.systems.analysis import Simulator
 from slipnav.diagrams.replay import build_log_replay_diagram
+from slipnav.scenarios.artifact_arrays import SERIES_KEYS, collect_navigation, collect_perturbations
+from slipnav.scenarios.artifacts import check_output_directory, publish_artifacts
 from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.model import ModelError, RobotModel, load_model
-from slipnav.scenarios.runner import (
-    SERIES_KEYS,
-    _publish,
-    check_output_directory,
-    collect_navigation,
-    collect_perturbations,
-    final_position_errors,
-)
+from slipnav.scenarios.run_summary import final_position_errors
 from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_sensor_log
 from slipnav.systems.health.perturbation import perturbation_report
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
@@ -214,7 +209,7 @@ def replay_file(log_path, model_path=None) -> ReplayResult:
 
 def write_replay_artifacts(result: ReplayResult, out_dir, figures: bool = True) -> list[FilePath]:
     """``<name>-replay.npz``, figures (``.path.png``, ``.navigation.png``) and ``<name>-replay.summary.json``
-    (last), atomically as runner.write_artifacts."""
+    (last), atomically as artifacts.write_artifacts."""
     from slipnav.scenarios.plots import write_replay_figures
 
     out = check_output_directory(out_dir)
@@ -225,6 +220,6 @@ def write_replay_artifacts(result: ReplayResult, out_dir, figures: bool = True) 
         staged = [staging / f"{stem}.npz"]
         if figures:
             staged += write_replay_figures(result.arrays, staging, stem)
-        return _publish(staging, staged, stem, result.summary, out)
+        return publish_artifacts(staging, staged, stem, result.summary, out)
     finally:
         shutil.rmtree(staging, ignore_errors=True)

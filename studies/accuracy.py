@@ -18,7 +18,7 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, MIN_SIDE_SLIP_UPDATES, navigation_figures
 from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.sweep import session
+from slipnav.studies.engine import session
 
 
 def summarise(name: str, figures: list, wall: float, stream=None) -> None:
@@ -119,7 +119,7 @@ def accuracy(
     out_dir=None,
     resume=False,
 ) -> dict:
-    """Run each scenario for seeds 0..seeds-1 on the sweep engine (studies/sweep.py: ``workers``,
+    """Run each scenario for seeds 0..seeds-1 on the sweep engine (studies/engine.py: ``workers``,
     ``scheduler``, results in ``out_dir``/accuracy.csv, ``resume``); print and return the per-scenario
     rows (the figures with their job). ``paper``: in paper mode (scenarios/paper.py)."""
     results = {}

@@ -31,9 +31,9 @@ import tempfile
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
-from slipnav.scenarios.config import ScenarioError, _check, _load_yaml
 from slipnav.scenarios.sensor_log import SensorLogError, read_sensor_log, write_sensor_log
-from slipnav.studies.calibration import HEADING_STD, POSITION_STD, Manoeuvre, manoeuvre_plan
+from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
+from slipnav.studies.calibration_manoeuvres import HEADING_STD, POSITION_STD, Manoeuvre, manoeuvre_plan
 from slipnav.systems.plant import ROBOTS, robot_parameters
 from slipnav.systems.rates import SampleRates
 
@@ -124,11 +124,11 @@ def read_session(path) -> tuple[CalibrationSession, list[Manoeuvre]]:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise ScenarioError(f"{where} cannot be read: {getattr(e, 'strerror', None) or e}") from None
-    raw = _load_yaml(text)
+    raw = load_yaml(text)
     if not isinstance(raw, dict):
         raise ScenarioError(f"{where}: expected a mapping of keys (README.md: Calibration sessions)")
     try:
-        _check(CalibrationSession, raw, "")
+        check_schema(CalibrationSession, raw, "")
     except ScenarioError as e:
         raise ScenarioError(f"{where}: {e}") from None
     session = yaml_load_typed(schema=CalibrationSession, data=text)
@@ -192,30 +192,3 @@ def session_model_path(session_path, out_dir) -> FilePath:
     path = FilePath(session_path)
     name = path.parent.name if path.name == SESSION_FILE and path.parent.name else path.stem
     return FilePath(out_dir) / f"{name.removesuffix('.calibration')}.calibrated.model.yaml"
-
-
-def calibrate_session_command(session_path, out_dir, stream=None):
-    """``slipnav calibrate SESSION.yaml [--out DIR]``: identify from a session's logs and measurements,
-    write the model (atomically), print each identified value with its standard error; last line
-    ``calibration model=<path>``. Returns the Calibration."""
-    import sys
-
-    from slipnav.scenarios.model import RobotModel, write_model
-    from slipnav.studies.calibration import calibrate
-
-    stream = stream or sys.stdout
-    session, manoeuvres = read_session(session_path)
-    base = RobotModel(robot=session.robot, T_N=session.T_N, T_C=session.T_C)
-    calibration = calibrate(manoeuvres, session.robot, base)
-    model = dc.replace(
-        calibration.model,
-        description=f"identified by slipnav calibrate from {str(session_path)!r}"
-        + (f" ({session.description})" if session.description else ""),
-    )
-    path = write_model(model, session_model_path(session_path, out_dir))
-    for key, value in calibration.values.items():
-        se = calibration.standard_errors.get(key)
-        shown = value if isinstance(value, list) else f"{value:.6g}"
-        print(f"  {key:24s} {shown}" + (f" +- {se:.2g}" if se is not None else ""), file=stream)
-    print(f"calibration model={path}", file=stream)
-    return calibration

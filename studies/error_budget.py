@@ -49,7 +49,7 @@ from slipnav.scenarios.metrics import (
     tangential_slip_speed,
 )
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.sweep import session
+from slipnav.studies.engine import session
 from slipnav.systems.navigation import NavigationInitialState, NavigationLoop, run_navigation_loop
 from slipnav.systems.sideslip import side_slip_angle
 
@@ -219,7 +219,7 @@ def error_budget(
     resume=False,
 ) -> dict:
     """Print (to ``stream``, default stdout) and return, per scenario, the budget of each seed; the
-    printed figures are mean (worst) over seeds. Runs on the sweep engine (studies/sweep.py: ``workers``,
+    printed figures are mean (worst) over seeds. Runs on the sweep engine (studies/engine.py: ``workers``,
     ``scheduler``, results in ``out_dir``/error-budget.csv, ``resume``)."""
     stream = stream or sys.stdout
     if not (isinstance(seeds, int) and seeds >= 1):

@@ -6,7 +6,7 @@
    between them, 3600 s) in a child process: its peak resident
    memory (getrusage of the child, as ``/usr/bin/time -v`` reports it), wall time, and the summary's
    ``completed``, ``aborted`` and the extreme eigenvalues and asymmetry of the EKF covariance P (checked
-   every 0.1 s of simulated time by runner.NavigationHealth).
+   every 0.1 s of simulated time by navigation_health.NavigationHealth).
 2. ``--spin S`` (default 3600 s; 0 skips): S seconds of spinning on the spot at 20 rad/s through the plain
    navigation loop (systems.navigation.NavigationLoop, the diagram's functions) on synthetic sensors,
    P checked every 0.1 s: without the mixing in P (systems/ekf.py) its velocity block reaches 1e300 in

@@ -19,7 +19,7 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import MIN_SIDE_SLIP_UPDATES, navigation_figures
 from slipnav.scenarios.paper import DEVIATIONS, one_deviation, paper_mode
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.sweep import run_jobs
+from slipnav.studies.engine import run_jobs
 
 CONTROL_DEVIATIONS = ("step_size_delay", "s22_inputs", "speed_law_delay")
 """Deviations of the controller: no effect open loop."""

@@ -42,8 +42,10 @@ from pathlib import Path as FilePath
 import numpy as np
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import POSE_DELAY_SAMPLES, final_position_error, rms_position_error
-from slipnav.studies.faults import MEASURED_KEYS, run_job
-from slipnav.studies.sweep import Engine, ResultsFile
+from slipnav.studies.engine import Engine
+from slipnav.studies.fault_cases import MEASURED_KEYS
+from slipnav.studies.faults import run_job
+from slipnav.studies.results_file import ResultsFile
 from slipnav.systems.faults import (
     ENCODER_CHANNELS,
     MAX_FAULT_TIME,

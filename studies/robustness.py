@@ -15,6 +15,7 @@ first), writes a figure, and ends with
 
 import dataclasses as dc
 import functools
+import hashlib
 import math
 import sys
 import time
@@ -23,11 +24,16 @@ from pathlib import Path as FilePath
 import numpy as np
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import ESTIMATES, final_position_error, rms_position_error, side_slip_rms_error
+from slipnav.scenarios.model import RobotModel, SensorCalibration, write_model
 from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.tolerances import RobotDeviations
-from slipnav.studies.sweep import run_jobs
+from slipnav.studies import calibration as procedure
+from slipnav.studies import calibration_identify, calibration_manoeuvres, calibration_signals
+from slipnav.studies.engine import run_jobs
 
+CALIBRATION_PROCEDURE = (procedure, calibration_manoeuvres, calibration_signals, calibration_identify)
+"""The modules of the calibration procedure, whose sources key a calibrated model kept for reuse."""
 CASES = {
     "matched": ({}, {}),
     "right radius +1 %": ({"wheel_radius_R": 0.01}, {}),
@@ -96,7 +102,7 @@ def robustness(
     scheduler=None,
     resume=False,
 ) -> list:
-    """Run every case of every scenario over seeds 0..seeds-1 on the sweep engine (studies/sweep.py:
+    """Run every case of every scenario over seeds 0..seeds-1 on the sweep engine (studies/engine.py:
     ``workers`` processes, default one per core, or ``scheduler``; results in ``out_dir``/robustness.csv,
     ``resume``); print the table and the last line, write ``out_dir/robustness.png``; returns the
     per-run figures."""
@@ -238,8 +244,6 @@ def true_model(scenario, plant, sensors):
     """The matched model (an oracle, for judging only): the nominal robot with every RobotParameters field
     the plant changed, the sensors' true gains and misalignments, and the tyres' true peak acceleration
     mu g f_w (S(15), S(17))."""
-    from slipnav.scenarios.model import RobotModel, SensorCalibration
-
     nominal = scenario.robot_parameters()
     overrides = {
         f.name: float(getattr(plant, f.name))
@@ -281,14 +285,10 @@ def calibrated_model_path(scenario, seed: int, model_dir) -> FilePath:
     """Calibrate the scenario's robot drawn from the preset by ``seed`` (studies/calibration.py: its
     manoeuvres on that robot, identified from their logs), once per robot and draw: the model file is
     kept in ``model_dir`` and reused (corner and square share Tinyphoon's) while the robot, its draw and
-    the calibration procedure (studies/calibration.py's source) are unchanged."""
-    import hashlib
-
-    from slipnav.scenarios.model import RobotModel, write_model
-    from slipnav.studies import calibration as procedure
-
+    the calibration procedure (the sources of CALIBRATION_PROCEDURE) are unchanged."""
     world = repr((scenario.robot, scenario.robot_overrides, scenario.sensor_overrides, scenario.plant))
-    key = hashlib.sha1(world.encode() + FilePath(procedure.__file__).read_bytes()).hexdigest()[:8]
+    source = b"".join(FilePath(module.__file__).read_bytes() for module in CALIBRATION_PROCEDURE)
+    key = hashlib.sha1(world.encode() + source).hexdigest()[:8]
     path = FilePath(model_dir) / f"{scenario.robot}-{key}-seed{seed}.calibrated.model.yaml"
     if not path.is_file():
         manoeuvres, _ = procedure.simulate_manoeuvres(scenario, seed)
@@ -301,8 +301,6 @@ def run_calibrated(name: str, seed: int, model_dir, open_loop=None) -> dict:
     """The preset draw of ``seed`` on scenario ``name`` with the nominal, the calibrated and the matched
     model: each one's fused, odometry and Gyrodometry final errors (% of the path) and headings
     (``open_loop``: as run_scenario's; True drives the same commands with every model)."""
-    from slipnav.scenarios.model import write_model
-
     model_dir = FilePath(model_dir)
     model_dir.mkdir(parents=True, exist_ok=True)
     scenario = load_scenario(name)

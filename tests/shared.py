@@ -9,7 +9,7 @@ import pytest
 from slipnav.scenarios import runner
 from slipnav.scenarios.config import load_scenario
 from slipnav.studies import calibration
-from slipnav.studies.calibration import simulate_manoeuvres
+from slipnav.studies.calibration_manoeuvres import simulate_manoeuvres
 
 _MANOEUVRES: dict = {}
 _RUNS: dict = {}

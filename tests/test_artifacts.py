@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.scenarios import plots, runner
+from slipnav.scenarios import artifacts, plots, runner
 from slipnav.scenarios.cli import main
+from slipnav.scenarios.completion import judge_completion, path_projection
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.runner import judge_completion, path_projection
 from slipnav.scenarios.trajectories import Arc, PathConfig, build_path
 
 from tests.shared import scenario_run
@@ -106,9 +106,9 @@ def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, mo
         raise KeyboardInterrupt
 
     if where == "npz":
-        monkeypatch.setattr(runner.np, "savez", interrupt)
+        monkeypatch.setattr(artifacts.np, "savez", interrupt)
     elif where == "sensors":
-        monkeypatch.setattr(runner, "sensor_log_chunks", interrupt)
+        monkeypatch.setattr(artifacts, "sensor_log_chunks", interrupt)
     elif where == "figures":
         real = plots.write_figures
 
@@ -118,7 +118,7 @@ def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, mo
 
         monkeypatch.setattr(plots, "write_figures", half_the_figures)
     else:
-        monkeypatch.setattr(runner.json, "dumps", interrupt)
+        monkeypatch.setattr(artifacts.json, "dumps", interrupt)
     assert _run(tmp_path) == 130
     assert capsys.readouterr().err == "slipnav: interrupted\n"
     assert {p.name: p.read_text() for p in tmp_path.iterdir()} == previous  # staging folder removed too
@@ -166,12 +166,12 @@ def test_a_run_records_the_covariance_health_and_its_arrays_are_views_of_one_buf
 
 
 def test_figures_of_a_long_run_plot_every_kth_sample():
-    n = 2 * runner.FIGURE_SAMPLES + 1
+    n = 2 * artifacts.FIGURE_SAMPLES + 1
     arrays = {"t": np.arange(n) * 0.002, "est_x": np.arange(n, dtype=float), "T_N": np.array(0.002)}
-    shown = runner.figure_arrays(arrays)
+    shown = artifacts.figure_arrays(arrays)
     assert len(shown["t"]) == math.ceil(n / 3) and shown["est_x"][1] == 3.0 and shown["T_N"] == 0.002
-    short = {key: value[: runner.FIGURE_SAMPLES] if value.ndim else value for key, value in arrays.items()}
-    assert runner.figure_arrays(short) is short
+    short = {key: value[: artifacts.FIGURE_SAMPLES] if value.ndim else value for key, value in arrays.items()}
+    assert artifacts.figure_arrays(short) is short
 
 
 def test_path_projection_memory_is_bounded_on_a_60_lap_square():

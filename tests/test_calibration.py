@@ -8,14 +8,10 @@ import pytest
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.model import load_model
 from slipnav.scenarios.sensor_log import SensorLog
-from slipnav.studies.calibration import (
-    Manoeuvre,
-    allan_deviation,
-    compare,
-    correct_accelerometers,
-    identify_drag,
-    simulated_calibration,
-)
+from slipnav.studies.calibration import compare, simulated_calibration
+from slipnav.studies.calibration_identify import identify_drag
+from slipnav.studies.calibration_manoeuvres import Manoeuvre
+from slipnav.studies.calibration_signals import allan_deviation, correct_accelerometers
 from slipnav.systems.plant import tinyphoon
 from slipnav.systems.sensors import SensorParameters, sensor_frame
 
@@ -240,7 +236,8 @@ def test_spiral_speed_keeps_both_tyres_sliding_alike(monkeypatch):
     former 1.5 m/s its inner wheel stands still at the limit, the true net tyre force peaks 4 % below
     mu g and the spirals read -4.1 .. -3.4 % (0.5 s means, draws 0-3)."""
     from slipnav.scenarios.config import Scenario
-    from slipnav.studies import calibration as procedure
+    from slipnav.studies import calibration_manoeuvres as procedure
+    from slipnav.studies.calibration_identify import identify_peak_acceleration
     from slipnav.systems.plant import kurt3d, tinyphoon
 
     for robot in (tinyphoon(), kurt3d()):
@@ -263,7 +260,7 @@ def test_spiral_speed_keeps_both_tyres_sliding_alike(monkeypatch):
     accel = [sensors.accel1_scale_error, sensors.accel1_misalignment]
     accel += [sensors.accel2_scale_error, sensors.accel2_misalignment]
     peaks = [
-        procedure.identify_peak_acceleration(
+        identify_peak_acceleration(
             m,
             scenario.T_N,
             scenario.robot_parameters(),

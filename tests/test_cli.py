@@ -4,9 +4,9 @@ import json
 
 import numpy as np
 import pytest
+from slipnav.scenarios.artifact_arrays import SCALAR_KEYS, SERIES_KEYS
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import builtin_scenarios
-from slipnav.scenarios.runner import SCALAR_KEYS, SERIES_KEYS
 
 SUMMARY_KEYS = {
     "scenario",

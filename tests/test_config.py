@@ -114,7 +114,7 @@ def test_docs_example_scenario_loads_and_builds():
     import re
     from pathlib import Path
 
-    from slipnav.scenarios.runner import follower_path, reference_for
+    from slipnav.scenarios.run_plan import follower_path, reference_for
 
     text = (Path(__file__).resolve().parent.parent / "docs" / "model.md").read_text()
     blocks = re.findall(r"```yaml\n(.*?)```", text, re.S)

@@ -8,15 +8,11 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from scipy.integrate import solve_ivp
+from slipnav.scenarios.completion import completion_tolerance, judge_completion
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
-from slipnav.scenarios.runner import (
-    closed_loop_settings,
-    completion_tolerance,
-    follower_path,
-    judge_completion,
-    run_scenario,
-)
+from slipnav.scenarios.run_plan import closed_loop_settings, follower_path
+from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.trajectories import Arc, PathConfig, Straight, build_path
 from slipnav.systems.path_follower import (
     LyapunovPathFollower,
@@ -248,9 +244,7 @@ def follow_on_a_unicycle(path, pose0, robot, duration):
     b = DiagramBuilder()
     gains = PathFollowerParameters()
     follower = b.AddSystem(LyapunovPathFollower(gains, path, robot.track_width, T_C))
-    saturator = b.AddSystem(
-        WheelSpeedSaturator(path, robot.wheel_speed_limit, robot.track_width, gains)
-    )
+    saturator = b.AddSystem(WheelSpeedSaturator(path, robot.wheel_speed_limit, robot.track_width, gains))
     plant = b.AddSystem(KinematicUnicycle(robot.track_width, pose0))
     for block in (follower, saturator):
         b.Connect(plant.get_output_port(0), block.GetInputPort("estimated_pose"))
@@ -296,8 +290,6 @@ def test_closed_loop_curvature_term_T_stays_within_the_I20_I22_bound(name, kappa
     -k3 (1 - tanh^2 y1) dy1/dt, dy1/dt = I(12). Measured max |T|: long path from its start 0.04 1/m
     (the straight-to-arc joints), circle and long path from the offset 1.14 1/m (1 m off and 2.5 rad:
     4.51, at the bound)."""
-    from slipnav.scenarios.runner import follower_path
-
     scenario = load_scenario(name)
     robot, path = scenario.robot_parameters(), follower_path(scenario)
     half = 0.5 * robot.track_width
@@ -332,11 +324,9 @@ def test_T_of_I21_stays_within_the_I22_bound_on_the_real_robot(name, kappa_max):
     I(20); the saturator keeps their ratio). Bound 1/b - kappa_r,max = 4.5 (circle), 4.6 (long path);
     measured max |T| 0.91 and 0.26 1/m (seed 0). The scenario's default run, shared (tests/shared.py: the
     long path's with test_long_path_bounded_speed_law_is_faster_and_respects_V_m)."""
-    from slipnav.scenarios import runner
-
     scenario = load_scenario(name)
     result = scenario_run(name)
-    a, path = result.arrays, runner.follower_path(scenario)
+    a, path = result.arrays, follower_path(scenario)
     half = 0.5 * float(a["track_width"])
     # The update at t_K reads row k (s before it) and shows its errors and commands on row k + 1.
     n = round(float(a["T_C"]) / float(a["T_N"]))

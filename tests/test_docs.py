@@ -69,10 +69,10 @@ def test_every_yaml_example_loads(document):
     assert blocks
     for block in blocks:
         if "manoeuvres:" in block:  # a calibration session (docs/calibration.md)
-            from slipnav.scenarios.config import _check, _load_yaml
+            from slipnav.scenarios.typed_yaml import check_schema, load_yaml
             from slipnav.studies.calibration_session import CalibrationSession
 
-            _check(CalibrationSession, _load_yaml(block), "")
+            check_schema(CalibrationSession, load_yaml(block), "")
             continue
         scenario_from_yaml(block, name="example")
 

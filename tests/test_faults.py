@@ -9,18 +9,15 @@ import pytest
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml, with_keys
 from slipnav.scenarios.metrics import POSE_DELAY_SAMPLES, final_position_error, rms_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.faults import (
+from slipnav.studies.fault_cases import (
     NULL_FAULT_BIAS,
     fault_cases,
-    fault_figures,
     fault_onset,
     null_fault_cases,
     perturbation_cases,
-    print_report,
-    run_fault,
-    seed_mean_ratios,
     select_cases,
 )
+from slipnav.studies.faults import fault_figures, print_report, run_fault, seed_mean_ratios
 from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.health import (
     INCONSISTENT,

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
-from slipnav.diagrams.navigation import build_navigation_replay
+from slipnav.diagrams.replay import build_navigation_replay
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.ekf import (

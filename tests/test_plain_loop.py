@@ -10,7 +10,8 @@ from slipnav.scenarios.plain_loop import (
     run_plain_loop,
     run_scenario_plain_loop,
 )
-from slipnav.scenarios.runner import closed_loop_settings, run_scenario
+from slipnav.scenarios.run_plan import closed_loop_settings
+from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.faults import FaultEvent
 
 FAULT_EVENTS = [

@@ -423,7 +423,7 @@ def _coast(p, enable, plant_time_step=DEFAULT_TIME_STEP, duration=2.0):
     """Open loop: 1 m/s reached in 0.5 s, held, the table's enable rows (None: the input unconnected)."""
     from slipnav.diagrams.open_loop import build_open_loop_diagram
     from slipnav.diagrams.robot import make_simulator
-    from slipnav.scenarios.runner import collect_arrays
+    from slipnav.scenarios.artifact_arrays import collect_arrays
     from slipnav.systems.sensors import SensorParameters
 
     rates = SampleRates()

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 from slipnav.scenarios.cli import main
-from slipnav.studies.faults import MEASURED_KEYS
+from slipnav.studies.fault_cases import MEASURED_KEYS
 from slipnav.studies.random_faults import (
     BIAS_SIGMA,
     CLASS_KINDS,

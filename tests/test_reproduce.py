@@ -13,8 +13,9 @@ import pytest
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.paper import paper_mode
-from slipnav.scenarios.runner import follower_path
+from slipnav.scenarios.run_plan import follower_path
 from slipnav.studies import reproduce as rp
+from slipnav.studies import reproduce_measures as measures
 from slipnav.systems.mixing import MixingParameters, logsig
 
 from tests.shared import scenario_run
@@ -44,7 +45,7 @@ def _close_figures():
 def corner():
     """The default corner run (shared: tests/shared.py)."""
     r, path = scenario_run("corner"), follower_path(load_scenario("corner"))
-    return rp.Run(r.arrays, r.summary, r.reference, path, "slipnav run corner")
+    return measures.Run(r.arrays, r.summary, r.reference, path, "slipnav run corner")
 
 
 @pytest.fixture(scope="module")
@@ -103,7 +104,7 @@ def test_indiveri_fig2_without_runs_is_the_wheel_speed_square():
 def test_seyr_figures_on_the_corner(corner):
     a = corner.arrays
     five = rp.seyr_fig5(corner)
-    assert five.numbers["min_step_size"] == pytest.approx(np.nanmin(a["step_size"][rp._moving(a)]))
+    assert five.numbers["min_step_size"] == pytest.approx(np.nanmin(a["step_size"][measures.moving_mask(a)]))
     assert five.numbers["max_lag_samples"] > 0  # slip control fell behind the nominal K
     six = rp.seyr_fig6(corner)
     assert [y for _, y in _labels(six.figure)][:4] == [
@@ -114,8 +115,10 @@ def test_seyr_figures_on_the_corner(corner):
     ]
     assert six.numbers["peak_alpha_true_deg"] == pytest.approx(corner.summary["peak_abs_true_alpha_deg"])
     seven = rp.seyr_fig7(corner)
-    assert seven.numbers["detections"] == len(rp.detection_onsets(a))
-    assert seven.numbers["divergence_s"] == pytest.approx(np.sum(rp.divergence_mask(a)) * float(a["T_N"]))
+    assert seven.numbers["detections"] == len(measures.detection_onsets(a))
+    assert seven.numbers["divergence_s"] == pytest.approx(
+        np.sum(measures.divergence_mask(a)) * float(a["T_N"])
+    )
     eight = rp.seyr_fig8(corner, corner)
     pct = 100 * corner.summary["final_position_error_m"]["fused"] / corner.summary["path_length_m"]
     assert eight.numbers["corner_fused_pct"] == pytest.approx(pct)
@@ -139,7 +142,9 @@ def test_indiveri_figures_on_short_circles(circles):
     seven = rp.indiveri_fig7(b, c)
     assert seven.numbers["rms_constant"] == c.summary["path_error_rms_m"]
     eight = rp.indiveri_fig8(b, c)
-    assert eight.numbers["time_ratio"] == pytest.approx(rp.following_time(b) / rp.following_time(c))
+    assert eight.numbers["time_ratio"] == pytest.approx(
+        measures.following_time(b) / measures.following_time(c)
+    )
     assert eight.numbers["one_constant"] == 0.0  # u = V_m/2 on a circle: no wheel near V_m
     assert eight.numbers["one_bounded"] > 0.0
     assert "wheel speed command (m/s)" in [y for _, y in _labels(eight.figure)]
@@ -148,23 +153,23 @@ def test_indiveri_figures_on_short_circles(circles):
 def _fake(t, **series):
     a = {"t": t, "T_N": np.array(t[1] - t[0]), "T_C": np.array(0.02), "start_time": np.array(0.0)}
     a.update(series)
-    return rp.Run(a, {"controller_completion_time_s": None}, None, None, "cmd")
+    return measures.Run(a, {"controller_completion_time_s": None}, None, None, "cmd")
 
 
 def test_helpers_by_hand():
     t = np.arange(0.0, 1.0, 0.01)
     c1 = np.where((t > 0.2) & (t < 0.3) | (t > 0.6) & (t < 0.65), 0.4, 1.0)
     run = _fake(t, C1=c1, est_v_t=np.where(t > 0.5, 0.1, 0.0), true_v_t=np.zeros_like(t))
-    assert rp.detection_onsets(run.arrays) == pytest.approx([0.21, 0.61])
-    assert rp.divergence_mask(run.arrays).sum() == 49
+    assert measures.detection_onsets(run.arrays) == pytest.approx([0.21, 0.61])
+    assert measures.divergence_mask(run.arrays).sum() == 49
     V = 4.0
     cmd_R = np.where(t < 0.5, 4.0, 2.0)
     cmd_L = np.where(t < 0.25, 4.0, 1.0)
     run = _fake(t, cmd_R=cmd_R, cmd_L=cmd_L, V_m=np.array(V))
-    one, both = rp.saturation_fractions(run)
+    one, both = measures.saturation_fractions(run)
     assert (one, both) == (pytest.approx(0.5), pytest.approx(0.25))
-    assert rp.speed_switches(run) == 1
-    assert rp.following_time(run) == pytest.approx(0.99)
+    assert measures.speed_switches(run) == 1
+    assert measures.following_time(run) == pytest.approx(0.99)
 
 
 def test_reproduce_writes_a_page_referencing_every_figure(quick):

@@ -166,7 +166,7 @@ def test_replaying_a_runs_log_reproduces_its_navigation_bit_for_bit(corner_run, 
     assert "corner-seed0-tolerances-replay.npz" in printed and "model.yaml" in printed
     run = np.load(corner_run / "corner-seed0-tolerances.npz")
     replay = np.load(corner_run / "corner-seed0-tolerances-replay.npz")
-    from slipnav.scenarios.runner import SCALAR_KEYS, SERIES_KEYS
+    from slipnav.scenarios.artifact_arrays import SCALAR_KEYS, SERIES_KEYS
 
     assert set(SERIES_KEYS) | set(SCALAR_KEYS) <= set(replay.files)  # the same artifact keys
     assert np.isnan(replay["ref_x"]).all() and np.isnan(replay["true_slip_R"]).all()  # no plant, no reference

@@ -1,11 +1,12 @@
-"""The sweep engine (studies/sweep.py): a 2-worker dask cluster gives exactly the serial results, a
+"""The sweep engine (studies/engine.py): a 2-worker dask cluster gives exactly the serial results, a
 resumed sweep skips the finished runs and prints the same table, bad --set values stop before any run."""
 
 import io
 
 import pytest
 from slipnav.scenarios.cli import main
-from slipnav.studies import sweep as engine
+from slipnav.studies import engine, results_file
+from slipnav.studies import sweep as sweep_study
 from slipnav.studies.accuracy import accuracy
 
 SETS = {"navigation.mixing.b1": ["0.03", "0.05"]}
@@ -27,8 +28,8 @@ def _table(text: str) -> list[str]:
 
 def test_two_workers_give_exactly_the_serial_results(scheduler, tmp_path):
     serial_out, cluster_out = io.StringIO(), io.StringIO()
-    serial = engine.sweep("corner", **SHORT, workers=0, out_dir=tmp_path / "serial", stream=serial_out)
-    cluster = engine.sweep(
+    serial = sweep_study.sweep("corner", **SHORT, workers=0, out_dir=tmp_path / "serial", stream=serial_out)
+    cluster = sweep_study.sweep(
         "corner", **SHORT, scheduler=scheduler, out_dir=tmp_path / "dask", stream=cluster_out
     )
     assert len(serial) == 4
@@ -83,13 +84,13 @@ def test_results_file_keeps_complete_lines_and_values_exactly(tmp_path):
         },
         {"scenario": "corner", "seed": 1, "x": 1e-300, "n": -4, "ok": False, "none": None, "bad": 2.5},
     ]
-    file = engine.ResultsFile(path)
+    file = results_file.ResultsFile(path)
     for row in rows:
-        file.append(engine.job_key({"scenario": row["scenario"], "seed": row["seed"]}), row)
+        file.append(results_file.job_key({"scenario": row["scenario"], "seed": row["seed"]}), row)
     file.close()
     with open(path, "a") as f:
         f.write("scenario=corner;seed=2,corner,2,0.3")  # partial last line
-    resumed = engine.ResultsFile(path, resume=True)
+    resumed = results_file.ResultsFile(path, resume=True)
     assert list(resumed.done) == ["scenario=corner;seed=0", "scenario=corner;seed=1"]
     back = [resumed.row(key, {"scenario": "corner", "seed": i}) for i, key in enumerate(resumed.done)]
     assert repr(back) == repr(rows)
@@ -172,7 +173,7 @@ def test_resume_runs_again_the_lines_of_another_code_or_scenario_version(tmp_pat
     assert run(resume=False)[0] == [0.5, 1.5, 4.5]
     header, *lines = _lines(path)
     assert header == ["key", "code_version", "scenario", "seed", "x"]
-    version = engine.run_version(jobs[0])
+    version = results_file.run_version(jobs[0])
     assert [line[1] for line in lines] == [version] * 3 and len(version) == 12
     # seed 0's line as this version wrote it (its value is read back), seed 1's by another version
     lines[0][4], lines[1][1], lines[1][4] = "7.0", "0123456789ab", "99.0"
@@ -183,12 +184,14 @@ def test_resume_runs_again_the_lines_of_another_code_or_scenario_version(tmp_pat
     assert [line[0] for line in _lines(path)[1:]] == [f"scenario={scenario};seed={s}" for s in (0, 2, 1)]
     # an edited scenario file: every run again, each key once
     scenario.write_text("robot: kurt3d\n")
-    assert engine.run_version(jobs[0]) != version
+    assert results_file.run_version(jobs[0]) != version
     x, progress = run()
     assert x == [0.5, 1.5, 4.5] and "3 lines of another code or scenario version" in progress
-    assert len(_lines(path)) == 4 and {line[1] for line in _lines(path)[1:]} == {engine.run_version(jobs[0])}
+    assert len(_lines(path)) == 4 and {line[1] for line in _lines(path)[1:]} == {
+        results_file.run_version(jobs[0])
+    }
     # another release of the package: the same
-    monkeypatch.setattr(engine, "code_fingerprint", lambda: "upgraded")
+    monkeypatch.setattr(results_file, "code_fingerprint", lambda: "upgraded")
     assert run()[1].count("3 lines of another code") == 1
     # an older release's file, without the code_version column: started anew
     path.write_text(
@@ -208,8 +211,8 @@ def test_the_summary_gives_no_ratio_over_a_baseline_that_ended_on_the_truth():
         {"fused_pct": 0.1, "odometry_pct": 0.05, "gyrodometry_pct": 0.3, "completed": True},
         {"fused_pct": 0.3, "odometry_pct": 0.4, "gyrodometry_pct": 0.15, "completed": False},
     ]
-    lines, figures = engine.summary_table("probe", jobs, rows)
+    lines, figures = sweep_study.summary_table("probe", jobs, rows)
     assert lines[-1].split()[-2:] == ["2.000", "1"]  # (0.1 + 0.3) / (0.05 + 0.15); one incomplete
     assert figures == {"mean_fused_pct": pytest.approx(0.2), "worst_fused_pct": 0.3}
     still = [dict(r, odometry_pct=0.0) for r in rows]
-    assert engine.summary_table("probe", jobs, still)[0][-1].split()[-2:] == ["-", "1"]
+    assert sweep_study.summary_table("probe", jobs, still)[0][-1].split()[-2:] == ["-", "1"]

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from slipnav.diagrams.closed_loop import build_closed_loop_diagram
 from slipnav.scenarios.config import BUILTIN_DIR, ScenarioError, load_scenario, scenario_from_yaml
-from slipnav.scenarios.runner import closed_loop_settings, run_scenario
+from slipnav.scenarios.run_plan import closed_loop_settings
+from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.tolerances import TOLERANCE_PRESET
 from slipnav.systems.sensors import SensorParameters, accelerometer_truth, sensor_frame
 

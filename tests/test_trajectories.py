@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.runner import reference_for
+from slipnav.scenarios.run_plan import reference_for
 from slipnav.scenarios.trajectories import (
     Arc,
     CosineTurn,

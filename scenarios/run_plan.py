@@ -1,0 +1,225 @@
+"""What a run of a scenario is before it is built: the overrides checked (``check_run_options``), the
+reference trajectory, the path the closed loop follows, its ControlSettings and the run's end time."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+from slipnav.diagrams.closed_loop import ControlSettings
+from slipnav.scenarios.config import (
+    MAX_DURATION,
+    Belief,
+    Scenario,
+    ScenarioError,
+    check_duration,
+    with_paper_mode,
+)
+from slipnav.scenarios.trajectories import (
+    Path,
+    Trajectory,
+    TrajectoryError,
+    build_path,
+    build_trajectory,
+    trajectory_along_path,
+    trajectory_path,
+)
+from slipnav.systems.checks import require_seed
+from slipnav.systems.plant import RobotParameters
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.sensors import SensorParameters
+
+
+def check_run_options(
+    scenario: Scenario,
+    seed: int | None = None,
+    duration: float | None = None,
+    slip_control: bool | None = None,
+    speed_law: str | None = None,
+    open_loop: bool | None = None,
+) -> None:
+    """The overrides of run_scenario (the command line's flags), checked against the scenario before
+    anything is built; raises ScenarioError naming the flag (and the parameter)."""
+    if not isinstance(scenario, Scenario):
+        raise ScenarioError(f"scenario must be a Scenario (load_scenario(...)), got {scenario!r}")
+    scenario.validate()  # a Scenario built or changed in Python
+    if seed is not None:
+        as_scenario_error(lambda: require_seed(seed, "--seed"))
+    if duration is not None:
+        check_duration(scenario, duration)
+    for name, value in (("slip_control", slip_control), ("open_loop", open_loop)):
+        if value is not None and not isinstance(value, bool):
+            raise ScenarioError(f"{name}={value!r} is out of range: allowed True, False or None")
+    open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
+    how = "this run is open loop (--open-loop or controller: feedforward)"
+    if speed_law is not None:
+        if speed_law not in ("bounded", "constant"):
+            raise ScenarioError(f"--speed-law={speed_law!r} is unknown: allowed bounded, constant")
+        if scenario.mode != "max_speed":
+            raise ScenarioError(
+                f"--speed-law (speed_law) applies to max_speed scenarios only: {scenario.name!r} is mode "
+                f"{scenario.mode}"
+            )
+        if open_loop:
+            raise ScenarioError(f"--speed-law (speed_law) applies to the closed loop only: {how}")
+    if slip_control is not None:
+        if scenario.mode != "trajectory":
+            raise ScenarioError(
+                f"--no-slip-control (slip_control) applies to trajectory scenarios only: {scenario.name!r} "
+                f"is mode {scenario.mode} (its speed comes from the speed law)"
+            )
+        if open_loop:
+            raise ScenarioError(f"--no-slip-control (slip_control) applies to the closed loop only: {how}")
+
+
+def as_scenario_error(check):
+    """``check()``, with a ValueError it raises (a builder's or a check's, naming the parameter) raised as
+    a ScenarioError."""
+    try:
+        return check()
+    except ValueError as e:
+        raise ScenarioError(str(e)) from None
+
+
+def reference_for(scenario: Scenario) -> tuple[Trajectory, float]:
+    """The scenario's reference trajectory sampled at T_C and the robot's initial forward speed.
+
+    A path (max_speed mode) gives the trajectory of driving it at V_m/2 (or ``path_speed``): the
+    feed-forward reference, and the plotted reference of the closed loop.
+    """
+    rates = scenario.rates()
+    try:
+        if scenario.mode == "trajectory":
+            trajectory = build_trajectory(scenario.trajectory, rates.T_C)
+            return trajectory, scenario.trajectory.initial_speed
+        robot = scenario.belief().robot
+        speed = scenario.path_speed or 0.5 * robot.wheel_speed_limit
+        return trajectory_along_path(build_path(scenario.path), speed, rates.T_C), speed
+    except TrajectoryError as e:
+        raise ScenarioError(str(e)) from None
+
+
+def follower_path(scenario: Scenario) -> Path:
+    """The geometric path the closed loop follows."""
+    try:
+        if scenario.mode == "trajectory":
+            return trajectory_path(scenario.trajectory)
+        return build_path(scenario.path)
+    except TrajectoryError as e:
+        raise ScenarioError(str(e)) from None
+
+
+def closed_loop_settings(scenario: Scenario, slip_control: bool, speed_law: str):
+    """(ControlSettings, initial forward speed, nominal duration) of the scenario's closed loop."""
+    reference, initial_speed = reference_for(scenario)
+    path = follower_path(scenario)
+    if scenario.mode == "max_speed":
+        initial_speed = 0.0
+        nominal = path.length / (0.5 * scenario.belief().robot.wheel_speed_limit)
+    else:
+        nominal = reference.duration
+    start = standstill_for(scenario, initial_speed)
+    control = ControlSettings(
+        mode=scenario.mode,
+        path=path,
+        trajectory=reference,
+        follower=scenario.follower,
+        step_size=scenario.slip_control,
+        slip_control=slip_control,
+        speed_law=speed_law,
+        start_time=start,
+        localisation=scenario.localisation,
+    )
+    return control, initial_speed, nominal + start
+
+
+def standstill_for(scenario: Scenario, initial_speed: float) -> float:
+    """The standstill before the controller starts: ``standstill_time`` for a run that starts at rest,
+    else 0 (a robot already moving cannot stand)."""
+    return scenario.standstill_time if initial_speed == 0.0 else 0.0
+
+
+def end_time(scenario: Scenario, nominal: float, duration: float | None) -> float:
+    """--duration, else the scenario's duration, else the nominal end plus the settle time (at most
+    MAX_DURATION)."""
+    if duration is not None:
+        return check_duration(scenario, duration)
+    if scenario.duration is not None:
+        return scenario.duration
+    return min(nominal + scenario.settle_time, MAX_DURATION)
+
+
+@dc.dataclass
+class RunPlan:
+    """A scenario's run with run_scenario's overrides applied: what is built and simulated.
+
+    Args:
+        scenario: the scenario as run (in paper mode if asked, with the --localisation override).
+        seed, duration (--duration; None: the scenario's end), speed_law, slip_control, open_loop,
+        tolerances, faults: the run's settings, the scenario's where not overridden.
+        rates: the sample periods. belief: what navigation and control read (the nominal robot refined
+        by a model). plant, sensor_params: the real robot and sensors; deviations: their drawn
+        deviations from the nominal values. reference, initial_speed: reference_for's.
+        initial_pose: the scenario's initial pose as a tuple.
+    """
+
+    scenario: Scenario
+    seed: int
+    duration: float | None
+    speed_law: str
+    slip_control: bool
+    open_loop: bool
+    tolerances: bool
+    faults: object
+    rates: SampleRates
+    belief: Belief
+    plant: RobotParameters
+    sensor_params: SensorParameters
+    deviations: dict
+    reference: Trajectory
+    initial_speed: float
+    initial_pose: tuple
+
+
+def plan_run(
+    scenario: Scenario,
+    seed: int | None = None,
+    duration: float | None = None,
+    slip_control: bool | None = None,
+    speed_law: str | None = None,
+    open_loop: bool | None = None,
+    tolerances: bool = False,
+    faults=None,
+    localisation: str | None = None,
+) -> RunPlan:
+    """The RunPlan of run_scenario's arguments (its docstring), the overrides checked first
+    (check_run_options); raises ScenarioError naming the flag."""
+    check_run_options(scenario, seed, duration, slip_control, speed_law, open_loop)
+    scenario = with_paper_mode(scenario)
+    if localisation is not None:
+        scenario = dc.replace(scenario, localisation=localisation).validate()
+    seed = scenario.seed if seed is None else int(seed)
+    speed_law = scenario.speed_law if speed_law is None else speed_law
+    slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
+    open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
+    rates = scenario.rates()
+    belief = scenario.belief()
+    plant, sensor_params, deviations = scenario.plant_parameters(seed, tolerances)
+    reference, initial_speed = reference_for(scenario)
+    return RunPlan(
+        scenario=scenario,
+        seed=seed,
+        duration=duration,
+        speed_law=speed_law,
+        slip_control=slip_control,
+        open_loop=open_loop,
+        tolerances=tolerances,
+        faults=scenario.faults if faults is None else faults,
+        rates=rates,
+        belief=belief,
+        plant=plant,
+        sensor_params=sensor_params,
+        deviations=deviations,
+        reference=reference,
+        initial_speed=initial_speed,
+        initial_pose=tuple(scenario.initial_pose),
+    )
