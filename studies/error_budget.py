@@ -110,10 +110,11 @@ def replay(a: dict, scenario, navigation=None, **oracles) -> dict:
     ``navigation``: NavigationParameters (default: the scenario's). ``oracles``: the keyword arguments of
     OracleNavigationLoop.
     """
-    robot, rates = scenario.robot_parameters(), scenario.rates()
+    belief, rates = scenario.belief(), scenario.rates()
+    robot = belief.robot  # what the run's navigation believes: robot, sensors' data sheet, calibration
     loop = OracleNavigationLoop(
-        navigation or scenario.navigation,
-        robot.wheel_radius,
+        navigation or belief.navigation,
+        (robot.radius_R, robot.radius_L),
         robot.track_width,
         rates.T_N,
         rates.T_C,
@@ -121,7 +122,10 @@ def replay(a: dict, scenario, navigation=None, **oracles) -> dict:
             speed=float(a["true_v_t"][0]),
             pose=(float(a["true_x"][0]), float(a["true_y"][0]), float(a["true_phi"][0])),
         ),
-        robot=robot,  # the believed robot, as the run's navigation has it
+        belief.sensors,
+        robot.no_load_speed,
+        belief.calibration,
+        robot,
         **oracles,
     )
     accelerometers = np.column_stack([a[f"meas_{k}"] for k in ("a_t1", "a_n1", "a_t2", "a_n2")])
