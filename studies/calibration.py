@@ -57,7 +57,6 @@ from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.plant import GRAVITY
-from slipnav.systems.rates import SampleRates
 from slipnav.systems.sensor_correction import corrected_accelerometers
 
 STANDSTILL_PREFIX = 1.0
@@ -262,12 +261,15 @@ def manoeuvre_plan(robot, T_C: float) -> list[tuple[str, np.ndarray, float, floa
 # Simulation of the manoeuvres on the toleranced robot
 
 
-def simulate_manoeuvres(scenario: Scenario, seed: int) -> tuple[list[Manoeuvre], dict]:
-    """Drive manoeuvre_plan open loop on ``scenario``'s robot drawn with the tolerance preset by ``seed``;
-    returns the manoeuvres (logs and simulated hand measurements) and the true values (to judge only)."""
+def simulate_manoeuvres(
+    scenario: Scenario, seed: int, tolerances: bool = True
+) -> tuple[list[Manoeuvre], dict]:
+    """Drive manoeuvre_plan open loop on ``scenario``'s robot as its ``plant`` section makes it by ``seed``
+    (``tolerances``: drawn within the tolerance preset where the scenario sets no bound); returns the
+    manoeuvres (logs and simulated hand measurements) and the true values (to judge only)."""
     rates = scenario.rates()
     robot = scenario.robot_parameters()  # nominal: the commands are planned with it
-    plant, sensors, _ = scenario.plant_parameters(seed, tolerances=True)
+    plant, sensors, _ = scenario.plant_parameters(seed, tolerances=tolerances)
     rng = np.random.default_rng([int(seed), MEASUREMENT_STREAM])
     manoeuvres = []
     for i, (kind, rows, speed, turns) in enumerate(manoeuvre_plan(robot, rates.T_C)):
@@ -930,28 +932,42 @@ def compare(calibration: Calibration, truth: dict) -> dict:
     return out
 
 
-def simulated_calibration(robot_name: str, seed: int, session_dir=None) -> tuple[Calibration, dict]:
+def simulated_calibration(
+    robot_name: str, seed: int, session_dir=None, scenario: Scenario | None = None
+) -> tuple[Calibration, dict]:
     """Drive and identify on the toleranced simulated ``robot_name`` of ``seed``: (calibration, truth).
-    ``session_dir``: write the logs and measurements there as a calibration session and identify from
-    reading it back (studies/calibration_session.py: the path of a real robot's logs)."""
-    scenario = Scenario(robot=robot_name, mode="trajectory", trajectory=None)
-    manoeuvres, truth = simulate_manoeuvres(scenario, seed)
+    ``scenario``: instead, the robot its ``plant`` section makes (the truth; no tolerance preset) and its
+    nominal robot as the belief. ``session_dir``: write the logs and measurements there as a calibration
+    session and identify from reading it back (studies/calibration_session.py: the path of a real
+    robot's logs)."""
+    tolerances = scenario is None
+    if scenario is None:
+        scenario = Scenario(robot=robot_name, mode="trajectory", trajectory=None)
+    robot_name = scenario.robot
+    manoeuvres, truth = simulate_manoeuvres(scenario, seed, tolerances)
     if session_dir is not None:
         from slipnav.studies.calibration_session import read_session, write_session
 
-        description = f"slipnav calibrate --simulate {robot_name} --seed {seed}"
-        path = write_session(manoeuvres, session_dir, robot_name, description)
+        simulated = robot_name if tolerances else scenario.name
+        description = f"slipnav calibrate --simulate {simulated} --seed {seed}"
+        path = write_session(manoeuvres, session_dir, robot_name, description, scenario.rates())
         _, manoeuvres = read_session(path)
-    base = RobotModel(robot=robot_name, navigation=NavigationParameters())
-    base.T_N, base.T_C = SampleRates().T_N, SampleRates().T_C
+    base = RobotModel(
+        robot=robot_name,
+        robot_overrides=dict(scenario.robot_overrides),
+        sensor_overrides=dict(scenario.sensor_overrides),
+        navigation=NavigationParameters(),
+    )
+    base.T_N, base.T_C = scenario.T_N, scenario.T_C
     return calibrate(manoeuvres, robot_name, base), truth
 
 
 def calibrate_command(
-    robot_name: str, seeds: list[int], out_dir, stream=None, logs: bool = False
+    robot_name: str, seeds: list[int], out_dir, stream=None, logs: bool = False, scenario=None
 ) -> list[dict]:
     """``slipnav calibrate --simulate ROBOT --seed N`` (or ``--seeds N``): drive, identify, write
-    ``DIR/<robot>-seed<N>.calibrated.model.yaml`` per seed, print identified vs true with the errors in
+    ``DIR/<robot>-seed<N>.calibrated.model.yaml`` per seed (``scenario``, ``--simulate SCENARIO.yaml``: its
+    plant is the truth, its name replaces the robot's), print identified vs true with the errors in
     standard errors; last line ``calibration worst_radius_pct=.. worst_track_pct=.. worst_gyro_scale_pct=..
     worst_a_peak_pct=.. worst_accel_scale_pct=.. worst_misalignment_deg=.. worst_drag_pct=..`` (scale
     errors absolute, in per cent; misalignments in degrees; the drag's both terms relative). ``logs``:
@@ -965,10 +981,11 @@ def calibrate_command(
     stream = stream or sys.stdout
     out = FilePath(out_dir)
     rows = []
+    name = robot_name if scenario is None else scenario.name
     for seed in seeds:
-        session = out / f"{robot_name}-seed{seed}.calibration" if logs else None
-        calibration, truth = simulated_calibration(robot_name, seed, session)
-        path = write_model(calibration.model, out / f"{robot_name}-seed{seed}.calibrated.model.yaml")
+        session = out / f"{name}-seed{seed}.calibration" if logs else None
+        calibration, truth = simulated_calibration(robot_name, seed, session, scenario)
+        path = write_model(calibration.model, out / f"{name}-seed{seed}.calibrated.model.yaml")
         rows.append(compare(calibration, truth))
         print(f"{path}", file=stream)
         kinds = {key: kind for key, _, kind in COMPARED}

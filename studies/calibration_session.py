@@ -32,8 +32,13 @@ from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from slipnav.scenarios.config import ScenarioError, _check, _load_yaml
-from slipnav.scenarios.sensor_log import SensorLogError, read_sensor_log, write_sensor_log
-from slipnav.studies.calibration import HEADING_STD, POSITION_STD, Manoeuvre, manoeuvre_plan
+from slipnav.scenarios.sensor_log import (
+    SensorLogError,
+    permissions_as_umask,
+    read_sensor_log,
+    write_sensor_log,
+)
+from slipnav.studies.calibration import HEADING_STD, POSITION_STD, Manoeuvre, _turn_data, manoeuvre_plan
 from slipnav.systems.plant import ROBOTS, robot_parameters
 from slipnav.systems.rates import SampleRates
 
@@ -147,7 +152,28 @@ def read_session(path) -> tuple[CalibrationSession, list[Manoeuvre]]:
         manoeuvres.append(
             Manoeuvre(m.kind, log, pose, tuple(m.pose_std), speed=m.speed, turns=m.turns, motors_off=off)
         )
+        check_heading_unwrapped(manoeuvres[-1], session.T_N, f"{where}: manoeuvres[{i}]")
     return session, manoeuvres
+
+
+def check_heading_unwrapped(manoeuvre: Manoeuvre, T_N: float, where: str) -> None:
+    """A hand-measured final heading counts the whole revolutions: it lies within half a turn of what the
+    de-biased gyro turned (a gyro's scale error is a few per cent, a twentieth of a turn on 3 revolutions).
+    A heading measured modulo 2 pi would make the identified radii and track width wrong by tens of per
+    cent; ScenarioError naming ``measured_pose[2]`` and the unwrapped value the gyro suggests."""
+    if manoeuvre.measured_pose is None:
+        return
+    turned, _, _ = _turn_data(manoeuvre, T_N)
+    measured = manoeuvre.measured_pose[2]
+    if not math.isfinite(turned) or abs(turned - measured) <= math.pi:
+        return
+    unwrapped = measured + 2.0 * math.pi * round((turned - measured) / (2.0 * math.pi))
+    raise ScenarioError(
+        f"{where}.measured_pose[2]={measured!r} rad is half a turn or more from the {turned:.4g} rad the "
+        "gyro turned: allowed a heading within half a turn of the gyro's, the whole revolutions counted "
+        f"(measured modulo 2 pi, this one is {unwrapped:.6g} rad; else the log is another manoeuvre's; "
+        "README.md: Calibration sessions)"
+    )
 
 
 def write_session(manoeuvres: list[Manoeuvre], folder, robot: str, description: str = "", rates=None):
@@ -160,6 +186,7 @@ def write_session(manoeuvres: list[Manoeuvre], folder, robot: str, description: 
         raise ScenarioError(f"calibration session folder {str(folder)!r} exists: allowed a new folder")
     staging = FilePath(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}.partial-"))
     try:
+        permissions_as_umask(staging, directory=True)
         entries = []
         for i, m in enumerate(manoeuvres):
             name = f"{i:02d}-{m.kind}.sensors.csv"
@@ -200,13 +227,20 @@ def calibrate_session_command(session_path, out_dir, stream=None):
     ``calibration model=<path>``. Returns the Calibration."""
     import sys
 
-    from slipnav.scenarios.model import RobotModel, write_model
+    from slipnav.scenarios.model import ModelError, RobotModel, write_model
     from slipnav.studies.calibration import calibrate
 
     stream = stream or sys.stdout
     session, manoeuvres = read_session(session_path)
     base = RobotModel(robot=session.robot, T_N=session.T_N, T_C=session.T_C)
-    calibration = calibrate(manoeuvres, session.robot, base)
+    try:
+        calibration = calibrate(manoeuvres, session.robot, base)
+    except ModelError as e:
+        raise ScenarioError(
+            f"calibration session {str(session_path)!r}: its logs and measurements contradict each other: "
+            f"they identify {e} (check that each log is its manoeuvre's and the measured poses; README.md: "
+            "Calibration sessions)"
+        ) from None
     model = dc.replace(
         calibration.model,
         description=f"identified by slipnav calibrate from {str(session_path)!r}"
