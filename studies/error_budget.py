@@ -41,7 +41,7 @@ import sys
 import time
 
 import numpy as np
-from slipnav.scenarios.config import ScenarioError, load_scenario
+from slipnav.scenarios.config import check_seed_count, load_scenario
 from slipnav.scenarios.metrics import (
     final_position_error,
     moving_alpha,
@@ -226,8 +226,7 @@ def error_budget(
     printed figures are mean (worst) over seeds. Runs on the sweep engine (studies/sweep.py: ``workers``,
     ``scheduler``, results in ``out_dir``/error-budget.csv, ``resume``)."""
     stream = stream or sys.stdout
-    if not (isinstance(seeds, int) and seeds >= 1):
-        raise ScenarioError(f"--seeds={seeds!r} is out of range: allowed 1, 2, ...")
+    check_seed_count(seeds)
     results = {}
     with session("error-budget", workers, scheduler, out_dir, resume) as (engine, file):
         for name in names:

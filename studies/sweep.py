@@ -34,6 +34,7 @@ import math
 import os
 import re
 import signal
+import socket
 import sys
 import threading
 import time
@@ -43,6 +44,7 @@ import numpy as np
 from slipnav.scenarios.config import (
     ScenarioError,
     check_duration,
+    check_seed_count,
     load_scenario,
     parse_value,
     with_keys,
@@ -120,6 +122,10 @@ def _plain(value, where: str):
 _INT = re.compile(r"^[-+]?\d+$")
 
 
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _parse_cell(text: str):
     """A CSV cell as written by ResultsFile: '' -> None, True/False, integers, floats (repr round trip,
     so exact), else the string."""
@@ -157,11 +163,18 @@ class ResultsFile:
         self.older_format = 0
         """Lines of a resumed file without the code_version column (none of them is kept)."""
         self._file = None
+        if self.path.exists() and not self.path.is_file():
+            raise ScenarioError(
+                f"--out: the results file {str(self.path)!r} is a directory: allowed a file (or none) there"
+            )
         if resume and self.path.is_file():
             self._read()
 
     def _read(self) -> None:
-        data = self.path.read_bytes()
+        try:
+            data = self.path.read_bytes()
+        except OSError as e:
+            raise ScenarioError(f"--resume: {str(self.path)!r} cannot be read: {e.strerror or e}") from None
         complete = data[: data.rfind(b"\n") + 1]  # a partial last line (the run being written) is dropped
         try:
             lines = complete.decode("utf-8").splitlines()
@@ -178,14 +191,36 @@ class ResultsFile:
         if not lines:
             return
         reader = csv.reader(lines)
-        header = next(reader)
-        self.columns = header
-        if header[1:2] != [VERSION]:
-            self.older_format = len(lines) - 1
-            return
-        for cells in reader:
-            if len(cells) == len(header):
-                self.done[cells[0]] = dict(zip(header, cells, strict=True))
+        try:
+            header = next(reader)
+            self.columns = header
+            if header[1:2] != [VERSION]:
+                self.older_format = len(lines) - 1
+                return
+            for cells in reader:
+                if len(cells) == len(header):
+                    self.done[cells[0]] = dict(zip(header, cells, strict=True))
+        except csv.Error as e:
+            raise ScenarioError(
+                f"--resume: {str(self.path)!r} line {reader.line_num} is not a results line ({e}): allowed a "
+                "file as a sweep wrote it, or no --resume to start it anew"
+            ) from None
+
+    def check_resumed(self, keys: list, rows: list, resumed: list) -> None:
+        """Each resumed row's text cell in a column where the other rows (resumed, or finished: None while
+        running) hold numbers is a corrupted line, which the study's table would fail on: ScenarioError
+        naming the line's key and column."""
+        for i in resumed:
+            for name, value in rows[i].items():
+                if not isinstance(value, str) or name not in self.columns[2:]:
+                    continue
+                numbers = [row[name] for row in rows if row is not None and _is_number(row.get(name))]
+                if numbers:
+                    raise ScenarioError(
+                        f"--resume: {str(self.path)!r}: the line of {keys[i]!r} holds {name}={value!r} where "
+                        f"the other lines hold numbers (e.g. {numbers[0]!r}): allowed a file as a sweep "
+                        "wrote it, or no --resume to start it anew"
+                    )
 
     def finished(self, key: str, version: str) -> bool:
         """The run ``key`` has a line written by ``version`` (run_version of its job)."""
@@ -329,6 +364,76 @@ def check_engine_options(workers, scheduler) -> None:
             )
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ScenarioError(f"--scheduler={scheduler!r}: allowed an address such as tcp://127.0.0.1:8786")
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
+
+
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss")
+SCHEDULER_TIMEOUT = 10.0
+"""s a scheduler has to connect and answer (a dask client, once connected, waits for its answer forever)."""
+
+
+def check_scheduler_address(address: str) -> None:
+    """``[scheme://]host:port`` with a scheme of SCHEDULER_SCHEMES (dask's default tcp) and a port in
+    1 .. 65535; ScenarioError naming --scheduler."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    allowed = f"allowed [{'|'.join(SCHEDULER_SCHEMES)}://]HOST:PORT, e.g. tcp://127.0.0.1:8786"
+    try:
+        scheme, location = parse_address(address, strict=False)
+        if scheme not in SCHEDULER_SCHEMES:
+            raise ValueError(f"the scheme {scheme!r} is not a dask scheduler's")
+        host, port = parse_host_port(location)
+        if not host or not 1 <= port <= 65535:
+            raise ValueError(f"host {host!r}, port {port}")
+    except ValueError as e:
+        raise ScenarioError(f"--scheduler={address!r} is not an address ({e}): {allowed}") from None
+
+
+def probe_scheduler(address: str, timeout: float | None = None) -> dict:
+    """The scheduler at ``address``'s identity (its kind, address and workers), asked with a deadline of
+    ``timeout`` s (default SCHEDULER_TIMEOUT) in all; ScenarioError naming --scheduler if it cannot be
+    reached, does not answer in time (a server that is no dask scheduler) or answers as something else."""
+    import asyncio
+    import concurrent.futures
+
+    from distributed.comm import connect
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+
+    async def identity():
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def ask():
+        return asyncio.run(asyncio.wait_for(identity(), timeout))
+
+    allowed = "allowed the address of a running dask scheduler ('dask scheduler' prints it)"
+    try:  # a refused or unroutable port at once, before dask's connect retries it until the timeout
+        socket.create_connection(parse_host_port(parse_address(address, strict=False)[1]), timeout).close()
+    except OSError as e:
+        reason = e.strerror or str(e)
+        raise ScenarioError(f"--scheduler={address!r} cannot be reached: {reason}: {allowed}") from None
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:  # its own event loop, whatever runs in this one
+        try:
+            reply = pool.submit(ask).result()
+        except (asyncio.TimeoutError, TimeoutError):
+            raise ScenarioError(
+                f"--scheduler={address!r} did not answer as a dask scheduler within {timeout:g} s: {allowed}"
+            ) from None
+        except Exception:  # closed, or bytes that are no dask message
+            raise ScenarioError(
+                f"--scheduler={address!r} did not answer as a dask scheduler (the connection closed, or its "
+                f"reply is no dask message): {allowed}"
+            ) from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise ScenarioError(f"--scheduler={address!r} answered, but not as a dask scheduler: {allowed}")
+    return reply
 
 
 @contextlib.contextmanager
@@ -370,8 +475,9 @@ class Engine:
             if self.scheduler is not None:
                 for name in ("distributed", "distributed.client"):
                     logging.getLogger(name).setLevel(quiet)
+                probe_scheduler(self.scheduler)
                 try:
-                    self.client = Client(self.scheduler, timeout="10s")
+                    self.client = Client(self.scheduler, timeout=f"{SCHEDULER_TIMEOUT:g}s")
                 except OSError as e:
                     raise ScenarioError(f"--scheduler={self.scheduler!r} cannot be reached: {e}") from None
                 self.workers = len(self.client.scheduler_info().get("workers", {}))
@@ -432,6 +538,9 @@ class Engine:
             for key, job, version in zip(keys, jobs, versions, strict=True)
         ]
         pending = [i for i, row in enumerate(rows) if row is None]
+        if results is not None:
+            resumed = [i for i, row in enumerate(rows) if row is not None]
+            results.check_resumed(keys, rows, resumed)
         progress = Progress(len(jobs), len(jobs) - len(pending), label, stream, note)
 
         def finish(i, result):
@@ -457,6 +566,8 @@ class Engine:
                     self.client.cancel(futures)
         finally:
             progress.close()
+        if results is not None:  # against the new runs' rows too
+            results.check_resumed(keys, rows, resumed)
         return rows
 
 
@@ -545,9 +656,9 @@ def _scenario(name: str, changes: tuple):
 
 
 def check_sweep(name: str, sets: dict, seeds: int, duration=None) -> None:
-    """Every combination's scenario loads and validates, seeds >= 1, the duration fits: before any run."""
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ScenarioError(f"--seeds={seeds!r} is out of range: allowed 1, 2, ...")
+    """Every combination's scenario loads and validates, seeds in 1 .. MAX_SEEDS, the duration fits: before
+    any run."""
+    check_seed_count(seeds)
     if "seed" in sets:
         raise ScenarioError("--set seed=...: the sweep runs seeds 0..N-1 of --seeds N; allowed any other key")
     for combination in combinations(sets):
