@@ -212,6 +212,12 @@ def _run(args) -> int:
     if s["aborted"]:  # the artifact is written, up to the stop; the run itself failed
         print(f"slipnav: error: {s['scenario']} stopped early: {s['aborted']}", file=sys.stderr)
         return 3
+    if not s["moved"]:
+        print(
+            f"slipnav: warning: {s['scenario']} did not move: the robot travelled {s['travelled_m']:.3g} m "
+            f"of its {s['path_length_m']:.3f} m path (moved: false): no path error figures",
+            file=sys.stderr,
+        )
     if not s["completed"]:
         print(
             f"slipnav: warning: {s['scenario']} did not complete: the robot never came within "

@@ -152,6 +152,17 @@ def end_time(scenario: Scenario, nominal: float, duration: float | None) -> floa
     return min(nominal + scenario.settle_time, MAX_DURATION)
 
 
+def check_fault_starts(faults, limit: float) -> None:
+    """Every fault starts before the run's end ``limit`` (s): one starting later would never happen, and
+    the run would report a fault-free robot as a faulty one's; ScenarioError naming faults[i].start."""
+    for i, event in enumerate(faults or ()):
+        if event.start >= limit:
+            raise ScenarioError(
+                f"faults[{i}].start={event.start!r} is out of range: allowed [0, {limit:.6g}) s (the run "
+                "ends by then: its duration, --duration, or the reference's end and settle_time)"
+            )
+
+
 def check_run_options(
     scenario: Scenario,
     seed: int | None = None,
@@ -289,6 +300,7 @@ def run_scenario(
             raise ScenarioError(str(e)) from None
     # Open loop: the reference's end; closed loop: a generous limit, cut at completion below.
     limit = end_time(scenario, nominal if open_loop else 3.0 * nominal + scenario.settle_time, duration)
+    check_fault_starts(faults, limit)
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     context = simulator.get_context()
     drain = LogDrain(built.loggers, context, int(math.ceil(limit / rates.T_N)) + 2)
@@ -332,6 +344,8 @@ def run_scenario(
     judged = judge_completion(
         arrays["t"], arrays["true_x"], arrays["true_y"], track_x, track_y, completion_tolerance(robot)
     )
+    travelled = float(np.sum(np.hypot(np.diff(arrays["true_x"]), np.diff(arrays["true_y"]))))
+    moved = travelled >= moving_distance(judged["completion_tolerance_m"], float(arrays["path_length"]))
     summary = {
         "scenario": scenario.name,
         "seed": seed,
@@ -364,6 +378,8 @@ def run_scenario(
         "reference_final_distance_m": float(
             math.hypot(arrays["true_x"][-1] - reference.x[-1], arrays["true_y"][-1] - reference.y[-1])
         ),
+        "travelled_m": travelled,
+        "moved": moved,
         "path_error_rms_m": None,
         "path_error_max_m": None,
         "peak_abs_true_alpha_deg": float(np.degrees(np.nanmax(np.abs(moving_alpha(arrays)), initial=0.0))),
@@ -382,7 +398,7 @@ def run_scenario(
         # Simulated time over the wall time of the simulation alone (slipnav bench reports the same).
         "realtime_factor": float(arrays["t"][-1] / wall) if wall > 0 else None,
     }
-    if path is not None:  # distance to the path's segments until the controller finished (then braking)
+    if path is not None and moved:  # distance to the path's segments until the controller finished
         until = arrays["t"] <= (controller_done if controller_done is not None else np.inf)
         err = judged["distance"][until]
         summary["path_error_rms_m"] = float(np.sqrt(np.mean(err**2)))
@@ -610,6 +626,13 @@ def path_projection(x, y, path_x, path_y, block: int = 256, margin: float = 0.2)
 def path_distance(x, y, path: Path) -> np.ndarray:
     """Distance of each point (x, y) of a track from the path polyline's segments (see path_projection)."""
     return path_projection(x, y, path.x, path.y)[0]
+
+
+def moving_distance(tolerance: float, path_length: float) -> float:
+    """The true distance a run must travel to count as moved (m): the completion tolerance, or half the
+    path where that is shorter. A robot that stayed within it of its start (no grip, a wheel held) has
+    no path error to report: its distance from the path is the start's, a few nanometres."""
+    return min(tolerance, 0.5 * path_length)
 
 
 def completion_tolerance(robot: RobotParameters) -> float:

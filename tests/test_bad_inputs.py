@@ -104,6 +104,7 @@ YAML_CASES = [
     (STRAIGHT + "standstill_time: 0.01\n", "standstill_time=0.01"),  # not a multiple of T_C
     (STRAIGHT + "standstill_time: -1\n", "standstill_time=-1"),
     (STRAIGHT + "plant_time_step: -1\n", "plant_time_step=-1"),
+    (STRAIGHT + "faults: [{kind: dropout, channel: gyro, start: 100.0}]\n", "faults[0].start=100.0"),
     ("trajectory:\n  repeat: 0\n  segments:\n    - !Straight {length: 1.0, v_end: 1}\n", "repeat=0"),
     ("trajectory:\n  segments:\n    - !SpotTurn {angle_deg: 90, duration: 1}\n", "segments[0] (SpotTurn)"),
     ("trajectory:\n  segments:\n    - !Straight {length: 0, v_end: 1}\n", "length=0"),
