@@ -368,7 +368,7 @@ def _check_study(args, duration=None) -> None:
 
 
 def _replay(args) -> int:
-    from slipnav.scenarios.replay import replay_file, write_replay_artifacts
+    from slipnav.scenarios.replay import replay_file, sensor_columns_without_samples, write_replay_artifacts
     from slipnav.scenarios.runner import check_output_directory
 
     check_output_directory(args.out)
@@ -377,12 +377,20 @@ def _replay(args) -> int:
         return 1
     s = result.summary
     errors = s["final_position_error_m"]
-    truth = (
-        f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
-        if s["has_truth"]
-        else " (no truth columns: no error figures)"
-    )
+    if not s["has_truth"]:
+        truth = " (no truth columns: no error figures)"
+    elif errors["fused"] is None or errors["odometry"] is None:
+        truth = " (the last row's truth is missing: no final error)"
+    else:
+        truth = f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
     print(f"{s['scenario']}: {s['rows']} rows replayed with model {s['model']}{truth}")
+    empty = sensor_columns_without_samples(result.arrays)
+    if empty:
+        print(
+            f"slipnav: warning: sensor log {args.log!r}: the columns {', '.join(empty)} hold no valid sample "
+            "(every cell nan or empty): the estimates rest on no sample of them",
+            file=sys.stderr,
+        )
     return 0
 
 

@@ -52,6 +52,7 @@ from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios.config import Scenario, ScenarioError
 from slipnav.scenarios.model import RobotModel, SensorCalibration
+from slipnav.scenarios.progress import TaskProgress
 from slipnav.scenarios.runner import collect_arrays
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
@@ -272,7 +273,10 @@ def simulate_manoeuvres(
     plant, sensors, _ = scenario.plant_parameters(seed, tolerances=tolerances)
     rng = np.random.default_rng([int(seed), MEASUREMENT_STREAM])
     manoeuvres = []
-    for i, (kind, rows, speed, turns) in enumerate(manoeuvre_plan(robot, rates.T_C)):
+    plan = manoeuvre_plan(robot, rates.T_C)
+    progress = TaskProgress(len(plan), f"slipnav: calibrate: driving seed {seed}'s manoeuvres", "manoeuvres")
+    for i, (kind, rows, speed, turns) in enumerate(plan):
+        progress.update(i)
         prefix = _still(STANDSTILL_PREFIX, rates.T_C)
         enable, motors_off, time_step = None, None, scenario.plant_time_step
         if kind == "coast":
@@ -311,6 +315,8 @@ def simulate_manoeuvres(
             noise = rng.standard_normal(3) * [POSITION_STD, POSITION_STD, HEADING_STD]
             measured = tuple(float(v + e) for v, e in zip(true_end, noise, strict=True))
         manoeuvres.append(Manoeuvre(kind, log, measured, speed=speed, turns=turns, motors_off=motors_off))
+    progress.update(len(plan))
+    progress.close()
     truth = plant_record(plant, sensors)
     truth["traction_limit_acceleration"] = plant.traction_limit_acceleration
     truth.update(true_drag(plant))

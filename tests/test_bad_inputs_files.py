@@ -6,9 +6,11 @@ starting one fail the test). Servers in these tests listen on the loopback addre
 import socket
 import threading
 
+import numpy as np
 import pytest
-from slipnav.scenarios import runner
+from slipnav.scenarios import progress, runner
 from slipnav.scenarios.cli import main
+from slipnav.scenarios.sensor_log import SensorLog, read_sensor_log, write_sensor_log
 from slipnav.studies import sweep
 
 
@@ -133,3 +135,89 @@ def test_results_file_with_a_word_where_a_number_was(tmp_path, capsys):
     key = sweep.job_key(jobs[0])
     assert f"the line of {key!r} holds fused_error_m='abc'" in err
     assert "allowed a file as a sweep wrote it, or no --resume" in err
+
+
+# --- model files and sensor log metadata: what a run refuses, replay refuses alike
+
+
+def _log(tmp_path, metadata=None, rows=5, last_truth=0.0, sensors=0.0):
+    """A short sensor log at rest with truth columns; ``last_truth``: the last row's true_x."""
+    t = np.arange(rows) * 0.002
+    columns = {"t": t, "enc_R": np.zeros(rows), "enc_L": np.zeros(rows)}
+    columns.update({c: np.full(rows, sensors) for c in ("gyro", "acc1_t", "acc1_n", "acc2_t", "acc2_n")})
+    if sensors != sensors:  # nan: every sensor column without a sample
+        columns["enc_R"] = columns["enc_L"] = np.full(rows, np.nan)
+    columns.update({c: np.zeros(rows) for c in ("true_x", "true_y", "true_phi")})
+    columns["true_x"][-1] = last_truth
+    log = SensorLog(columns=columns, metadata={"robot": "tinyphoon", "T_N": 0.002, **(metadata or {})})
+    return write_sensor_log(log, tmp_path / "lab.sensors.csv")
+
+
+MODEL = "robot: tinyphoon\nT_N: 0.002\nT_C: 0.02\n"
+
+
+@pytest.mark.parametrize(
+    "model, message",
+    [
+        (MODEL + "robot_overrides: {track_width: 1.0e-9}\n", "robot_overrides.track_width=1e-09 is out of"),
+        (MODEL + "robot_overrides: {mass: 1.0e+6}\n", "robot_overrides.mass=1000000.0 is out of range"),
+        ("robot: tinyphoon\nT_N: 0.002\nT_C: 0.021\n", "T_C=0.021 must be a positive integer multiple"),
+    ],
+)
+@pytest.mark.parametrize("command", ["run", "replay"])
+def test_a_model_run_refuses_replay_refuses_alike(model, message, command, tmp_path, capsys):
+    """One validation path (RobotModel.validate, the robot's physics included) for run and replay."""
+    (tmp_path / "m.yaml").write_text(model)
+    source = "corner" if command == "run" else str(_log(tmp_path))
+    argv = [command, source, "--model", str(tmp_path / "m.yaml"), "--out", str(tmp_path / "out")]
+    err = _one_line_error(capsys, [*argv, "--no-figures"])
+    assert f"model file {str(tmp_path / 'm.yaml')!r}: {message}" in err
+
+
+@pytest.mark.parametrize(
+    "metadata, message",
+    [
+        ({"initial_speed": 1e9}, "metadata initial_speed=1000000000.0 is out of range: allowed finite"),
+        ({"T_C": 0.021}, "metadata T_C=0.021 must be a positive integer multiple of T_N=0.002"),
+        ({"T_C": 0.04}, "metadata T_C=0.04 s differs from the model's T_C=0.02 s"),
+    ],
+)
+def test_log_metadata_a_run_would_refuse(metadata, message, tmp_path, capsys):
+    log = _log(tmp_path, metadata)
+    err = _one_line_error(capsys, ["replay", str(log), "--out", str(tmp_path / "out"), "--no-figures"])
+    assert message in err
+
+
+def test_a_log_whose_last_truth_is_missing_replays_without_a_final_error(tmp_path, capsys):
+    log = _log(tmp_path, last_truth=np.nan)
+    assert main(["replay", str(log), "--out", str(tmp_path / "out"), "--no-figures"]) == 0
+    captured = capsys.readouterr()
+    assert "(the last row's truth is missing: no final error)" in captured.out
+    assert captured.err == ""
+
+
+def test_a_log_without_any_sensor_sample_is_replayed_with_a_warning(tmp_path, capsys):
+    log = _log(tmp_path, sensors=np.nan)
+    assert main(["replay", str(log), "--out", str(tmp_path / "out"), "--no-figures"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: warning: sensor log ") and err.count("\n") == 1
+    assert "the columns gyro, acc1_t, acc1_n, acc2_t, acc2_n, enc_R, enc_L hold no valid sample" in err
+
+
+# --- progress of long tasks
+
+
+def test_reading_a_long_log_reports_progress_in_plain_lines(tmp_path, capsys, monkeypatch):
+    """Not a terminal (capsys): plain lines, no bar's carriage returns; DELAY 0 stands for a long read."""
+    monkeypatch.setattr(progress, "DELAY", 0.0)
+    read_sensor_log(_log(tmp_path, rows=50))
+    lines = capsys.readouterr().err.splitlines()
+    assert lines and lines[-1].startswith("slipnav: reading lab.sensors.csv: 100 % (")
+    assert lines[-1].endswith(" s") and " MB), " in lines[-1] and "\r" not in "".join(lines)
+
+
+def test_a_short_task_reports_nothing(capsys):
+    with progress.TaskProgress(10, "slipnav: counting", "things") as task:
+        for done in range(11):
+            task.update(done)
+    assert capsys.readouterr().err == ""
