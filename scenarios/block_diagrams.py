@@ -51,16 +51,28 @@ def export_diagram(name: str, out, scenario_name: str = "corner") -> FilePath:
     out = FilePath(out)
     if out.suffix not in FORMATS:
         raise ScenarioError(f"--out {out}: the format {out.suffix or '(none)'} is unknown: allowed {FORMATS}")
-    dot_source = named_diagram(name, scenario_name).GetGraphvizString(max_depth=2)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if out.suffix == ".dot":
-        out.write_text(dot_source)
-        return out
+    allowed = "allowed a FILE.dot, .svg or .png in a writable folder (created if missing)"
+    if out.is_dir():
+        raise ScenarioError(f"--out={str(out)!r} is a directory: {allowed}")
+    if any(folder.exists() and not folder.is_dir() for folder in out.parents):
+        raise ScenarioError(f"--out={str(out)!r} cannot be written: a folder of it is a file: {allowed}")
     program = shutil.which("dot")
-    if program is None:
+    if out.suffix != ".dot" and program is None:
         raise ScenarioError(
             f"writing {out.suffix} needs graphviz's 'dot' program, which is not installed "
             "(Debian: apt-get install graphviz); a .dot file needs nothing"
         )
-    subprocess.run([program, f"-T{out.suffix[1:]}", "-o", str(out)], input=dot_source, text=True, check=True)
+    dot_source = named_diagram(name, scenario_name).GetGraphvizString(max_depth=2)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        if out.suffix == ".dot":
+            out.write_text(dot_source)
+            return out
+        command = [program, f"-T{out.suffix[1:]}", "-o", str(out)]
+        subprocess.run(command, input=dot_source, text=True, check=True, capture_output=True)
+    except OSError as e:
+        raise ScenarioError(f"--out={str(out)!r} cannot be written: {e.strerror or e}: {allowed}") from None
+    except subprocess.CalledProcessError as e:
+        reason = "graphviz's dot: " + (" ".join(e.stderr.split()) or f"exit status {e.returncode}")
+        raise ScenarioError(f"--out={str(out)!r} cannot be written: {reason}: {allowed}") from None
     return out

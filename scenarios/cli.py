@@ -20,7 +20,7 @@
                    [--resample interpolate|hold]
     slipnav evaluate LOG.csv|RUN.npz --truth TRUTH.csv [--model MODEL.yaml] [--out DIR]
     slipnav calibrate SESSION.yaml [--out DIR]
-    slipnav calibrate --simulate ROBOT [--seed N | --seeds N] [--logs] [--out DIR]
+    slipnav calibrate --simulate ROBOT|SCENARIO.yaml [--seed N | --seeds N] [--logs] [--out DIR]
     slipnav reproduce [--out DIR] [--quick]
 
 ENGINE (studies/sweep.py): [--workers N] [--scheduler ADDRESS] [--out DIR] [--resume]: the runs go to a
@@ -37,14 +37,26 @@ from __future__ import annotations
 import sys
 
 from slipnav.scenarios.cli_parser import build_parser
-from slipnav.scenarios.config import ScenarioError, builtin_scenarios, check_duration, load_scenario
+from slipnav.scenarios.config import (
+    ScenarioError,
+    builtin_scenarios,
+    check_duration,
+    check_seed_count,
+    load_scenario,
+)
+from slipnav.scenarios.model import ModelError
+from slipnav.scenarios.sensor_log import SensorLogError
+
+USER_MISTAKES = (ScenarioError, ModelError, SensorLogError)
+"""A scenario, a model file or a sensor log that cannot be used: each message names the key and the
+allowed range; the command line prints it as one line and exits with status 2."""
 
 
 def main(argv=None) -> int:
     try:
         args = build_parser(__doc__.splitlines()[0]).parse_args(argv)
         return _command(args)
-    except ScenarioError as e:
+    except USER_MISTAKES as e:
         print(f"slipnav: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -197,6 +209,12 @@ def _run(args) -> int:
     if s["aborted"]:  # the artifact is written, up to the stop; the run itself failed
         print(f"slipnav: error: {s['scenario']} stopped early: {s['aborted']}", file=sys.stderr)
         return 3
+    if not s["moved"]:
+        print(
+            f"slipnav: warning: {s['scenario']} did not move: the robot travelled {s['travelled_m']:.3g} m "
+            f"of its {s['path_length_m']:.3f} m path (moved: false): no path error figures",
+            file=sys.stderr,
+        )
     if not s["completed"]:
         print(
             f"slipnav: warning: {s['scenario']} did not complete: the robot never came within "
@@ -236,7 +254,8 @@ def _faults(args) -> int:
 
 
 def _calibrate(args) -> int:
-    """slipnav calibrate: a session file, or a simulated session of a built-in robot (studies/)."""
+    """slipnav calibrate: a session file, or a simulated session of a built-in robot or of a scenario's
+    plant (studies/)."""
     from slipnav.scenarios.artifacts import check_output_directory
     from slipnav.studies.calibration_commands import calibrate_command
     from slipnav.systems.checks import require_seed
@@ -247,21 +266,48 @@ def _calibrate(args) -> int:
     if args.session is not None:
         from slipnav.studies.calibration_commands import calibrate_session_command
 
+        flags = (("--seed", args.seed), ("--seeds", args.seeds))
+        given = [flag for flag, value in flags if value is not None]
+        given += ["--logs"] if args.logs else []
+        if given:
+            raise ScenarioError(
+                f"{', '.join(given)} with a calibration session: allowed with --simulate only (a session's "
+                "logs are recorded, not drawn)"
+            )
         check_output_directory(args.out)
         calibrate_session_command(args.session, args.out)
         return 0
+    scenario = None
     if args.simulate not in ROBOTS:
-        raise ScenarioError(f"--simulate={args.simulate!r} is unknown: allowed {', '.join(sorted(ROBOTS))}")
-    if args.seeds is not None and not 1 <= args.seeds <= 1000:
-        raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1 .. 1000")
+        from pathlib import Path as FilePath
+
+        if FilePath(args.simulate).suffix not in (".yaml", ".yml") and not FilePath(args.simulate).is_file():
+            raise ScenarioError(
+                f"--simulate={args.simulate!r} is unknown: allowed {', '.join(sorted(ROBOTS))} or a scenario "
+                "YAML file (its plant is the truth)"
+            )
+        scenario = load_scenario(args.simulate)
+    if args.seeds is not None and args.seed is not None:
+        raise ScenarioError(
+            f"--seed={args.seed} with --seeds={args.seeds}: allowed one of them (--seeds N calibrates seeds "
+            "0 .. N-1)"
+        )
+    if args.seeds is not None:
+        check_seed_count(args.seeds, maximum=MAX_CALIBRATION_SEEDS)
+    seed = 0 if args.seed is None else args.seed
     try:
-        require_seed(args.seed, "--seed")
+        require_seed(seed, "--seed")
     except ValueError as e:
         raise ScenarioError(str(e)) from None
     check_output_directory(args.out)
-    seeds = list(range(args.seeds)) if args.seeds is not None else [args.seed]
-    calibrate_command(args.simulate, seeds, args.out, logs=args.logs)
+    seeds = list(range(args.seeds)) if args.seeds is not None else [seed]
+    robot = args.simulate if scenario is None else scenario.robot
+    calibrate_command(robot, seeds, args.out, logs=args.logs, scenario=scenario)
     return 0
+
+
+MAX_CALIBRATION_SEEDS = 1000
+"""Most seeds of ``slipnav calibrate --simulate --seeds`` (about 15 s each)."""
 
 
 def _write(write, result, args) -> bool:
@@ -311,8 +357,7 @@ def _random_faults(args) -> int:
 
 def _check_study(args, duration=None) -> None:
     """A study's --seeds and scenarios (and --duration against each), before any run starts."""
-    if args.seeds < 1:
-        raise ScenarioError(f"--seeds={args.seeds} is out of range: allowed 1, 2, ...")
+    check_seed_count(args.seeds)
     for name in args.scenarios:
         scenario = load_scenario(name)
         if duration is not None:
@@ -321,7 +366,7 @@ def _check_study(args, duration=None) -> None:
 
 def _replay(args) -> int:
     from slipnav.scenarios.artifacts import check_output_directory
-    from slipnav.scenarios.replay import replay_file, write_replay_artifacts
+    from slipnav.scenarios.replay import replay_file, sensor_columns_without_samples, write_replay_artifacts
 
     check_output_directory(args.out)
     result = replay_file(args.log, args.model)  # every log or model mistake before the simulation
@@ -329,12 +374,20 @@ def _replay(args) -> int:
         return 1
     s = result.summary
     errors = s["final_position_error_m"]
-    truth = (
-        f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
-        if s["has_truth"]
-        else " (no truth columns: no error figures)"
-    )
+    if not s["has_truth"]:
+        truth = " (no truth columns: no error figures)"
+    elif errors["fused"] is None or errors["odometry"] is None:
+        truth = " (the last row's truth is missing: no final error)"
+    else:
+        truth = f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
     print(f"{s['scenario']}: {s['rows']} rows replayed with model {s['model']}{truth}")
+    empty = sensor_columns_without_samples(result.arrays)
+    if empty:
+        print(
+            f"slipnav: warning: sensor log {args.log!r}: the columns {', '.join(empty)} hold no valid sample "
+            "(every cell nan or empty): the estimates rest on no sample of them",
+            file=sys.stderr,
+        )
     return 0
 
 

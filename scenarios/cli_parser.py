@@ -229,15 +229,16 @@ def _add_logs_commands(sub) -> None:
     cal.add_argument(
         "--simulate",
         default=None,
-        metavar="ROBOT",
-        help="simulated robot (tinyphoon, kurt3d), drawn from the tolerance preset by the seed",
+        metavar="ROBOT|SCENARIO.yaml",
+        help="simulated robot (tinyphoon, kurt3d), drawn from the tolerance preset by the seed; or a "
+        "scenario YAML file, whose plant (robot, plant: section) is the truth",
     )
     cal.add_argument(
         "--logs",
         action="store_true",
         help="with --simulate: write each seed's session (DIR/ROBOT-seedN.calibration/) and identify from it",
     )
-    cal.add_argument("--seed", type=int, default=0, help="tolerance draw and noise seed (default 0)")
+    cal.add_argument("--seed", type=int, default=None, help="tolerance draw and noise seed (default 0)")
     cal.add_argument("--seeds", type=int, default=None, help="benchmark: seeds 0 .. N-1 instead of --seed")
     cal.add_argument("--out", default="runs", help="directory of the model YAML files (default: runs)")
 

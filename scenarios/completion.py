@@ -54,6 +54,13 @@ def path_distance(x, y, path: Path) -> np.ndarray:
     return path_projection(x, y, path.x, path.y)[0]
 
 
+def moving_distance(tolerance: float, path_length: float) -> float:
+    """The true distance a run must travel to count as moved (m): the completion tolerance, or half the
+    path where that is shorter. A robot that stayed within it of its start (no grip, a wheel held) has
+    no path error to report: its distance from the path is the start's, a few nanometres."""
+    return min(tolerance, 0.5 * path_length)
+
+
 def completion_tolerance(robot: RobotParameters) -> float:
     """How close to the end of its path the robot must really be to count as arrived (m):
     max(0.05 m, 2 track widths) (Tinyphoon 0.136 m, Kurt3D 0.8 m)."""

@@ -415,6 +415,18 @@ def check_duration(scenario: Scenario, duration, where: str = "--duration") -> f
     return float(duration)
 
 
+MAX_SEEDS = 10000
+"""Most seeds of a study per scenario and combination (--seeds): 10000 corner runs take about 3 h on
+two cores; a larger count is a typo far more often than a plan (1e9 jobs fill the memory first)."""
+
+
+def check_seed_count(seeds, where: str = "--seeds", maximum: int = MAX_SEEDS) -> int:
+    """A number of seeds in 1 .. ``maximum``."""
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= maximum:
+        raise ScenarioError(f"{where}={seeds!r} is out of range: allowed 1 .. {maximum}")
+    return seeds
+
+
 def _non_finite(value, where: str):
     """The first key path below ``value`` holding NaN or inf (outside INFINITY_ALLOWED), else None."""
     if dc.is_dataclass(value):

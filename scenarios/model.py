@@ -23,6 +23,7 @@ from pathlib import Path as FilePath
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from slipnav.scenarios.sensor_log import write_text_atomically
 from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
+from slipnav.systems.checks import check_robot_physics
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.plant import ROBOTS, RobotParameters, robot_parameters
 from slipnav.systems.rates import SampleRates
@@ -93,7 +94,13 @@ class RobotModel:
             return base
 
     def validate(self) -> "RobotModel":
-        self.robot_parameters()
+        """Every value in range, by the checks a scenario's robot passes (systems/checks.py: the robot's
+        physics across its parameters); ModelError naming the key."""
+        robot = self.robot_parameters()
+        try:
+            check_robot_physics(robot, "robot_overrides.")
+        except ValueError as e:
+            raise ModelError(str(e)) from None
         self.sensor_parameters()
         self.rates()
         try:

@@ -26,8 +26,10 @@ from slipnav.scenarios.artifacts import check_output_directory, publish_artifact
 from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.model import ModelError, RobotModel, load_model
+from slipnav.scenarios.progress import TaskProgress
 from slipnav.scenarios.run_summary import final_position_errors
-from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_sensor_log
+from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_metadata, read_sensor_log
+from slipnav.systems.checks import require_finite
 from slipnav.systems.health.perturbation import perturbation_report
 from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
 
@@ -96,6 +98,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
     """
     rates = model.rates()
     robot = model.robot_parameters()
+    check_log_metadata(log, model, name)
     counts = check_counts(log, model)
     if navigation is None:
         navigation = model.navigation_over(NavigationParameters())
@@ -121,11 +124,12 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
     simulator.Initialize()
     end = (len(log) - 1) * rates.T_N
     wall_start = time.perf_counter()
-    with deferred_interrupt() as pending:
+    with deferred_interrupt() as pending, TaskProgress(end, f"slipnav: replaying {name}", "s") as progress:
         t = 0.0
         while t < end - 1e-12:
             t = min(t + 0.1, end)
             simulator.AdvanceTo(t)
+            progress.update(t)
             pending.raise_if_interrupted()
     wall = time.perf_counter() - wall_start
     context = simulator.get_context()
@@ -188,23 +192,63 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
     return ReplayResult(name=name, arrays=a, summary=summary)
 
 
+def check_log_metadata(log: SensorLog, model: RobotModel, path) -> None:
+    """The log's metadata against the model, by the checks a run's inputs pass: the encoder resolution
+    (check_counts), the control period (the model's), the initial speed within the wheel-speed limit V_m
+    as the builders' check_robot_inputs has it (either way: a real robot's log may start reversing);
+    SensorLogError naming the metadata key."""
+    check_counts(log, model)
+    where = f"sensor log {str(path)!r}: metadata"
+    logged = log.metadata.get("T_C")
+    if logged is not None and abs(logged - model.T_C) > 1e-12 * model.T_C:
+        raise SensorLogError(
+            f"{where} T_C={logged!r} s differs from the model's T_C={model.T_C!r} s: allowed the same periods"
+        )
+    speed = log.metadata.get("initial_speed")
+    if speed is not None:
+        try:
+            limit = model.robot_parameters().wheel_speed_limit
+            require_finite("initial_speed", speed, -limit, limit)
+        except ValueError as e:
+            raise SensorLogError(f"{where} {e} m/s (the model's wheel_speed_limit)") from None
+
+
 def replay_file(log_path, model_path=None) -> ReplayResult:
-    """Read the log and the model (resolve_model), check both, replay; errors as ScenarioError naming the
-    column and row, or the model key."""
+    """Read the model (resolve_model: by the log's metadata where none is given) and the log, check both
+    as a run's inputs are checked, replay; errors as ScenarioError naming the column and row, or the
+    metadata or model key."""
     try:
         if model_path is not None:
             model, described = load_model(model_path), str(model_path)
         else:
-            peek = read_sensor_log(log_path, None)
-            model, described = resolve_model(log_path, None, peek.metadata.get("robot"))
+            robot = read_metadata(log_path).get("robot")
+            model, described = resolve_model(log_path, None, robot)
         log = read_sensor_log(log_path, model.T_N)
-        check_counts(log, model)
+        check_log_metadata(log, model, log_path)
     except (SensorLogError, ModelError) as e:
         raise ScenarioError(str(e)) from None
     result = replay_log(log, model, log_name(log_path))
     result.summary["sensor_log"] = str(log_path)
     result.summary["model"] = described
     return result
+
+
+SENSOR_SERIES = {
+    "gyro": "meas_gyro",
+    "acc1_t": "meas_a_t1",
+    "acc1_n": "meas_a_n1",
+    "acc2_t": "meas_a_t2",
+    "acc2_n": "meas_a_n2",
+    "enc_R": "meas_enc_R",
+    "enc_L": "meas_enc_L",
+}
+"""The log's sensor columns and the replay's arrays of their samples."""
+
+
+def sensor_columns_without_samples(arrays: dict) -> list[str]:
+    """The log's sensor columns that hold no valid sample (every cell nan or empty): the navigation's
+    estimates rest on no sample of them."""
+    return [column for column, key in SENSOR_SERIES.items() if not np.isfinite(arrays[key]).any()]
 
 
 def write_replay_artifacts(result: ReplayResult, out_dir, figures: bool = True) -> list[FilePath]:

@@ -148,6 +148,17 @@ def end_time(scenario: Scenario, nominal: float, duration: float | None) -> floa
     return min(nominal + scenario.settle_time, MAX_DURATION)
 
 
+def check_fault_starts(faults, limit: float) -> None:
+    """Every fault starts before the run's end ``limit`` (s): one starting later would never happen, and
+    the run would report a fault-free robot as a faulty one's; ScenarioError naming faults[i].start."""
+    for i, event in enumerate(faults or ()):
+        if event.start >= limit:
+            raise ScenarioError(
+                f"faults[{i}].start={event.start!r} is out of range: allowed [0, {limit:.6g}) s (the run "
+                "ends by then: its duration, --duration, or the reference's end and settle_time)"
+            )
+
+
 @dc.dataclass
 class RunPlan:
     """A scenario's run with run_scenario's overrides applied: what is built and simulated.

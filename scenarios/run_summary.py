@@ -7,7 +7,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.scenarios.completion import completion_tolerance, judge_completion
+from slipnav.scenarios.completion import completion_tolerance, judge_completion, moving_distance
 from slipnav.scenarios.config import Scenario
 from slipnav.scenarios.metrics import ESTIMATES, final_position_error, moving_alpha
 from slipnav.scenarios.model import RobotModel
@@ -80,6 +80,8 @@ def run_summary(
     judged = judge_completion(
         arrays["t"], arrays["true_x"], arrays["true_y"], track_x, track_y, completion_tolerance(robot)
     )
+    travelled = float(np.sum(np.hypot(np.diff(arrays["true_x"]), np.diff(arrays["true_y"]))))
+    moved = travelled >= moving_distance(judged["completion_tolerance_m"], float(arrays["path_length"]))
     summary = {
         "scenario": scenario.name,
         "seed": seed,
@@ -112,6 +114,8 @@ def run_summary(
         "reference_final_distance_m": float(
             math.hypot(arrays["true_x"][-1] - reference.x[-1], arrays["true_y"][-1] - reference.y[-1])
         ),
+        "travelled_m": travelled,
+        "moved": moved,
         "path_error_rms_m": None,
         "path_error_max_m": None,
         "peak_abs_true_alpha_deg": float(np.degrees(np.nanmax(np.abs(moving_alpha(arrays)), initial=0.0))),
@@ -130,7 +134,7 @@ def run_summary(
         # Simulated time over the wall time of the simulation alone (slipnav bench reports the same).
         "realtime_factor": float(arrays["t"][-1] / wall) if wall > 0 else None,
     }
-    if path is not None:  # distance to the path's segments until the controller finished (then braking)
+    if path is not None and moved:  # distance to the path's segments until the controller finished
         until = arrays["t"] <= (controller_done if controller_done is not None else np.inf)
         err = judged["distance"][until]
         summary["path_error_rms_m"] = float(np.sqrt(np.mean(err**2)))

@@ -27,6 +27,7 @@ from slipnav.scenarios.navigation_health import NavigationHealth
 from slipnav.scenarios.run_plan import (
     RunPlan,
     as_scenario_error,
+    check_fault_starts,
     closed_loop_settings,
     end_time,
     plan_run,
@@ -179,6 +180,7 @@ def simulate_run(plan: RunPlan, run: BuiltRun) -> SimulatedRun:
     # Open loop: the reference's end; closed loop: a generous limit, cut at completion below.
     nominal = run.nominal if open_loop else 3.0 * run.nominal + scenario.settle_time
     limit = end_time(scenario, nominal, plan.duration)
+    check_fault_starts(plan.faults, limit)
     simulator = make_simulator(run.built.diagram, plan.seed, plan.belief.robot.speed_loop_period)
     context = simulator.get_context()
     drain = LogDrain(run.built.loggers, context, int(math.ceil(limit / plan.rates.T_N)) + 2)

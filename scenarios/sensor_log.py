@@ -33,6 +33,8 @@ import tempfile
 from pathlib import Path as FilePath
 
 import numpy as np
+from slipnav.scenarios.progress import TaskProgress
+from slipnav.systems.rates import SampleRates
 
 FORMAT_VERSION = 1
 REQUIRED_COLUMNS = ("t", "gyro", "acc1_t", "acc1_n", "acc2_t", "acc2_n", "enc_R", "enc_L")
@@ -265,6 +267,29 @@ def check_time(t: np.ndarray, T_N: float, path="<arrays>", lines=None) -> None:
         )
 
 
+def read_metadata(path) -> dict:
+    """The ``# key: value`` metadata of a sensor log's comment lines before its header, without reading
+    the rows (SensorLogError as read_sensor_log)."""
+    path = FilePath(path)
+    metadata: dict = {}
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            for line, text in enumerate(handle, start=1):
+                text = text.strip()
+                if not text:
+                    continue
+                if not text.startswith("#"):
+                    break
+                key, sep, value = text[1:].partition(":")
+                if sep and key.strip() in METADATA_KEYS:
+                    metadata[key.strip()] = _metadata_value(key.strip(), value.strip(), path, line)
+    except OSError as e:
+        raise SensorLogError(f"sensor log {str(path)!r} cannot be read: {e.strerror or e}") from None
+    except UnicodeDecodeError as e:
+        raise SensorLogError(f"sensor log {str(path)!r} is not UTF-8 text (offset {e.start})") from None
+    return metadata
+
+
 def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
     """Read and check a sensor log (the module's format).
 
@@ -285,9 +310,21 @@ def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
     header = None
     rows: list[list[str]] = []
     lines: list[int] = []
+    size = path.stat().st_size / 1e6
+    progress = TaskProgress(size, f"slipnav: reading {path.name}", "MB")
+    read = [0]
+
+    def counted(handle):
+        """The handle's lines, their characters (about the bytes: ASCII) told to the progress."""
+        for number, text in enumerate(handle):
+            read[0] += len(text)
+            if number % 20000 == 0:
+                progress.update(read[0] / 1e6)
+            yield text
+
     try:
-        with handle:
-            reader = csv.reader(handle)
+        with handle, progress:
+            reader = csv.reader(counted(handle))
             for record in reader:
                 line = reader.line_num
                 if header is None:
@@ -308,6 +345,7 @@ def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
                     continue  # blank line
                 rows.append(record)
                 lines.append(line)
+            progress.update(size)
     except UnicodeDecodeError as e:
         raise SensorLogError(f"sensor log {str(path)!r} is not UTF-8 text (offset {e.start})") from None
     except csv.Error as e:
@@ -333,6 +371,11 @@ def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
             f"T_N={T_N!r} s: allowed a log sampled at the navigation period"
         )
     T_N = T_N if T_N is not None else logged_T_N if logged_T_N is not None else DEFAULT_T_N
+    if "T_C" in metadata:  # the periods a run checks (systems/rates.py SampleRates)
+        try:
+            SampleRates(T_N=T_N, T_C=metadata["T_C"])
+        except ValueError as e:
+            raise SensorLogError(f"sensor log {str(path)!r}: metadata {e}") from None
     check_time(columns["t"], T_N, path, lines)
     return SensorLog(columns=columns, metadata=metadata)
 
@@ -385,12 +428,27 @@ def write_sensor_log(log: SensorLog, path) -> FilePath:
     return write_text_atomically(path, sensor_log_chunks(log))
 
 
+def current_umask() -> int:
+    """The process's file-creation mask (os.umask can only be read by setting it: set and restored)."""
+    mask = os.umask(0o077)
+    os.umask(mask)
+    return mask
+
+
+def permissions_as_umask(path, directory: bool = False) -> None:
+    """Give ``path`` the permissions a plain ``open`` (``mkdir``) would: 0666 (0777) less the umask.
+    tempfile's files and folders are private (0600, 0700), which would keep an artifact from the group."""
+    os.chmod(path, (0o777 if directory else 0o666) & ~current_umask())
+
+
 def write_text_atomically(path, chunks) -> FilePath:
     """Write the text ``chunks`` to ``path`` through a temporary file in the same folder and os.replace:
-    an interrupted write leaves the previous file (or none), never half of one."""
+    an interrupted write leaves the previous file (or none), never half of one. The file's permissions
+    are those the umask gives a new file."""
     path = FilePath(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.partial-")
     try:
+        permissions_as_umask(tmp)
         with os.fdopen(fd, "w", newline="") as handle:
             handle.writelines(chunks)
         os.replace(tmp, path)

@@ -60,7 +60,6 @@ from slipnav.studies.calibration_identify import (
 from slipnav.studies.calibration_manoeuvres import Manoeuvre, simulate_manoeuvres
 from slipnav.studies.calibration_session import read_session, write_session
 from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.rates import SampleRates
 
 A_PEAK_MODEL_UNCERTAINTY = 0.02
 """Relative standard uncertainty of a_peak from the lumped tyre model (type B, added to the spirals'
@@ -240,16 +239,29 @@ def compare(calibration: Calibration, truth: dict) -> dict:
     return out
 
 
-def simulated_calibration(robot_name: str, seed: int, session_dir=None) -> tuple[Calibration, dict]:
+def simulated_calibration(
+    robot_name: str, seed: int, session_dir=None, scenario: Scenario | None = None
+) -> tuple[Calibration, dict]:
     """Drive and identify on the toleranced simulated ``robot_name`` of ``seed``: (calibration, truth).
-    ``session_dir``: write the logs and measurements there as a calibration session and identify from
-    reading it back (studies/calibration_session.py: the path of a real robot's logs)."""
-    scenario = Scenario(robot=robot_name, mode="trajectory", trajectory=None)
-    manoeuvres, truth = simulate_manoeuvres(scenario, seed)
+    ``scenario``: instead, the robot its ``plant`` section makes (the truth; no tolerance preset) and its
+    nominal robot as the belief. ``session_dir``: write the logs and measurements there as a calibration
+    session and identify from reading it back (studies/calibration_session.py: the path of a real
+    robot's logs)."""
+    tolerances = scenario is None
+    if scenario is None:
+        scenario = Scenario(robot=robot_name, mode="trajectory", trajectory=None)
+    robot_name = scenario.robot
+    manoeuvres, truth = simulate_manoeuvres(scenario, seed, tolerances)
     if session_dir is not None:
-        description = f"slipnav calibrate --simulate {robot_name} --seed {seed}"
-        path = write_session(manoeuvres, session_dir, robot_name, description)
+        simulated = robot_name if tolerances else scenario.name
+        description = f"slipnav calibrate --simulate {simulated} --seed {seed}"
+        path = write_session(manoeuvres, session_dir, robot_name, description, scenario.rates())
         _, manoeuvres = read_session(path)
-    base = RobotModel(robot=robot_name, navigation=NavigationParameters())
-    base.T_N, base.T_C = SampleRates().T_N, SampleRates().T_C
+    base = RobotModel(
+        robot=robot_name,
+        robot_overrides=dict(scenario.robot_overrides),
+        sensor_overrides=dict(scenario.sensor_overrides),
+        navigation=NavigationParameters(),
+    )
+    base.T_N, base.T_C = scenario.T_N, scenario.T_C
     return calibrate(manoeuvres, robot_name, base), truth

@@ -8,16 +8,18 @@ import dataclasses as dc
 import sys
 from pathlib import Path as FilePath
 
-from slipnav.scenarios.model import RobotModel, write_model
+from slipnav.scenarios.model import ModelError, RobotModel, write_model
+from slipnav.scenarios.typed_yaml import ScenarioError
 from slipnav.studies.calibration import COMPARED, calibrate, compare, simulated_calibration
 from slipnav.studies.calibration_session import read_session, session_model_path
 
 
 def calibrate_command(
-    robot_name: str, seeds: list[int], out_dir, stream=None, logs: bool = False
+    robot_name: str, seeds: list[int], out_dir, stream=None, logs: bool = False, scenario=None
 ) -> list[dict]:
     """``slipnav calibrate --simulate ROBOT --seed N`` (or ``--seeds N``): drive, identify, write
-    ``DIR/<robot>-seed<N>.calibrated.model.yaml`` per seed, print identified vs true with the errors in
+    ``DIR/<robot>-seed<N>.calibrated.model.yaml`` per seed (``scenario``, ``--simulate SCENARIO.yaml``: its
+    plant is the truth, its name replaces the robot's), print identified vs true with the errors in
     standard errors; last line ``calibration worst_radius_pct=.. worst_track_pct=.. worst_gyro_scale_pct=..
     worst_a_peak_pct=.. worst_accel_scale_pct=.. worst_misalignment_deg=.. worst_drag_pct=..`` (scale
     errors absolute, in per cent; misalignments in degrees; the drag's both terms relative). ``logs``:
@@ -26,10 +28,11 @@ def calibrate_command(
     stream = stream or sys.stdout
     out = FilePath(out_dir)
     rows = []
+    name = robot_name if scenario is None else scenario.name
     for seed in seeds:
-        session = out / f"{robot_name}-seed{seed}.calibration" if logs else None
-        calibration, truth = simulated_calibration(robot_name, seed, session)
-        path = write_model(calibration.model, out / f"{robot_name}-seed{seed}.calibrated.model.yaml")
+        session = out / f"{name}-seed{seed}.calibration" if logs else None
+        calibration, truth = simulated_calibration(robot_name, seed, session, scenario)
+        path = write_model(calibration.model, out / f"{name}-seed{seed}.calibrated.model.yaml")
         rows.append(compare(calibration, truth))
         print(f"{path}", file=stream)
         kinds = {key: kind for key, _, kind in COMPARED}
@@ -79,7 +82,14 @@ def calibrate_session_command(session_path, out_dir, stream=None):
     stream = stream or sys.stdout
     session, manoeuvres = read_session(session_path)
     base = RobotModel(robot=session.robot, T_N=session.T_N, T_C=session.T_C)
-    calibration = calibrate(manoeuvres, session.robot, base)
+    try:
+        calibration = calibrate(manoeuvres, session.robot, base)
+    except ModelError as e:
+        raise ScenarioError(
+            f"calibration session {str(session_path)!r}: its logs and measurements contradict each other: "
+            f"they identify {e} (check that each log is its manoeuvre's and the measured poses; README.md: "
+            "Calibration sessions)"
+        ) from None
     model = dc.replace(
         calibration.model,
         description=f"identified by slipnav calibrate from {str(session_path)!r}"

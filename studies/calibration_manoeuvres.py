@@ -12,6 +12,7 @@ from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios.artifact_arrays import collect_arrays
 from slipnav.scenarios.config import Scenario
+from slipnav.scenarios.progress import TaskProgress
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.systems.plant import GRAVITY
@@ -225,15 +226,21 @@ def manoeuvre_plan(robot, T_C: float) -> list[tuple[str, np.ndarray, float, floa
     return plan
 
 
-def simulate_manoeuvres(scenario: Scenario, seed: int) -> tuple[list[Manoeuvre], dict]:
-    """Drive manoeuvre_plan open loop on ``scenario``'s robot drawn with the tolerance preset by ``seed``;
-    returns the manoeuvres (logs and simulated hand measurements) and the true values (to judge only)."""
+def simulate_manoeuvres(
+    scenario: Scenario, seed: int, tolerances: bool = True
+) -> tuple[list[Manoeuvre], dict]:
+    """Drive manoeuvre_plan open loop on ``scenario``'s robot as its ``plant`` section makes it by ``seed``
+    (``tolerances``: drawn within the tolerance preset where the scenario sets no bound); returns the
+    manoeuvres (logs and simulated hand measurements) and the true values (to judge only)."""
     rates = scenario.rates()
     robot = scenario.robot_parameters()  # nominal: the commands are planned with it
-    plant, sensors, _ = scenario.plant_parameters(seed, tolerances=True)
+    plant, sensors, _ = scenario.plant_parameters(seed, tolerances=tolerances)
     rng = np.random.default_rng([int(seed), MEASUREMENT_STREAM])
     manoeuvres = []
-    for i, (kind, rows, speed, turns) in enumerate(manoeuvre_plan(robot, rates.T_C)):
+    plan = manoeuvre_plan(robot, rates.T_C)
+    progress = TaskProgress(len(plan), f"slipnav: calibrate: driving seed {seed}'s manoeuvres", "manoeuvres")
+    for i, (kind, rows, speed, turns) in enumerate(plan):
+        progress.update(i)
         prefix = _still(STANDSTILL_PREFIX, rates.T_C)
         enable, motors_off, time_step = None, None, scenario.plant_time_step
         if kind == "coast":
@@ -272,6 +279,8 @@ def simulate_manoeuvres(scenario: Scenario, seed: int) -> tuple[list[Manoeuvre],
             noise = rng.standard_normal(3) * [POSITION_STD, POSITION_STD, HEADING_STD]
             measured = tuple(float(v + e) for v, e in zip(true_end, noise, strict=True))
         manoeuvres.append(Manoeuvre(kind, log, measured, speed=speed, turns=turns, motors_off=motors_off))
+    progress.update(len(plan))
+    progress.close()
     truth = plant_record(plant, sensors)
     truth["traction_limit_acceleration"] = plant.traction_limit_acceleration
     truth.update(true_drag(plant))

@@ -31,8 +31,14 @@ import tempfile
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
-from slipnav.scenarios.sensor_log import SensorLogError, read_sensor_log, write_sensor_log
+from slipnav.scenarios.sensor_log import (
+    SensorLogError,
+    permissions_as_umask,
+    read_sensor_log,
+    write_sensor_log,
+)
 from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
+from slipnav.studies.calibration_identify import _turn_data
 from slipnav.studies.calibration_manoeuvres import HEADING_STD, POSITION_STD, Manoeuvre, manoeuvre_plan
 from slipnav.systems.plant import ROBOTS, robot_parameters
 from slipnav.systems.rates import SampleRates
@@ -147,7 +153,28 @@ def read_session(path) -> tuple[CalibrationSession, list[Manoeuvre]]:
         manoeuvres.append(
             Manoeuvre(m.kind, log, pose, tuple(m.pose_std), speed=m.speed, turns=m.turns, motors_off=off)
         )
+        check_heading_unwrapped(manoeuvres[-1], session.T_N, f"{where}: manoeuvres[{i}]")
     return session, manoeuvres
+
+
+def check_heading_unwrapped(manoeuvre: Manoeuvre, T_N: float, where: str) -> None:
+    """A hand-measured final heading counts the whole revolutions: it lies within half a turn of what the
+    de-biased gyro turned (a gyro's scale error is a few per cent, a twentieth of a turn on 3 revolutions).
+    A heading measured modulo 2 pi would make the identified radii and track width wrong by tens of per
+    cent; ScenarioError naming ``measured_pose[2]`` and the unwrapped value the gyro suggests."""
+    if manoeuvre.measured_pose is None:
+        return
+    turned, _, _ = _turn_data(manoeuvre, T_N)
+    measured = manoeuvre.measured_pose[2]
+    if not math.isfinite(turned) or abs(turned - measured) <= math.pi:
+        return
+    unwrapped = measured + 2.0 * math.pi * round((turned - measured) / (2.0 * math.pi))
+    raise ScenarioError(
+        f"{where}.measured_pose[2]={measured!r} rad is half a turn or more from the {turned:.4g} rad the "
+        "gyro turned: allowed a heading within half a turn of the gyro's, the whole revolutions counted "
+        f"(measured modulo 2 pi, this one is {unwrapped:.6g} rad; else the log is another manoeuvre's; "
+        "README.md: Calibration sessions)"
+    )
 
 
 def write_session(manoeuvres: list[Manoeuvre], folder, robot: str, description: str = "", rates=None):
@@ -160,6 +187,7 @@ def write_session(manoeuvres: list[Manoeuvre], folder, robot: str, description: 
         raise ScenarioError(f"calibration session folder {str(folder)!r} exists: allowed a new folder")
     staging = FilePath(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}.partial-"))
     try:
+        permissions_as_umask(staging, directory=True)
         entries = []
         for i, m in enumerate(manoeuvres):
             name = f"{i:02d}-{m.kind}.sensors.csv"

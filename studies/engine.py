@@ -23,6 +23,7 @@ import contextlib
 import logging
 import os
 import signal
+import socket
 import sys
 import threading
 import time
@@ -100,6 +101,76 @@ def check_engine_options(workers, scheduler) -> None:
             )
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ScenarioError(f"--scheduler={scheduler!r}: allowed an address such as tcp://127.0.0.1:8786")
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
+
+
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss")
+SCHEDULER_TIMEOUT = 10.0
+"""s a scheduler has to connect and answer (a dask client, once connected, waits for its answer forever)."""
+
+
+def check_scheduler_address(address: str) -> None:
+    """``[scheme://]host:port`` with a scheme of SCHEDULER_SCHEMES (dask's default tcp) and a port in
+    1 .. 65535; ScenarioError naming --scheduler."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    allowed = f"allowed [{'|'.join(SCHEDULER_SCHEMES)}://]HOST:PORT, e.g. tcp://127.0.0.1:8786"
+    try:
+        scheme, location = parse_address(address, strict=False)
+        if scheme not in SCHEDULER_SCHEMES:
+            raise ValueError(f"the scheme {scheme!r} is not a dask scheduler's")
+        host, port = parse_host_port(location)
+        if not host or not 1 <= port <= 65535:
+            raise ValueError(f"host {host!r}, port {port}")
+    except ValueError as e:
+        raise ScenarioError(f"--scheduler={address!r} is not an address ({e}): {allowed}") from None
+
+
+def probe_scheduler(address: str, timeout: float | None = None) -> dict:
+    """The scheduler at ``address``'s identity (its kind, address and workers), asked with a deadline of
+    ``timeout`` s (default SCHEDULER_TIMEOUT) in all; ScenarioError naming --scheduler if it cannot be
+    reached, does not answer in time (a server that is no dask scheduler) or answers as something else."""
+    import asyncio
+    import concurrent.futures
+
+    from distributed.comm import connect
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+
+    async def identity():
+        comm = await connect(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def ask():
+        return asyncio.run(asyncio.wait_for(identity(), timeout))
+
+    allowed = "allowed the address of a running dask scheduler ('dask scheduler' prints it)"
+    try:  # a refused or unroutable port at once, before dask's connect retries it until the timeout
+        socket.create_connection(parse_host_port(parse_address(address, strict=False)[1]), timeout).close()
+    except OSError as e:
+        reason = e.strerror or str(e)
+        raise ScenarioError(f"--scheduler={address!r} cannot be reached: {reason}: {allowed}") from None
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:  # its own event loop, whatever runs in this one
+        try:
+            reply = pool.submit(ask).result()
+        except (asyncio.TimeoutError, TimeoutError):
+            raise ScenarioError(
+                f"--scheduler={address!r} did not answer as a dask scheduler within {timeout:g} s: {allowed}"
+            ) from None
+        except Exception:  # closed, or bytes that are no dask message
+            raise ScenarioError(
+                f"--scheduler={address!r} did not answer as a dask scheduler (the connection closed, or its "
+                f"reply is no dask message): {allowed}"
+            ) from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise ScenarioError(f"--scheduler={address!r} answered, but not as a dask scheduler: {allowed}")
+    return reply
 
 
 @contextlib.contextmanager
@@ -141,8 +212,9 @@ class Engine:
             if self.scheduler is not None:
                 for name in ("distributed", "distributed.client"):
                     logging.getLogger(name).setLevel(quiet)
+                probe_scheduler(self.scheduler)
                 try:
-                    self.client = Client(self.scheduler, timeout="10s")
+                    self.client = Client(self.scheduler, timeout=f"{SCHEDULER_TIMEOUT:g}s")
                 except OSError as e:
                     raise ScenarioError(f"--scheduler={self.scheduler!r} cannot be reached: {e}") from None
                 self.workers = len(self.client.scheduler_info().get("workers", {}))
@@ -203,6 +275,9 @@ class Engine:
             for key, job, version in zip(keys, jobs, versions, strict=True)
         ]
         pending = [i for i, row in enumerate(rows) if row is None]
+        if results is not None:
+            resumed = [i for i, row in enumerate(rows) if row is not None]
+            results.check_resumed(keys, rows, resumed)
         progress = Progress(len(jobs), len(jobs) - len(pending), label, stream, note)
 
         def finish(i, result):
@@ -228,6 +303,8 @@ class Engine:
                     self.client.cancel(futures)
         finally:
             progress.close()
+        if results is not None:  # against the new runs' rows too
+            results.check_resumed(keys, rows, resumed)
         return rows
 
 

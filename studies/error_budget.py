@@ -41,7 +41,7 @@ import sys
 import time
 
 import numpy as np
-from slipnav.scenarios.config import ScenarioError, load_scenario
+from slipnav.scenarios.config import check_seed_count, load_scenario
 from slipnav.scenarios.metrics import (
     final_position_error,
     moving_alpha,
@@ -110,10 +110,11 @@ def replay(a: dict, scenario, navigation=None, **oracles) -> dict:
     ``navigation``: NavigationParameters (default: the scenario's). ``oracles``: the keyword arguments of
     OracleNavigationLoop.
     """
-    robot, rates = scenario.robot_parameters(), scenario.rates()
+    belief, rates = scenario.belief(), scenario.rates()
+    robot = belief.robot  # what the run's navigation believes: robot, sensors' data sheet, calibration
     loop = OracleNavigationLoop(
-        navigation or scenario.navigation,
-        robot.wheel_radius,
+        navigation or belief.navigation,
+        (robot.radius_R, robot.radius_L),
         robot.track_width,
         rates.T_N,
         rates.T_C,
@@ -121,7 +122,10 @@ def replay(a: dict, scenario, navigation=None, **oracles) -> dict:
             speed=float(a["true_v_t"][0]),
             pose=(float(a["true_x"][0]), float(a["true_y"][0]), float(a["true_phi"][0])),
         ),
-        robot=robot,  # the believed robot, as the run's navigation has it
+        belief.sensors,
+        robot.no_load_speed,
+        belief.calibration,
+        robot,
         **oracles,
     )
     accelerometers = np.column_stack([a[f"meas_{k}"] for k in ("a_t1", "a_n1", "a_t2", "a_n2")])
@@ -222,8 +226,7 @@ def error_budget(
     printed figures are mean (worst) over seeds. Runs on the sweep engine (studies/engine.py: ``workers``,
     ``scheduler``, results in ``out_dir``/error-budget.csv, ``resume``)."""
     stream = stream or sys.stdout
-    if not (isinstance(seeds, int) and seeds >= 1):
-        raise ScenarioError(f"--seeds={seeds!r} is out of range: allowed 1, 2, ...")
+    check_seed_count(seeds)
     results = {}
     with session("error-budget", workers, scheduler, out_dir, resume) as (engine, file):
         for name in names:

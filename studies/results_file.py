@@ -74,6 +74,10 @@ def plain_value(value, where: str):
 _INT = re.compile(r"^[-+]?\d+$")
 
 
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _parse_cell(text: str):
     """A CSV cell as written by ResultsFile: '' -> None, True/False, integers, floats (repr round trip,
     so exact), else the string."""
@@ -107,11 +111,18 @@ class ResultsFile:
         self.older_format = 0
         """Lines of a resumed file without the code_version column (none of them is kept)."""
         self._file = None
+        if self.path.exists() and not self.path.is_file():
+            raise ScenarioError(
+                f"--out: the results file {str(self.path)!r} is a directory: allowed a file (or none) there"
+            )
         if resume and self.path.is_file():
             self._read()
 
     def _read(self) -> None:
-        data = self.path.read_bytes()
+        try:
+            data = self.path.read_bytes()
+        except OSError as e:
+            raise ScenarioError(f"--resume: {str(self.path)!r} cannot be read: {e.strerror or e}") from None
         complete = data[: data.rfind(b"\n") + 1]  # a partial last line (the run being written) is dropped
         try:
             lines = complete.decode("utf-8").splitlines()
@@ -128,14 +139,36 @@ class ResultsFile:
         if not lines:
             return
         reader = csv.reader(lines)
-        header = next(reader)
-        self.columns = header
-        if header[1:2] != [VERSION]:
-            self.older_format = len(lines) - 1
-            return
-        for cells in reader:
-            if len(cells) == len(header):
-                self.done[cells[0]] = dict(zip(header, cells, strict=True))
+        try:
+            header = next(reader)
+            self.columns = header
+            if header[1:2] != [VERSION]:
+                self.older_format = len(lines) - 1
+                return
+            for cells in reader:
+                if len(cells) == len(header):
+                    self.done[cells[0]] = dict(zip(header, cells, strict=True))
+        except csv.Error as e:
+            raise ScenarioError(
+                f"--resume: {str(self.path)!r} line {reader.line_num} is not a results line ({e}): allowed a "
+                "file as a sweep wrote it, or no --resume to start it anew"
+            ) from None
+
+    def check_resumed(self, keys: list, rows: list, resumed: list) -> None:
+        """Each resumed row's text cell in a column where the other rows (resumed, or finished: None while
+        running) hold numbers is a corrupted line, which the study's table would fail on: ScenarioError
+        naming the line's key and column."""
+        for i in resumed:
+            for name, value in rows[i].items():
+                if not isinstance(value, str) or name not in self.columns[2:]:
+                    continue
+                numbers = [row[name] for row in rows if row is not None and _is_number(row.get(name))]
+                if numbers:
+                    raise ScenarioError(
+                        f"--resume: {str(self.path)!r}: the line of {keys[i]!r} holds {name}={value!r} where "
+                        f"the other lines hold numbers (e.g. {numbers[0]!r}): allowed a file as a sweep "
+                        "wrote it, or no --resume to start it anew"
+                    )
 
     def finished(self, key: str, version: str) -> bool:
         """The run ``key`` has a line written by ``version`` (run_version of its job)."""

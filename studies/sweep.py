@@ -17,7 +17,7 @@ import time
 from pathlib import Path as FilePath
 
 import numpy as np
-from slipnav.scenarios.config import ScenarioError, check_duration, load_scenario, with_keys
+from slipnav.scenarios.config import ScenarioError, check_duration, check_seed_count, load_scenario, with_keys
 from slipnav.scenarios.metrics import ESTIMATES, final_position_error, side_slip_rms_error
 from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
@@ -88,9 +88,9 @@ def _scenario(name: str, changes: tuple):
 
 
 def check_sweep(name: str, sets: dict, seeds: int, duration=None) -> None:
-    """Every combination's scenario loads and validates, seeds >= 1, the duration fits: before any run."""
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ScenarioError(f"--seeds={seeds!r} is out of range: allowed 1, 2, ...")
+    """Every combination's scenario loads and validates, seeds in 1 .. MAX_SEEDS, the duration fits: before
+    any run."""
+    check_seed_count(seeds)
     if "seed" in sets:
         raise ScenarioError("--set seed=...: the sweep runs seeds 0..N-1 of --seeds N; allowed any other key")
     for combination in combinations(sets):

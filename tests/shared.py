@@ -48,19 +48,19 @@ def scenario_frenet_errors(name: str, **options):
     return _run(name, options)[1]
 
 
-def calibration_manoeuvres(scenario, seed: int):
-    """``studies.calibration.simulate_manoeuvres(scenario, seed)`` (about 11 s of simulation), simulated once
-    per robot and draw: the key is all that the simulation reads (the nominal robot, the drawn plant and
-    sensors, the rates, the plant's step, the seed)."""
+def calibration_manoeuvres(scenario, seed: int, tolerances: bool = True):
+    """``studies.calibration.simulate_manoeuvres(scenario, seed, tolerances)`` (about 11 s of simulation),
+    simulated once per robot and draw: the key is all that the simulation reads (the nominal robot, the
+    drawn plant and sensors, the rates, the plant's step, the seed)."""
     key = (
         repr(scenario.robot_parameters()),
-        repr(scenario.plant_parameters(seed, tolerances=True)),
+        repr(scenario.plant_parameters(seed, tolerances=tolerances)),
         repr(scenario.rates()),
         scenario.plant_time_step,
         int(seed),
     )
     if key not in _MANOEUVRES:
-        _MANOEUVRES[key] = simulate_manoeuvres(scenario, seed)
+        _MANOEUVRES[key] = simulate_manoeuvres(scenario, seed, tolerances)
     return copy.deepcopy(_MANOEUVRES[key])
 
 

@@ -104,6 +104,7 @@ YAML_CASES = [
     (STRAIGHT + "standstill_time: 0.01\n", "standstill_time=0.01"),  # not a multiple of T_C
     (STRAIGHT + "standstill_time: -1\n", "standstill_time=-1"),
     (STRAIGHT + "plant_time_step: -1\n", "plant_time_step=-1"),
+    (STRAIGHT + "faults: [{kind: dropout, channel: gyro, start: 100.0}]\n", "faults[0].start=100.0"),
     ("trajectory:\n  repeat: 0\n  segments:\n    - !Straight {length: 1.0, v_end: 1}\n", "repeat=0"),
     ("trajectory:\n  segments:\n    - !SpotTurn {angle_deg: 90, duration: 1}\n", "segments[0] (SpotTurn)"),
     ("trajectory:\n  segments:\n    - !Straight {length: 0, v_end: 1}\n", "length=0"),
@@ -137,6 +138,9 @@ def test_yaml_1_1_exponent_floats_are_accepted():
     assert scenario.navigation.ekf.Q == [1e-8, 1e-8, 1.6e-3, 0.04, 0.04]
 
 
+TOO_MANY_SEEDS = "--seeds=1000000000 is out of range: allowed 1 .. 10000"
+
+
 def _cli_cases(tmp_path):
     a_file = tmp_path / "a_file"
     a_file.write_text("x")
@@ -167,10 +171,18 @@ def _cli_cases(tmp_path):
         (["bench", "nowhere"], "'nowhere'"),
         (["diagram", "nothing"], "diagram 'nothing'"),
         (["diagram", "closed_loop", "--out", str(tmp_path / "x.gif")], "--out"),
+        (["accuracy", "corner", "--seeds", "1000000000"], TOO_MANY_SEEDS),
+        (["robustness", "corner", "--seeds", "1000000000"], TOO_MANY_SEEDS),
+        (["sweep", "corner", "--seeds", "1000000000"], TOO_MANY_SEEDS),
+        (["error-budget", "--seeds", "1000000000"], TOO_MANY_SEEDS),
+        (["faults", "--seeds", "1000000000"], TOO_MANY_SEEDS),
+        (["accuracy", "corner", "--scheduler", "not an address", *out], "--scheduler='not an address'"),
+        (["sweep", "corner", "--scheduler", "http://127.0.0.1:8786", *out], "allowed [tcp|tls|ws|wss://]"),
+        (["accuracy", "corner", "--scheduler", "tcp://", *out], "--scheduler='tcp://' is not an address"),
     ]
 
 
-CLI_CASE_COUNT = 25
+CLI_CASE_COUNT = 33
 
 
 @pytest.mark.parametrize("index", range(CLI_CASE_COUNT))

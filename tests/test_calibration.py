@@ -2,6 +2,8 @@
 parameters within its standard error, and the model it writes is what replay and the odometry read."""
 
 import math
+import os
+import stat
 
 import numpy as np
 import pytest
@@ -156,11 +158,38 @@ def test_calibrate_command_writes_a_model_that_replay_reads(tmp_path, capsys):
         (["calibrate", "--simulate", "robby"], "--simulate='robby' is unknown"),
         (["calibrate", "--simulate", "tinyphoon", "--seed", "-1"], "--seed=-1 is out of range"),
         (["calibrate", "--simulate", "tinyphoon", "--seeds", "0"], "--seeds=0 is out of range"),
+        (["calibrate", "--simulate", "tinyphoon", "--seeds", "1000000000"], "allowed 1 .. 1000"),
+        (["calibrate", "--simulate", "tinyphoon", "--seed", "4", "--seeds", "2"], "--seed=4 with --seeds=2"),
+        (["calibrate", "--simulate", "missing.yaml"], "'missing.yaml' does not exist"),
     ],
 )
 def test_calibrate_bad_options(argv, phrase, capsys):
     assert main(argv) == 2
-    assert phrase in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert phrase in err and err.count("\n") == 1 and err.startswith("slipnav: error: ")
+
+
+def test_calibrate_simulates_a_scenarios_plant_as_the_truth(tmp_path, capsys):
+    """--simulate SCENARIO.yaml: the robot its plant section makes is the truth the identification is judged
+    against (not a draw of the tolerance preset), and the model file is as readable as the umask says."""
+    scenario = tmp_path / "wide.yaml"
+    scenario.write_text(
+        "robot: tinyphoon\ntrajectory:\n  segments:\n    - !Straight {length: 0.2, v_end: 0.5}\n"
+        "plant: {robot_overrides: {rolling_radius_R: 0.0153, track_width: 0.070}}\n"
+    )
+    previous = os.umask(0o002)
+    try:
+        with shared_manoeuvres():
+            assert main(["calibrate", "--simulate", str(scenario), "--out", str(tmp_path / "out")]) == 0
+    finally:
+        os.umask(previous)
+    printed = capsys.readouterr().out
+    assert "true 0.07 " in printed and "true 0.0153 " in printed
+    path = tmp_path / "out" / "wide-seed0.calibrated.model.yaml"
+    robot = load_model(path).robot_parameters()
+    assert robot.track_width == pytest.approx(0.070, rel=2e-3)
+    assert robot.radius_R == pytest.approx(0.0153, rel=1e-3)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o664
 
 
 def test_kurt3d_calibrates_too():

@@ -2,6 +2,10 @@
 (studies/calibration_session.py); the simulated session round-trips to the same identification."""
 
 import dataclasses as dc
+import math
+import os
+import re
+import stat
 
 import numpy as np
 import pytest
@@ -120,3 +124,61 @@ def test_write_session_refuses_an_existing_folder(tmp_path, simulated):
     (tmp_path / "day").mkdir()
     with pytest.raises(ScenarioError, match=r"folder .*day.* exists"):
         write_session([dc.replace(manoeuvres[0])], tmp_path / "day", "kurt3d")
+
+
+def _edited_session(session, tmp_path, edit):
+    """A copy of the session file beside its logs, its text changed by ``edit``."""
+    path = session.parent / f"edited-{tmp_path.name}.yaml"
+    path.write_text(edit(session.read_text()))
+    return path
+
+
+def test_a_heading_measured_modulo_a_turn_is_a_clear_error(tmp_path, simulated, capsys):
+    """A spot turn's three revolutions written as the protractor's remainder would identify radii tens of
+    per cent off: the session is refused, naming the manoeuvre's measured heading and its unwrapped value."""
+    manoeuvres, _, session = simulated
+    index = next(i for i, m in enumerate(manoeuvres) if m.kind == "spot_turn")
+    heading = manoeuvres[index].measured_pose[2]
+    wrapped = math.remainder(heading, 2.0 * math.pi)
+    path = _edited_session(session, tmp_path, lambda text: text.replace(repr(heading), repr(wrapped), 1))
+    out = tmp_path / "out"
+    assert main(["calibrate", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: error: ") and err.count("\n") == 1, err
+    assert f"manoeuvres[{index}].measured_pose[2]={wrapped!r}" in err and "whole revolutions" in err
+    assert not out.exists() or list(out.iterdir()) == []
+
+
+def test_logs_that_contradict_the_session_are_a_clear_error(tmp_path, simulated, capsys):
+    """The standstill's log swapped for a spiral's: what the logs identify is out of range (a gyro bias of
+    a turning robot), reported as the session's contradiction, with no model written."""
+    _, _, session = simulated
+    text = session.read_text()
+    standstill = re.search(r"log: (\S*standstill\S*)", text).group(1)
+    spiral = re.search(r"log: (\S*spiral\S*)", text).group(1)
+    path = _edited_session(session, tmp_path, lambda t: t.replace(f"log: {standstill}", f"log: {spiral}", 1))
+    out = tmp_path / "out"
+    assert main(["calibrate", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: error: ") and err.count("\n") == 1, err
+    assert "contradict each other" in err and "is out of range" in err
+    assert list(out.iterdir()) == []
+
+
+def test_seed_options_with_a_session_are_a_clear_error(simulated, capsys):
+    _, _, session = simulated
+    assert main(["calibrate", str(session), "--seeds", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("slipnav: error: --seeds with a calibration session") and err.count("\n") == 1
+
+
+def test_a_written_session_is_as_readable_as_the_umask_says(tmp_path, simulated):
+    manoeuvres, _, _ = simulated
+    previous = os.umask(0o002)
+    try:
+        session = write_session([dc.replace(manoeuvres[0])], tmp_path / "day", "kurt3d")
+    finally:
+        os.umask(previous)
+    assert stat.S_IMODE(session.parent.stat().st_mode) == 0o775
+    for path in session.parent.iterdir():
+        assert stat.S_IMODE(path.stat().st_mode) == 0o664, path

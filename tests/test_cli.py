@@ -150,6 +150,24 @@ def test_yaml_file_scenario(tmp_path, capsys):
     assert "trajectory.segmnts is an unknown key" in capsys.readouterr().err
 
 
+def test_a_robot_that_did_not_move_reports_no_path_error(tmp_path, capsys):
+    """Tyres without grip: the robot stays at its start, whose distance from the path is nanometres; the
+    summary says it did not move and gives no path error (null), the command warns."""
+    f = tmp_path / "no-grip.yaml"
+    f.write_text(
+        "mode: max_speed\npath:\n  segments:\n    - !Arc {radius: 0.5, angle_deg: 90}\n"
+        "plant: {robot_overrides: {tyre_friction: 0.001}}\nduration: 2\n"
+    )
+    assert main(["run", str(f), "--out", str(tmp_path), "--no-figures"]) == 0
+    summary = json.loads((tmp_path / "no-grip-seed0.summary.json").read_text())
+    assert summary["moved"] is False and summary["travelled_m"] < 0.01
+    assert summary["path_error_rms_m"] is None and summary["path_error_max_m"] is None
+    err = capsys.readouterr().err
+    assert "slipnav: warning: no-grip did not move: the robot travelled " in err and "(moved: false)" in err
+    assert main(["run", "corner", "--out", str(tmp_path), "--no-figures", "--duration", "1.5"]) == 0
+    assert json.loads((tmp_path / "corner-seed0.summary.json").read_text())["moved"] is True
+
+
 def test_bad_choice_exits_2(capsys):
     with pytest.raises(SystemExit) as e:
         main(["run", "corner", "--speed-law", "fast"])

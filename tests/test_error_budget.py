@@ -49,6 +49,17 @@ def test_replay_is_the_diagram_and_the_oracles_replace_what_they_name(corner_run
     assert rms(free["est_v_n"]) > 2 * rms(default["est_v_n"])
 
 
+@pytest.mark.parametrize("open_loop", [True, False])
+def test_replay_is_the_diagram_for_kurt3d_too(open_loop):
+    """The replay's navigation reads the believed robot's sensors' data sheet (Kurt3D's encoders and
+    motors, not the defaults): its estimate is the run's in the open and the closed loop."""
+    scenario = load_scenario("circle")
+    a = run_scenario(scenario, seed=0, open_loop=open_loop, duration=2.0).arrays
+    default = replay(a, scenario)
+    for key in ("est_v_t", "est_alpha", "est_x", "est_phi"):
+        np.testing.assert_allclose(default[key], a[key], rtol=0, atol=1e-12, err_msg=key)
+
+
 def test_budget_of_the_corner(corner_run, corner_budget):
     """Measured on seed 0 (closed loop): relaxing v_n towards the tyre model instead of zero cuts the
     paper's side-slip error to an eighth (0.24 vs 1.88 deg), and above b2 towards the slip at the measured

@@ -127,7 +127,7 @@ def test_progress_prints_plain_lines_when_not_a_terminal():
         (["--set", "follower.k2=1", "--set", "follower.k2=2"], "--set follower.k2 is given twice"),
         (["--set", "follower.k2=1,,2"], "has an empty value"),
         (["--set", "seed=1,2"], "--set seed=...: the sweep runs seeds 0..N-1 of --seeds N"),
-        (["--seeds", "0"], "--seeds=0 is out of range: allowed 1, 2, ..."),
+        (["--seeds", "0"], "--seeds=0 is out of range: allowed 1 .. 10000"),
         (["--duration", "0.01"], "--duration=0.01 is out of range"),
         (["--workers", "-1"], "--workers=-1 is out of range: allowed 0 (in this process) .. 64"),
         (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "allowed one of them"),
