@@ -20,6 +20,7 @@
                    [--resample interpolate|hold]
     slipnav evaluate LOG.csv|RUN.npz --truth TRUTH.csv [--model MODEL.yaml] [--out DIR]
     slipnav calibrate SESSION.yaml [--out DIR]
+    slipnav calibrate LOG.csv --truth TRUTH.csv [--model MODEL] [--out DIR]
     slipnav calibrate --simulate ROBOT|SCENARIO.yaml [--seed N | --seeds N] [--logs] [--out DIR]
     slipnav reproduce [--out DIR] [--quick]
 
@@ -261,6 +262,8 @@ def _calibrate(args) -> int:
     from slipnav.systems.checks import require_seed
     from slipnav.systems.plant import ROBOTS
 
+    if args.truth is not None or args.model is not None:
+        return _calibrate_against_truth(args)
     if (args.session is None) == (args.simulate is None):
         raise ScenarioError("give a calibration session SESSION.yaml or --simulate ROBOT (one of them)")
     if args.session is not None:
@@ -308,6 +311,22 @@ def _calibrate(args) -> int:
 
 MAX_CALIBRATION_SEEDS = 1000
 """Most seeds of ``slipnav calibrate --simulate --seeds`` (about 15 s each)."""
+
+
+def _calibrate_against_truth(args) -> int:
+    """slipnav calibrate LOG --truth TRUTH: a real robot's log fitted to its ground truth (studies/)."""
+    from slipnav.studies.truth_calibration import calibrate_truth_command
+
+    if args.truth is None or args.session is None:
+        raise ScenarioError("--model applies with a sensor log LOG.csv and --truth TRUTH.csv: allowed both")
+    flags = (("--simulate", args.simulate), ("--seed", args.seed), ("--seeds", args.seeds))
+    given = [flag for flag, value in flags if value is not None] + (["--logs"] if args.logs else [])
+    if given:
+        raise ScenarioError(
+            f"{', '.join(given)} with --truth: allowed LOG.csv, --truth, --model and --out only"
+        )
+    calibrate_truth_command(args.session, args.truth, args.model, args.out)
+    return 0
 
 
 def _write(write, result, args) -> bool:

@@ -240,6 +240,15 @@ def _add_logs_commands(sub) -> None:
     )
     cal.add_argument("--seed", type=int, default=None, help="tolerance draw and noise seed (default 0)")
     cal.add_argument("--seeds", type=int, default=None, help="benchmark: seeds 0 .. N-1 instead of --seed")
+    cal.add_argument(
+        "--truth",
+        default=None,
+        help="with a sensor log LOG.csv in place of SESSION: its ground-truth CSV t,x,y,yaw,quality; fits "
+        "the radii, the effective track and the gyro's scale and bias (docs/robot-logs.md)",
+    )
+    cal.add_argument(
+        "--model", default=None, help="with --truth: the log's model YAML (default as slipnav replay)"
+    )
     cal.add_argument("--out", default="runs", help="directory of the model YAML files (default: runs)")
 
 

@@ -213,10 +213,10 @@ def check_log_metadata(log: SensorLog, model: RobotModel, path) -> None:
             raise SensorLogError(f"{where} {e} m/s (the model's wheel_speed_limit)") from None
 
 
-def replay_file(log_path, model_path=None) -> ReplayResult:
-    """Read the model (resolve_model: by the log's metadata where none is given) and the log, check both
-    as a run's inputs are checked, replay; errors as ScenarioError naming the column and row, or the
-    metadata or model key."""
+def read_log(log_path, model_path=None) -> tuple[SensorLog, RobotModel, str]:
+    """(log, model, the model's description): the model (resolve_model: by the log's metadata where none
+    is given) and the log, both checked as a run's inputs are; errors as ScenarioError naming the column
+    and row, or the metadata or model key."""
     try:
         if model_path is not None:
             model, described = load_model(model_path), str(model_path)
@@ -227,6 +227,12 @@ def replay_file(log_path, model_path=None) -> ReplayResult:
         check_log_metadata(log, model, log_path)
     except (SensorLogError, ModelError) as e:
         raise ScenarioError(str(e)) from None
+    return log, model, described
+
+
+def replay_file(log_path, model_path=None) -> ReplayResult:
+    """Read the log and its model (read_log) and replay."""
+    log, model, described = read_log(log_path, model_path)
     result = replay_log(log, model, log_name(log_path))
     result.summary["sensor_log"] = str(log_path)
     result.summary["model"] = described

@@ -11,7 +11,7 @@ import pytest
 from slipnav.scenarios import progress, runner
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.sensor_log import SensorLog, read_sensor_log, write_sensor_log
-from slipnav.studies import sweep
+from slipnav.studies import engine, sweep
 
 
 @pytest.fixture(autouse=True)
@@ -60,7 +60,7 @@ def test_diagram_out_that_cannot_be_written(out, capsys):
 
 @pytest.fixture
 def short_scheduler_timeout(monkeypatch):
-    monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT", 1.0)
+    monkeypatch.setattr(engine, "SCHEDULER_TIMEOUT", 1.0)
 
 
 def _accuracy_on(address, tmp_path):

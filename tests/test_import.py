@@ -217,3 +217,18 @@ def test_warthog_import_finds_the_antennas_and_replays_without_accelerometers():
     short = SensorLog({k: v[:2500] for k, v in c.items()}, dict(result.log.metadata))  # 5 s
     replayed = replay_log(short, result.model, "short")
     assert np.isfinite(replayed.arrays["est_x"]).all() and np.isfinite(replayed.arrays["gyro_x"]).all()
+
+
+@needs_turtlebot
+def test_turtlebot_trial_calibrates_against_its_truth(trial_2):
+    """The Kobuki's effective track on trial 2's curves is near its data sheet's 230 mm (233 mm), the
+    rolling radii near 35 mm, the navX's yaw scale within 1 % (studies/truth_calibration.py)."""
+    from slipnav.studies.truth_calibration import calibrate_from_truth
+
+    table = trial_2.truth
+    seen = table["quality"] > 0
+    truth = {key: table[key][seen] for key in ("t", "x", "y", "yaw")}
+    fit = calibrate_from_truth(trial_2.log.columns, truth, trial_2.model)
+    assert 0.225 < fit.track_width < 0.24 and fit.standard_errors["track_width"] < 0.003
+    assert abs(fit.rolling_radius_R - 0.035) < 0.001 and abs(fit.rolling_radius_L - 0.035) < 0.001
+    assert abs(fit.gyro_scale_error) < 0.01
