@@ -12,7 +12,11 @@ log's samples the truth covers (the truth linearly interpolated between seen row
   trajectory error); ``final_heading_error_deg`` and ``rms_heading_error_deg``;
 - ``rpe_per_m``: relative pose error over 1 m of the truth's path (from each sample to the first one at
   least 1 m farther along), the RMS of the translation error of the relative motion (m, per metre
-  driven) and of its rotation (deg); ``rpe_per_10s``: the same over 10 s.
+  driven) and of its rotation (deg); ``rpe_per_10s``: the same over 10 s;
+- ``windowed_ate``: on a log of two ATE_WINDOW (30 s) windows or more, the estimate aligned afresh on the
+  truth's pose at the start of each consecutive window and the RMS of its position distances over the
+  window; the median and the 90th percentile over the windows (m): how far an estimate drifts in
+  30 s wherever it starts, which a long log's one-start ATE hides.
 
 It writes ``<name>.evaluation.json`` (the figures, the health shares of the npz's ``health_*``, ``fault``
 and C1 < 0.75), ``<name>.evaluation.png`` (the three paths over the truth, the position errors) and
@@ -37,6 +41,8 @@ RPE_DISTANCE = 1.0
 RPE_TIME = 10.0
 SLIP_C1 = 0.75
 """C1 below this is read as slip (Seyr's mixing trusts the wheels less)."""
+ATE_WINDOW = 30.0
+"""Length (s) of the windows of the windowed ATE (module docstring)."""
 TRUTH_GAP_ROWS = 2.5
 """A log sample is judged where the seen truth rows around it are at most this many of the truth's median
 row intervals apart (one unseen row is bridged, a longer outage is not)."""
@@ -146,6 +152,30 @@ def pairs_by(values, delta: float) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(keep), j[keep]
 
 
+def windowed_ate(t, estimate, truth, window: float = ATE_WINDOW) -> dict | None:
+    """The windowed ATE (module docstring) of ``estimate`` (N, 3) against ``truth`` (N, 3) at instants
+    ``t`` (s): consecutive windows of ``window`` s from the first instant, the last partial one left out,
+    a window with fewer than two samples skipped; None for fewer than two windows."""
+    starts = np.arange(t[0], t[-1] - window + 1e-9, window)
+    errors = []
+    for start in starts:
+        inside = (t >= start) & (t < start + window)
+        if inside.sum() < 2:
+            continue
+        aligned = align_start(estimate[inside], truth[inside])
+        d = np.hypot(aligned[:, 0] - truth[inside, 0], aligned[:, 1] - truth[inside, 1])
+        errors.append(float(np.sqrt(np.mean(d**2))))
+    if len(errors) < 2:
+        return None
+    return {
+        "window_s": window,
+        "windows": len(errors),
+        "median_m": float(np.median(errors)),
+        "p90_m": float(np.percentile(errors, 90)),
+        "per_window_m": errors,
+    }
+
+
 def trajectory_metrics(t, estimate, truth) -> dict:
     """The figures of one estimate (N, 3) against the truth (N, 3) on the same instants (module
     docstring)."""
@@ -162,6 +192,7 @@ def trajectory_metrics(t, estimate, truth) -> dict:
         "rms_heading_error_deg": float(np.degrees(np.sqrt(np.mean(heading**2)))),
         "rpe_per_m": {"translation_m": rpe_m[0], "rotation_deg": rpe_m[1]},
         "rpe_per_10s": {"translation_m": rpe_s[0], "rotation_deg": rpe_s[1]},
+        "windowed_ate": windowed_ate(t, estimate, truth),
         "path_length_m": float(path[-1]),
     }
 
@@ -204,6 +235,16 @@ def evaluate_arrays(a: dict, truth: dict) -> dict:
     }
     result["health"] = health_shares(a)
     return result
+
+
+def windowed_text(windowed: dict | None) -> str:
+    """The printed line's part of the windowed ATE (empty without one)."""
+    if windowed is None:
+        return ""
+    return (
+        f", ATE over {windowed['window_s']:g} s windows median {windowed['median_m']:.3f} m, 90 % "
+        f"{windowed['p90_m']:.3f} m"
+    )
 
 
 def tum_text(t, x, y, yaw) -> str:
@@ -316,5 +357,6 @@ def evaluate_command(log, truth_path, out_dir="runs", model=None) -> dict:
             f"{name} {label}: final {m['final_error_m']:.3f} m, ATE {m['ate_m']:.3f} m, heading "
             f"{m['final_heading_error_deg']:+.2f} deg, RPE {m['rpe_per_m']['translation_m']:.3f} m per m, "
             f"{m['rpe_per_10s']['translation_m']:.3f} m per 10 s"
+            + windowed_text(m["windowed_ate"])
         )
     return result

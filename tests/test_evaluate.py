@@ -28,6 +28,22 @@ def test_a_scale_error_has_known_ate_and_rpe():
     assert m["path_length_m"] == pytest.approx(20.0)
 
 
+def test_a_steady_drift_has_a_known_windowed_ate():
+    """An estimate drifting sideways at 0.01 m/s: aligned afresh at each 30 s window's start, its error
+    grows from 0 to 0.3 m in every window, RMS near 0.3 / sqrt(3) m (960 samples per window); a 59 s
+    log has one window: no windowed ATE."""
+    t = np.arange(0.0, 90.0 + 1e-9, 1.0 / 32.0)  # exact in binary: the windows split at 30 s and 60 s
+    truth = np.column_stack([t, np.zeros_like(t), np.zeros_like(t)])  # 1 m/s along x
+    estimate = truth + np.column_stack([np.zeros_like(t), 0.01 * t, np.zeros_like(t)])
+    windowed = ev.windowed_ate(t, estimate, truth)
+    assert windowed["windows"] == 3 and windowed["window_s"] == 30.0
+    expected = math.sqrt(np.mean((0.01 / 32.0 * np.arange(960)) ** 2))  # 0.1730 m
+    np.testing.assert_allclose(windowed["per_window_m"], expected, rtol=1e-9)
+    assert windowed["median_m"] == pytest.approx(expected) and windowed["p90_m"] == pytest.approx(expected)
+    assert ev.windowed_ate(t[t < 59.0], estimate[t < 59.0], truth[t < 59.0]) is None
+    assert ev.trajectory_metrics(t, estimate, truth)["windowed_ate"]["windows"] == 3
+
+
 def test_a_heading_drift_has_known_rpe_rotation_and_the_start_pose_is_aligned():
     t = np.arange(0.0, 20.0 + 1e-9, 0.1)
     truth = _straight(t)
