@@ -18,6 +18,8 @@ from slipnav.systems.health import (
     SensorHealthParameters,
     health_constants,
 )
+from slipnav.systems.health.accelerometer_pair import pair_omega_squared
+from slipnav.systems.health.gyro import pair_witnesses
 from slipnav.systems.health.yaw_witness import (
     MIN_YAW_LAG_STEPS,
     YAW_CLIP,
@@ -86,16 +88,45 @@ def test_the_yaw_lag_decides_whether_the_yaw_dynamics_witness():
 
 def test_a_gyro_half_again_too_large_in_a_turn_raises_the_alarm_in_its_fifth_sample():
     """A 3 rad/s turn read as 4.5: z = 1.5 / sqrt(0.014^2 + 0.1128^2 / 3 + 0.6^2) = 2.485 per sample, so
-    the CUSUM gains 1.985 a sample and passes h = 13.24 in the seventh; without the pair the gyro is
-    blamed. A pair whose |omega| (4.5 +- its noise) sides with the gyro exonerates it."""
+    the CUSUM gains 1.985 a sample and passes h = 13.24 in the seventh, which restarts the sums; a pair
+    whose |omega| (4.5 +- its noise) is nearer the wheels' 3.0 blames the gyro, one that sides with the
+    gyro exonerates it, and without the pair (NaN) the two witnesses cannot be told apart: the gyro
+    stays in."""
     z = 1.5 / math.sqrt(yaw_residual_variance(3.0, 0.0, CONSTANTS))
     assert z == pytest.approx(2.485, abs=0.001)
     state = np.array(yaw_test_initial_state())
-    alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, math.nan, 1.0, CONSTANTS) for _ in range(7)]
+    alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, 3.0**2, 1.0, CONSTANTS) for _ in range(7)]
     assert alarms == [False] * 6 + [True] and not state[1:].any()
+    state = np.array(yaw_test_initial_state())
+    alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, math.nan, 1.0, CONSTANTS) for _ in range(6)]
+    assert not any(alarms) and state[1:].any()
+    assert not gyro_yaw_test(state, 4.5, 3.0, 0.0, math.nan, 1.0, CONSTANTS) and not state[1:].any()
     state = np.array(yaw_test_initial_state())
     alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, 4.5**2, 0.0, CONSTANTS) for _ in range(7)]
     assert not any(alarms)
+
+
+def test_the_pair_witnesses_only_apart_finite_and_not_copied():
+    g = SimpleNamespace(accelerometer_position=(0.02, 0.015))
+    assert pair_witnesses((0.1, 0.2, 0.3, 0.4, 1.0, 0.0, 0.0), g)
+    assert not pair_witnesses((0.1, 0.2, 0.1, 0.2, 1.0, 0.0, 0.0), g)  # one IMU in both sets
+    assert pair_witnesses((0.1, 0.2, 0.1, 0.25, 1.0, 0.0, 0.0), g)
+    assert not pair_witnesses((0.1, math.nan, 0.3, 0.4, 1.0, 0.0, 0.0), g)
+    assert not pair_witnesses(
+        (0.1, 0.2, 0.3, 0.4, 1.0, 0.0, 0.0), SimpleNamespace(accelerometer_position=(0, 0))
+    )
+    assert math.isnan(pair_omega_squared((0.1, 0.2, 0.3, 0.4), (0.0, 0.0)))
+
+
+def test_a_scaled_gyro_is_not_held_out_when_one_imu_fills_both_sets():
+    """The turn of test_a_scaled_gyro_is_held_out_until_a_turn_agrees with accelerometer 1's readings
+    copied into accelerometer 2's: the wheels and the gyro disagree, nothing tells which one is wrong,
+    and the gyro stays in."""
+    rows = stream(1500, 1.0, 0.8)
+    rows[500:800, 4] *= 1.5
+    rows[:, 2:4] = rows[:, 0:2]
+    codes, _ = check_with_bias(rows)
+    assert not codes[:, 4].any()
 
 
 def test_a_scaled_gyro_is_held_out_until_a_turn_agrees():

@@ -62,6 +62,8 @@ def pair_omega_squared(sample, position) -> float:
     a_t1 - a_t2 = -2 (omega_dot y + omega^2 x), a_n1 - a_n2 = 2 (omega_dot x - omega^2 y), so
     omega^2 = -(x (a_t1 - a_t2) + y (a_n1 - a_n2)) / (2 (x^2 + y^2)): a yaw-rate sensor without a range."""
     x, y = position
+    if not x * x + y * y > 0.0:  # both at one point: no rotational difference to read
+        return math.nan
     return -(x * (sample[0] - sample[2]) + y * (sample[1] - sample[3])) / (2.0 * (x * x + y * y))
 
 

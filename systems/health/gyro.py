@@ -183,12 +183,27 @@ def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: f
     test = s[YAW_TEST]
     if codes[GYRO] == 0 and gripping and abs(s[YAW_WITNESS]) > p.bias_step_yaw_rate:  # a turn: the scale's
         gyro = raw[GYRO] - bias
-        if gyro_yaw_test(test, gyro, s[YAW_WITNESS], witness_rate, s[PAIR_OMEGA_SQUARED], abs(v_o), p):
+        pair = s[PAIR_OMEGA_SQUARED] if pair_witnesses(raw, g) else math.nan
+        if gyro_yaw_test(test, gyro, s[YAW_WITNESS], witness_rate, pair, abs(v_o), p):
             s[ANALOG_HOLD][GYRO], codes[GYRO] = 1.0, INCONSISTENT
             return True
     else:
         test[CUSUM] = 0.0
     return False
+
+
+@jitable
+def pair_witnesses(raw, g) -> bool:
+    """The accelerometer pair is a third witness of the yaw rate on this sample: its sensors sit apart
+    (accelerometer_position not (0, 0)), all four readings are finite, and the two sensors do not read
+    the same values on both axes (one IMU copied into both sets of a log says nothing of omega^2)."""
+    x, y = g.accelerometer_position
+    if not x * x + y * y > 0.0:
+        return False
+    for c in range(4):
+        if not math.isfinite(raw[c]):
+            return False
+    return not (raw[0] == raw[2] and raw[1] == raw[3])
 
 
 @jitable

@@ -25,7 +25,9 @@ against it, the accelerometer pair breaking the tie (two against one).
 3. The decision (gyro_yaw_test): on an alarm the gyro is blamed unless the accelerometer pair's yaw rate
    |omega| = sqrt(omega^2) (S(3)'s centripetal difference, averaged) clearly sides with it: closer to
    |gyro - b_g| than to |witness| by PAIR_SIDE_SIGMAS of its own noise (pair_yaw_rate_std). Then the
-   wheels slide or are held (the perturbation monitor's matter) and the gyro stays in.
+   wheels slide or are held (the perturbation monitor's matter) and the gyro stays in. Without the pair
+   (no accelerometers, one IMU copied into both sets, a non-finite reading: gyro.pair_witnesses) two
+   witnesses disagree and neither can be isolated: the gyro stays in and the sums restart.
 """
 
 import math
@@ -182,7 +184,8 @@ def gyro_yaw_test(
     """One sample of the yaw test (module docstring, 2. and 3.): ``state`` YAW_TEST_LAYOUT's values
     (updated in place), ``gyro`` the gyro less b_g and ``witness`` the wheels' yaw rate (rad/s) with its
     smoothed rate of change ``witness_rate`` (rad/s^2),
-    ``pair_squared`` the pair's averaged omega^2 (rad^2/s^2, NaN: none), ``speed`` |v_o| (m/s), ``c``
+    ``pair_squared`` the pair's averaged omega^2 (rad^2/s^2, NaN: no pair to witness), ``speed`` |v_o|
+    (m/s), ``c``
     HealthConstants (yaw_threshold). Returns True when the gyro is to be excluded; an alarm restarts the
     sums either way."""
     residual = gyro - witness
@@ -195,8 +198,8 @@ def gyro_yaw_test(
     if alarm == 0:
         return False
     state[CUSUM] = 0.0
-    if not math.isfinite(pair_squared):
-        return True
+    if not math.isfinite(pair_squared):  # one witness against the other: no isolation
+        return False
     pair = math.sqrt(max(pair_squared, 0.0))
     margin = PAIR_SIDE_SIGMAS * pair_yaw_rate_std(pair, speed, c)
     return not abs(pair - abs(gyro)) + margin < abs(pair - abs(witness))
