@@ -268,6 +268,21 @@ def test_a_stream_that_holds_its_readings_is_stuck_only_beyond_its_hold(hold, fi
         assert np.all(codes[first_flagged:150, channel] == STUCK)
 
 
+def test_one_imu_copied_into_both_sets_is_no_pair_to_judge():
+    """A 4 rad/s spin with accelerometer 1's readings copied into accelerometer 2's while the checks
+    believe the pair at +-(0.1, 0.05) m: the believed rotational difference 2 omega^2 x = 3.2 m/s^2 is
+    beyond the pair's bound (1 m/s^2 at rest), but a copied sensor is no second witness: nothing is
+    flagged. Two real sensors with that difference are flagged."""
+    geometry = dc.replace(GEOMETRY, accelerometer_position=(0.1, 0.05))
+    rows = stream(600, 0.0, 4.0)
+    rows[:, 2:4] = rows[:, 0:2]
+    _, codes = check(rows, v0=0.0, geometry=geometry)
+    assert not codes[:, 0:4].any()
+    rows[:, 2:4] += 0.01  # two sensors, nearly alike: they disagree with the believed geometry
+    _, codes = check(rows, v0=0.0, geometry=geometry)
+    assert codes[:, 0:4].any()
+
+
 def test_a_frozen_gyros_missed_heading_is_paid_back_when_the_stuck_test_flags_it():
     """A gyro frozen while the yaw rate grows (10 rad/s^2) is trusted for stuck_samples - 1 = 4 equal
     readings (the last true one at 99 and the repeats 100-102; flagged at 103). The wheels' yaw rate

@@ -15,7 +15,8 @@ sensor stays out until the pair's averages fall below half their bounds (a hold 
 alone: until its evidence is gone and that of a gain within gain_release is in).
 
 An excluded axis reads its partner's plus the rotational difference and the learned offset
-(systems/health/analog.py).
+(systems/health/analog.py). A log whose one IMU fills both sets (pair_copied) has no pair: nothing is
+judged.
 """
 
 import math
@@ -65,6 +66,13 @@ def pair_omega_squared(sample, position) -> float:
     if not x * x + y * y > 0.0:  # both at one point: no rotational difference to read
         return math.nan
     return -(x * (sample[0] - sample[2]) + y * (sample[1] - sample[3])) / (2.0 * (x * x + y * y))
+
+
+@jitable
+def pair_copied(raw) -> bool:
+    """Both accelerometers read the same values on both axes: one IMU copied into both sets of a log,
+    which says nothing of their agreement or of omega^2 (two real sensors' noise never repeats)."""
+    return raw[0] == raw[2] and raw[1] == raw[3]
 
 
 @jitable
@@ -172,6 +180,8 @@ def pair_check(s, raw, codes, rot, rot_dot, omega, a_force, v_o, moving, fast_kn
     if not all_in(codes[0:4], (0, INCONSISTENT)):
         # an axis out of the pair for its own fault: the gain test's window is stale when it returns
         pair_gain_reset(s)
+        return
+    if pair_copied(raw):  # one sensor in both sets: no pair to judge
         return
     for c in range(4):
         deviation[c] += (raw[c] - kinematic[c % 2] - deviation[c]) / p.consistency_samples

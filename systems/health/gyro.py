@@ -25,6 +25,7 @@ pair (|omega| from S(3)'s centripetal difference).
 import math
 
 from slipnav.systems.compiled import jitable
+from slipnav.systems.health.accelerometer_pair import pair_copied
 from slipnav.systems.health.layout import (
     ANALOG_EXCLUDED,
     ANALOG_HOLD,
@@ -203,7 +204,7 @@ def pair_witnesses(raw, g) -> bool:
     for c in range(4):
         if not math.isfinite(raw[c]):
             return False
-    return not (raw[0] == raw[2] and raw[1] == raw[3])
+    return not pair_copied(raw)
 
 
 @jitable
