@@ -201,9 +201,12 @@ def _add_logs_commands(sub) -> None:
     imp = sub.add_parser("import", help="a real robot's logs as a sensor log, ground truth and model")
     imp.add_argument(
         "adapter",
-        help="the logs' kind: phil-turtlebot (TurtleBot 2, navX, Vicon), norlab-warthog (Warthog, RTK)",
+        help="the logs' kind: phil-turtlebot (TurtleBot 2, navX, Vicon), norlab-warthog (Warthog, RTK), "
+        "ros-bag (a ROS 1 or 2 bag's Imu, JointState and ground-truth Odometry topics)",
     )
-    imp.add_argument("trial", metavar="TRIAL_DIR", help="the folder of one recording's files")
+    imp.add_argument(
+        "trial", metavar="TRIAL_DIR", help="the folder of one recording's files (ros-bag: the bag)"
+    )
     imp.add_argument("--out", default="runs", help="output directory (default: runs)")
     imp.add_argument(
         "--model", default=None, help="model YAML (default: the adapter's data sheet); its T_N is the grid's"

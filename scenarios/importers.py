@@ -25,7 +25,7 @@ from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.model import ModelError, RobotModel, load_model, model_text
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, write_text_atomically
 
-ADAPTERS = ("phil-turtlebot", "norlab-warthog")
+ADAPTERS = ("phil-turtlebot", "norlab-warthog", "ros-bag")
 RESAMPLING = ("interpolate", "hold")
 
 
@@ -137,8 +137,10 @@ def import_command(adapter: str, trial_dir, out_dir, model_path=None, resample="
     check_output_directory(out_dir)
     if adapter == "phil-turtlebot":
         from slipnav.scenarios import import_turtlebot as module
-    else:
+    elif adapter == "norlab-warthog":
         from slipnav.scenarios import import_warthog as module
+    else:
+        from slipnav.scenarios import import_rosbag as module
     result = module.import_trial(trial_dir, model_path, resample)
     for path in write_import(result, out_dir):
         print(path)
