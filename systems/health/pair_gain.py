@@ -50,10 +50,14 @@ def pair_gain_block_variance(s, axis: int, disagreement, mean, rotation, other, 
     block average leaves them, omega' from the gyro's difference on the lever, the other axis's
     acceleration times gain_cross_coupling ((m/s^2)^2)."""
     b = 1.0 / p.gain_block_samples
-    s[GAIN_BLOCK_DISAGREEMENT][axis] += (disagreement - s[GAIN_BLOCK_DISAGREEMENT][axis]) * b
-    s[GAIN_BLOCK_MEAN][axis] += (mean - s[GAIN_BLOCK_MEAN][axis]) * b
-    s[GAIN_BLOCK_HALF_ROTATION][axis] += (0.5 * rotation - s[GAIN_BLOCK_HALF_ROTATION][axis]) * b
-    s[GAIN_BLOCK_OTHER][axis] += (other - s[GAIN_BLOCK_OTHER][axis]) * b
+    block_disagreement = s[GAIN_BLOCK_DISAGREEMENT]
+    block_mean = s[GAIN_BLOCK_MEAN]
+    block_half_rotation = s[GAIN_BLOCK_HALF_ROTATION]
+    block_other = s[GAIN_BLOCK_OTHER]
+    block_disagreement[axis] += (disagreement - block_disagreement[axis]) * b
+    block_mean[axis] += (mean - block_mean[axis]) * b
+    block_half_rotation[axis] += (0.5 * rotation - block_half_rotation[axis]) * b
+    block_other[axis] += (other - block_other[axis]) * b
     phi = math.exp(-g.T_N / g.accel_vibration_time_constant) * (1.0 - b)
     white = b / (2.0 - b)  # an exponential average's variance over its input's
     coloured = white * (1.0 + phi) / (1.0 - phi)  # the same for the commotion (first order)
@@ -61,7 +65,7 @@ def pair_gain_block_variance(s, axis: int, disagreement, mean, rotation, other, 
     lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
     commotion = g.accel_vibration_per_speed * speed
     return (
-        (p.gain_cross_coupling * s[GAIN_BLOCK_OTHER][axis]) ** 2
+        (p.gain_cross_coupling * block_other[axis]) ** 2
         + 2.0 * g.accel_noise_std**2 * white
         + 2.0 * commotion**2 * coloured
         + (2.0 * lever * omega_dot_std) ** 2
@@ -113,11 +117,15 @@ def pair_gain_window(s, axis: int, moving: bool, variance: float, p) -> None:
     first_sum = GAIN_SERIES * axis
     series_ring = GAIN_SERIES * axis * GAIN_WINDOW_MAX  # the axis's products, series by series
     number_ring = GAIN_WINDOW_MAX * axis
-    s[GAIN_SAMPLE_NUMBER][axis] += 1.0  # this sample's number
-    position, count = int(s[GAIN_POSITION][axis]), int(s[GAIN_COUNT][axis])
+    sample_numbers = s[GAIN_SAMPLE_NUMBER]
+    positions = s[GAIN_POSITION]
+    counts = s[GAIN_COUNT]
+    sample_numbers[axis] += 1.0  # this sample's number
+    number = sample_numbers[axis]
+    position, count = int(positions[axis]), int(counts[axis])
     while count > 0:  # expire the oldest entries
         oldest = (position - count) % n
-        if numbers[number_ring + oldest] > s[GAIN_SAMPLE_NUMBER][axis] - GAIN_HORIZON * n:
+        if numbers[number_ring + oldest] > number - GAIN_HORIZON * n:
             break
         for i in range(GAIN_SERIES):
             sums[first_sum + i] -= products[series_ring + i * GAIN_WINDOW_MAX + oldest]
@@ -144,9 +152,10 @@ def pair_gain_window(s, axis: int, moving: bool, variance: float, p) -> None:
                     for i in range(n):  # in order (np.sum's pairwise order is not numba's)
                         total += products[start + i]
                     sums[first_sum + series] = total
-        numbers[number_ring + position] = s[GAIN_SAMPLE_NUMBER][axis]
+        numbers[number_ring + position] = number
         position, count = (position + 1) % n, min(count + 1, n)
-    s[GAIN_POSITION][axis], s[GAIN_COUNT][axis] = float(position), float(count)
+    positions[axis] = float(position)
+    counts[axis] = float(count)
 
 
 @jitable
