@@ -92,6 +92,18 @@ def position_errors(a: dict, prefix: str) -> dict:
     return {"final": final_position_error(a, prefix), "rms": rms, "max": largest, "max_time_s": when}
 
 
+def position_error_columns(a: dict) -> dict:
+    """The studies' per-run position errors (m) of every estimate (``fused``, ``odometry``,
+    ``gyrodometry``): ``<label>_error_m`` (final), ``<label>_rms_error_m`` and ``<label>_max_error_m``
+    along the run (position_errors)."""
+    out = {}
+    for label, prefix in ESTIMATES:
+        errors = position_errors(a, prefix)
+        out[f"{label}_error_m"] = errors["final"]
+        out[f"{label}_rms_error_m"], out[f"{label}_max_error_m"] = errors["rms"], errors["max"]
+    return out
+
+
 def position_errors_in_percent(a: dict, prefix: str) -> dict:
     """position_errors' final, RMS and maximum in % of the path length (``path_length``)."""
     errors, length = position_errors(a, prefix), float(a["path_length"])

@@ -19,7 +19,8 @@ from slipnav.scenarios.metrics import (
     side_slip_sample_counts,
     slip_episodes,
 )
-from slipnav.studies.accuracy import side_slip_lines
+from slipnav.studies.accuracy import along_run_lines, side_slip_lines
+from slipnav.studies.long_run import position_error_lines
 
 from tests.shared import scenario_run
 
@@ -138,6 +139,35 @@ def test_position_errors_skip_rows_without_truth_and_fail_on_a_lost_estimate():
     assert math.isnan(errors["rms"]) and math.isnan(errors["max"]) and errors["final"] == pytest.approx(1.0)
 
 
+def test_accuracy_states_its_goals_against_the_rms_and_the_maximum_too():
+    """The accuracy study's lines for the hand-made profile: the fused RMS (sqrt(35/6) m of a 0.3 m path,
+    805 %) and maximum (5 m, 1667 %) in % and over odometry-only's, then each estimate's in metres."""
+    figures = along_run_figures(known_error_profile())
+    lines = along_run_lines(lambda key: np.array([figures[key], figures[key]]))
+    rms_pct, ratio = 100 * math.sqrt(35 / 6) / 0.3, figures["fused_over_odometry_rms"]
+    assert lines[0].startswith(f"  fused RMS error        mean {rms_pct:.2f} %  worst {rms_pct:.2f} %")
+    assert f"over odometry-only mean {ratio:.2f}" in lines[0] and "<= 1 % and <= 0.3" in lines[0]
+    assert lines[1].startswith(f"  fused max error        mean {500 / 0.3:.2f} %")
+    assert lines[3].startswith("  max errors (m)         fused 5.0000  odometry 7.2111")
+
+
+def test_the_long_run_prints_each_estimates_three_errors():
+    """The long-run benchmark's lines from a run's summary, "-" where it has none (a replay without truth,
+    an older summary)."""
+    summary = {
+        "final_position_error_m": {"fused": 0.0086, "odometry": 0.0713, "gyrodometry": None},
+        "rms_position_error_m": {"fused": 0.0363, "odometry": 0.0770, "gyrodometry": None},
+        "max_position_error_m": {"fused": 0.0594, "odometry": 0.1375, "gyrodometry": None},
+        "max_position_error_time_s": {"fused": 5.626, "odometry": 5.626, "gyrodometry": None},
+    }
+    assert position_error_lines(summary) == [
+        "  position error fused        final 0.0086 m, RMS 0.0363 m, max 0.0594 m at 5.6 s",
+        "  position error odometry     final 0.0713 m, RMS 0.0770 m, max 0.1375 m at 5.6 s",
+        "  position error gyrodometry  final - m, RMS - m, max - m at - s",
+    ]
+    assert position_error_lines({})[0] == "  position error fused        final - m, RMS - m, max - m at - s"
+
+
 def test_the_closed_squares_summary_reports_the_error_it_ends_without():
     """The closed square (seed 0) ends near where its fused estimate puts it, but the estimate was off by
     several centimetres mid-run: the summary's maximum is far above its final error, and the figures are
@@ -210,6 +240,7 @@ def test_accuracy_command_smoke(capsys, tmp_path):
     assert main([*argv, "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "fused final error" in out and "tangential slip" in out
+    assert "fused RMS error" in out and "fused max error" in out and "max errors (m)" in out
     assert "side-slip RMS error" in out  # square: peak |alpha| ~ 1 deg, never a bare "goal met"
     assert main(["accuracy", "--seeds", "0"]) == 2
     assert "--seeds=0" in capsys.readouterr().err
