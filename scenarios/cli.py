@@ -207,6 +207,8 @@ def _run(args) -> int:
         f"(real-time factor {s['realtime_factor']:.1f}); peak |alpha| "
         f"{s['peak_abs_true_alpha_deg']:.1f} deg, peak |slip ratio| {s['peak_abs_slip_ratio']:.2f}"
     )
+    if s["rms_position_error_m"]["fused"] is not None:
+        print(f"  fused position error {_position_error_text(s, 'fused')}")
     if s["aborted"]:  # the artifact is written, up to the stop; the run itself failed
         print(f"slipnav: error: {s['scenario']} stopped early: {s['aborted']}", file=sys.stderr)
         return 3
@@ -225,6 +227,17 @@ def _run(args) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+def _position_error_text(s: dict, label: str) -> str:
+    """An estimate's final, RMS and maximum position error of a summary, e.g. "final 0.0086 m, RMS 0.0363
+    m, max 0.0594 m at 5.63 s along the run" (the final one may be null: the last row's truth missing)."""
+    final = s["final_position_error_m"][label]
+    return (
+        f"final {'-' if final is None else f'{final:.4f}'} m, RMS {s['rms_position_error_m'][label]:.4f} m, "
+        f"max {s['max_position_error_m'][label]:.4f} m at {s['max_position_error_time_s'][label]:.2f} s "
+        "along the run"
+    )
 
 
 def _faults(args) -> int:
@@ -400,6 +413,8 @@ def _replay(args) -> int:
     else:
         truth = f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
     print(f"{s['scenario']}: {s['rows']} rows replayed with model {s['model']}{truth}")
+    if s["rms_position_error_m"]["fused"] is not None:
+        print(f"  fused position error {_position_error_text(s, 'fused')}")
     empty = sensor_columns_without_samples(result.arrays)
     if empty:
         print(

@@ -29,6 +29,23 @@ POSE_DELAY_SAMPLES = 2
 sensors' conversion latency and one of S(21), which integrates the previous sample's velocity."""
 
 
+def position_error_along_run(a: dict, prefix: str, delay_samples: int = 0) -> np.ndarray:
+    """Distance (m) between row k's ``prefix`` estimate and row k - delay_samples's true position, for
+    every row k >= delay_samples (NaN where either is not finite).
+
+    Args:
+        delay_samples: 0 compares each row with its own truth, which counts the robot's travel during the
+            pipeline's lag as error; POSE_DELAY_SAMPLES compares each pose with the truth of the instant
+            it describes: the estimation error alone.
+    """
+    if isinstance(delay_samples, bool) or not isinstance(delay_samples, int) or delay_samples < 0:
+        raise ValueError(f"delay_samples={delay_samples!r} is out of range: allowed integers >= 0")
+    n = max(len(a["true_x"]) - delay_samples, 0)
+    dx = np.asarray(a[f"{prefix}_x"], float)[delay_samples:] - np.asarray(a["true_x"], float)[:n]
+    dy = np.asarray(a[f"{prefix}_y"], float)[delay_samples:] - np.asarray(a["true_y"], float)[:n]
+    return np.hypot(dx, dy)
+
+
 def rms_position_error(a: dict, prefix: str, delay_samples: int = 0) -> float:
     """RMS over every sample of the run (the standstill before the start included, alike for every
     estimate) of the distance between the ``prefix`` estimate and the true position (m): unlike the final
@@ -40,14 +57,57 @@ def rms_position_error(a: dict, prefix: str, delay_samples: int = 0) -> float:
             none and are left out). 0: the same row, which counts the robot's travel during the pipeline's
             lag (POSE_DELAY_SAMPLES) as error; POSE_DELAY_SAMPLES: the estimation error alone.
     """
-    if isinstance(delay_samples, bool) or not isinstance(delay_samples, int) or delay_samples < 0:
-        raise ValueError(f"delay_samples={delay_samples!r} is out of range: allowed integers >= 0")
-    n = len(a["true_x"]) - delay_samples
-    if n <= 0:
+    distances = position_error_along_run(a, prefix, delay_samples)
+    if len(distances) == 0:
         return math.nan
-    dx = np.asarray(a[f"{prefix}_x"])[delay_samples:] - np.asarray(a["true_x"])[:n]
-    dy = np.asarray(a[f"{prefix}_y"])[delay_samples:] - np.asarray(a["true_y"])[:n]
-    return float(np.sqrt(np.mean(dx * dx + dy * dy)))
+    return float(np.sqrt(np.mean(distances * distances)))
+
+
+POSITION_ERROR_FIGURES = ("final", "rms", "max")
+"""The three figures every accuracy report gives of a position estimate (position_errors)."""
+
+
+def position_errors(a: dict, prefix: str) -> dict:
+    """The ``prefix`` estimate's position error (m) three ways: ``final`` (final_position_error: the last
+    row against its own truth), ``rms`` and ``max`` along the run, and ``max_time_s``, when the maximum
+    occurs (the row's t).
+
+    RMS and maximum run over every row whose truth POSE_DELAY_SAMPLES rows back is finite (the standstill
+    before the start included, alike for every estimate), each pose against the truth of the instant it
+    describes: the odometry-only and Gyrodometry poses lag the truth by the same two samples as the fused
+    one. An estimate that is not finite on such a row makes both NaN; no such row, NaN too. At rest at
+    the end the final error equals the last aligned one; a run cut while moving adds up to the travel of
+    POSE_DELAY_SAMPLES samples to the final error alone.
+    """
+    distances = position_error_along_run(a, prefix, POSE_DELAY_SAMPLES)
+    n = len(distances)
+    truth = np.isfinite(np.asarray(a["true_x"], float)[:n]) & np.isfinite(np.asarray(a["true_y"], float)[:n])
+    rows = np.flatnonzero(truth)
+    along = distances[rows]
+    if len(along) == 0 or not np.isfinite(along).all():
+        rms = largest = when = math.nan
+    else:
+        rms, k = float(np.sqrt(np.mean(along * along))), int(np.argmax(along))
+        largest, when = float(along[k]), float(np.asarray(a["t"])[rows[k] + POSE_DELAY_SAMPLES])
+    return {"final": final_position_error(a, prefix), "rms": rms, "max": largest, "max_time_s": when}
+
+
+def position_error_columns(a: dict) -> dict:
+    """The studies' per-run position errors (m) of every estimate (``fused``, ``odometry``,
+    ``gyrodometry``): ``<label>_error_m`` (final), ``<label>_rms_error_m`` and ``<label>_max_error_m``
+    along the run (position_errors)."""
+    out = {}
+    for label, prefix in ESTIMATES:
+        errors = position_errors(a, prefix)
+        out[f"{label}_error_m"] = errors["final"]
+        out[f"{label}_rms_error_m"], out[f"{label}_max_error_m"] = errors["rms"], errors["max"]
+    return out
+
+
+def position_errors_in_percent(a: dict, prefix: str) -> dict:
+    """position_errors' final, RMS and maximum in % of the path length (``path_length``)."""
+    errors, length = position_errors(a, prefix), float(a["path_length"])
+    return {figure: 100.0 * errors[figure] / length for figure in POSITION_ERROR_FIGURES}
 
 
 MIN_SIDE_SLIP_UPDATES = 10
@@ -145,6 +205,7 @@ def navigation_figures(a: dict) -> dict:
         "gyrodometry_error_m": gyro,
         "fused_error_pct": 100.0 * fused / length,
         "fused_over_odometry": fused / odo if odo > 0 else float("nan"),
+        **along_run_figures(a),
         "alpha_rms_deg": math.degrees(side_slip_rms_error(a)),
         "alpha_rms_at_updates_deg": math.degrees(side_slip_rms_error_at_updates(a)),
         "alpha_samples": alpha_samples,
@@ -155,6 +216,24 @@ def navigation_figures(a: dict) -> dict:
         "slip_detected_c1_half": _detected(two_batches),
         "max_latency_c1_half_T_C": _worst_latency(two_batches) / T_C,
     }
+
+
+def along_run_figures(a: dict) -> dict:
+    """navigation_figures' errors along the run (position_errors): per estimate (``fused``, ``odometry``,
+    ``gyrodometry``) ``<label>_rms_error_m``, ``<label>_max_error_m`` and the same in % of the path
+    (``_pct``), the fused maximum's time ``fused_max_error_time_s``, and the fused over odometry-only
+    ratios of the RMS and of the maximum (``fused_over_odometry_rms``, ``fused_over_odometry_max``)."""
+    length, out, errors = float(a["path_length"]), {}, {}
+    for label, prefix in ESTIMATES:
+        errors[label] = position_errors(a, prefix)
+        for figure in ("rms", "max"):
+            out[f"{label}_{figure}_error_m"] = errors[label][figure]
+            out[f"{label}_{figure}_error_pct"] = 100.0 * errors[label][figure] / length
+    out["fused_max_error_time_s"] = errors["fused"]["max_time_s"]
+    for figure in ("rms", "max"):
+        fused, odometry = errors["fused"][figure], errors["odometry"][figure]
+        out[f"fused_over_odometry_{figure}"] = fused / odometry if odometry > 0 else math.nan
+    return out
 
 
 def _detected(latencies: list) -> int:

@@ -27,7 +27,7 @@ from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.model import ModelError, RobotModel, load_model
 from slipnav.scenarios.progress import TaskProgress
-from slipnav.scenarios.run_summary import final_position_errors
+from slipnav.scenarios.run_summary import POSITION_ERROR_KEYS, position_error_summary
 from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_metadata, read_sensor_log
 from slipnav.systems.checks import require_finite
 from slipnav.systems.health.perturbation import perturbation_report
@@ -170,9 +170,10 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         track_width=np.array(robot.track_width),
         start_time=np.array(log.metadata.get("start_time", math.nan)),  # the run's, if the log says
     )
-    errors = (
-        final_position_errors(a) if log.has_truth else dict.fromkeys(("fused", "odometry", "gyrodometry"))
-    )
+    if log.has_truth:
+        errors = position_error_summary(a)
+    else:
+        errors = {key: dict.fromkeys(("fused", "odometry", "gyrodometry")) for key in POSITION_ERROR_KEYS}
     summary = {
         "scenario": name,
         "source": "replay",
@@ -183,7 +184,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         "sensor_faults": int(np.nansum(a["fault"])),
         "path_length_m": path_length if math.isfinite(path_length) else None,
         "duration_s": float(a["t"][-1] - a["t"][0]),
-        "final_position_error_m": errors,
+        **errors,
         "wall_time_s": wall,
         "realtime_factor": float((a["t"][-1] - a["t"][0]) / wall) if wall > 0 else None,
     }

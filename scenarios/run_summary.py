@@ -9,7 +9,7 @@ import math
 import numpy as np
 from slipnav.scenarios.completion import completion_tolerance, judge_completion, moving_distance
 from slipnav.scenarios.config import Scenario
-from slipnav.scenarios.metrics import ESTIMATES, final_position_error, moving_alpha
+from slipnav.scenarios.metrics import ESTIMATES, final_position_error, moving_alpha, position_errors
 from slipnav.scenarios.model import RobotModel
 from slipnav.scenarios.navigation_health import NavigationHealth
 from slipnav.scenarios.run_plan import RunPlan
@@ -29,6 +29,30 @@ def final_position_errors(arrays) -> dict:
         d = final_position_error(arrays, prefix)
         out[label] = d if math.isfinite(d) else None
     return out
+
+
+POSITION_ERROR_KEYS = {
+    "final_position_error_m": "final",
+    "rms_position_error_m": "rms",
+    "max_position_error_m": "max",
+    "max_position_error_time_s": "max_time_s",
+}
+"""Summary key -> position_errors' figure: each key holds {fused, odometry, gyrodometry}."""
+
+
+def position_error_summary(arrays) -> dict:
+    """The summary's position errors (POSITION_ERROR_KEYS): each estimate's final error, its RMS and
+    maximum along the run (m; metrics.position_errors) and when the maximum occurred (s); None where not
+    estimated or without truth."""
+    errors = {label: position_errors(arrays, prefix) for label, prefix in ESTIMATES}
+    return {
+        key: {label: _finite_or_none(errors[label][figure]) for label, _ in ESTIMATES}
+        for key, figure in POSITION_ERROR_KEYS.items()
+    }
+
+
+def _finite_or_none(value: float):
+    return value if math.isfinite(value) else None
 
 
 def change_times(t, counts) -> list:
@@ -110,7 +134,7 @@ def run_summary(
         "end_distance_m": judged["end_distance_m"],
         "end_progress_m": judged["end_progress_m"],
         "controller_completion_time_s": controller_done,
-        "final_position_error_m": final_position_errors(arrays),
+        **position_error_summary(arrays),
         "reference_final_distance_m": float(
             math.hypot(arrays["true_x"][-1] - reference.x[-1], arrays["true_y"][-1] - reference.y[-1])
         ),

@@ -37,7 +37,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.metrics import final_position_error
+from slipnav.scenarios.metrics import position_error_columns
 from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.engine import session
@@ -98,7 +98,8 @@ def run_job(job: dict, event: FaultEvent | None):
 def fault_figures(
     a: dict, event: FaultEvent, onset: float, clean_fused: float, clean_run_rms: float = math.nan
 ) -> dict:
-    """Latency, flags, error ratios and bias check of the faulty run ``a`` (``onset``: fault_onset;
+    """Latency, flags, position errors (metrics.position_error_columns: final, RMS and maximum along the
+    run of each estimate), error ratios and bias check of the faulty run ``a`` (``onset``: fault_onset;
     ``clean_fused``, ``clean_run_rms``: the fault-free run's fused final error and its RMS over the
     run, m)."""
     t = a["t"]
@@ -106,7 +107,8 @@ def fault_figures(
     flagged = np.flatnonzero((codes > 0) & (t >= event.start - 1e-9))
     latency = float(t[flagged[0]]) - onset if len(flagged) and math.isfinite(onset) else math.nan
     others = sum(int(np.sum(a[f"health_{c}"] > 0)) for c in SENSOR_CHANNELS if c != event.channel)
-    fused = final_position_error(a, "est")
+    errors = position_error_columns(a)
+    fused = errors["fused_error_m"]
     std = float(a["est_gyro_bias_std"][-1])
     bias_error = float(a["est_gyro_bias"][-1] - a["true_gyro_bias"][-1])
     return {
@@ -116,9 +118,7 @@ def fault_figures(
         "flagged_samples": int(np.sum(codes > 0)),
         "other_flags": others,
         "perturbation_samples": perturbation_samples(a),
-        "fused_error_m": fused,
-        "odometry_error_m": final_position_error(a, "odo"),
-        "gyrodometry_error_m": final_position_error(a, "gyro"),
+        **errors,
         "error_ratio": fused / clean_fused if clean_fused > 0 else math.inf,
         "run_rms_ratio": run_rms_error(a) / clean_run_rms if clean_run_rms > 0 else math.nan,
         "bias_error_sigma": abs(bias_error) / std if std > 0 else math.inf,
@@ -135,7 +135,8 @@ def run_fault(job: dict) -> dict:
 
 
 def run_perturbation(job: dict) -> dict:
-    """One perturbation run: the three estimates' final errors, completion and the flags it caused."""
+    """One perturbation run: the three estimates' final errors and their RMS and maximum along the run,
+    completion and the flags it caused."""
     event = FaultEvent(job["kind"], job["channel"], job["start"], job["duration"], job["value"])
     result = run_job(job, event)
     a = result.arrays
@@ -149,9 +150,7 @@ def run_perturbation(job: dict) -> dict:
             for c, v in caught.items()
         )
         or "none",
-        "fused_error_m": final_position_error(a, "est"),
-        "odometry_error_m": final_position_error(a, "odo"),
-        "gyrodometry_error_m": final_position_error(a, "gyro"),
+        **position_error_columns(a),
         "completed": bool(result.summary["completed"]),
         "flags": " ".join(f"{c}:{'+'.join(v['classes'])}" for c, v in flags.items()) or "none",
     }
@@ -256,12 +255,13 @@ def plot_faults(rows: list, path) -> FilePath:
 
 
 def print_perturbations(rows: list, stream) -> None:
-    """The perturbation table: final errors (fused, odometry-only, Gyrodometry), completion, the
-    perturbation monitor's first flag after the onset (ms) and flags, the sensor flags; then a line
-    ``perturbations detected=<n>/<m> within_0.1s=<k>``."""
+    """The perturbation table: final errors (fused, odometry-only, Gyrodometry), the fused RMS and maximum
+    along the run, completion, the perturbation monitor's first flag after the onset (ms) and flags, the
+    sensor flags; then a line ``perturbations detected=<n>/<m> within_0.1s=<k>``."""
     print(
         f"{'scenario':10} {'seed':>4} {'perturbation':13} {'on':7} {'fused m':>8} {'odo m':>7} "
-        f"{'gyrodo m':>8} {'done':>5} {'flag ms':>7}  perturbation flags | sensor flags",
+        f"{'gyrodo m':>8} {'RMS m':>7} {'max m':>7} {'done':>5} {'flag ms':>7}  perturbation flags | "
+        "sensor flags",
         file=stream,
     )
     for r in rows:
@@ -269,7 +269,9 @@ def print_perturbations(rows: list, stream) -> None:
         shown = f"{1000 * latency:.0f}" if math.isfinite(latency) else "-"
         print(
             f"{r['scenario']:10} {r['seed']:>4} {r['kind']:13} {r['channel']:7} {r['fused_error_m']:8.4f} "
-            f"{r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} {str(r['completed']):>5} "
+            f"{r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} "
+            f"{r.get('fused_rms_error_m', math.nan):7.4f} {r.get('fused_max_error_m', math.nan):7.4f} "
+            f"{str(r['completed']):>5} "
             f"{shown:>7}  {r['perturbation_flags']} | {r['flags']}",
             file=stream,
         )
@@ -280,13 +282,12 @@ def print_perturbations(rows: list, stream) -> None:
 
 
 def clean_figures(a: dict) -> dict:
-    """A fault-free run's flags (all false) and final errors (fused, odometry-only, Gyrodometry)."""
+    """A fault-free run's flags (all false) and position errors (fused, odometry-only, Gyrodometry: final,
+    RMS and maximum along the run)."""
     return {
         "false_flags": sum(int(np.sum(a[f"health_{c}"] > 0)) for c in SENSOR_CHANNELS)
         + perturbation_samples(a),
-        "fused_error_m": final_position_error(a, "est"),
-        "odometry_error_m": final_position_error(a, "odo"),
-        "gyrodometry_error_m": final_position_error(a, "gyro"),
+        **position_error_columns(a),
     }
 
 
@@ -321,6 +322,30 @@ def baseline_line(rows: list, clean_rows: list) -> str:
     )
 
 
+def along_run_baseline_line(rows: list, clean_rows: list) -> str:
+    """baseline_line's counts for the fused RMS and maximum along the run against the baselines' ('' when
+    no run has them): "along the run: the fused RMS is below odometry-only's in n/m fault runs and k/c
+    fault-free runs, below Gyrodometry's in ...; its maximum ..."."""
+
+    def closer(runs, figure, baseline):
+        keys = (f"fused_{figure}_error_m", f"{baseline}_{figure}_error_m")
+        runs = [r for r in runs if all(math.isfinite(r.get(key, math.nan)) for key in keys)]
+        return f"{sum(r[keys[0]] < r[keys[1]] for r in runs)}/{len(runs)}"
+
+    if not any("fused_rms_error_m" in r for r in [*rows, *clean_rows]):
+        return ""
+    parts = [
+        f"{'the fused RMS' if figure == 'rms' else 'its maximum'} is "
+        + ", ".join(
+            f"below {label}'s in {closer(rows, figure, key)} fault runs and "
+            f"{closer(clean_rows, figure, key)} fault-free runs"
+            for label, key in (("odometry-only", "odometry"), ("Gyrodometry", "gyrodometry"))
+        )
+        for figure in ("rms", "max")
+    ]
+    return "along the run: " + "; ".join(parts)
+
+
 def print_null_faults(nulls: list, stream) -> None:
     """One line on the null faults (null_fault_cases): the final-error ratio chance alone gives."""
     ratios = [r["error_ratio"] for r in nulls]
@@ -338,7 +363,8 @@ def print_null_faults(nulls: list, stream) -> None:
 def print_report(rows: list, clean_rows: list, wall: float, stream, nulls: list = ()) -> None:
     print(
         f"{'scenario':10} {'seed':>4} {'channel':9} {'fault':10} {'latency ms':>10} {'ratio':>6} "
-        f"{'bias/sigma':>10} {'fused m':>8} {'odo m':>7} {'gyrodo m':>8} {'RMS ratio':>9}",
+        f"{'bias/sigma':>10} {'fused m':>8} {'odo m':>7} {'gyrodo m':>8} {'RMS ratio':>9} {'RMS m':>7} "
+        f"{'max m':>7}",
         file=stream,
     )
     for r in rows:
@@ -347,7 +373,8 @@ def print_report(rows: list, clean_rows: list, wall: float, stream, nulls: list 
             f"{r['scenario']:10} {r['seed']:>4} {r['channel']:9} {r['kind']:10} {latency:>10} "
             f"{r['error_ratio']:6.2f} {r['bias_error_sigma']:10.2f} {r['fused_error_m']:8.4f} "
             f"{r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} "
-            f"{r.get('run_rms_ratio', math.nan):9.2f}",
+            f"{r.get('run_rms_ratio', math.nan):9.2f} {r.get('fused_rms_error_m', math.nan):7.4f} "
+            f"{r.get('fused_max_error_m', math.nan):7.4f}",
             file=stream,
         )
     run_rms = [(r.get("run_rms_ratio", math.nan), r) for r in rows]
@@ -373,6 +400,9 @@ def print_report(rows: list, clean_rows: list, wall: float, stream, nulls: list 
             file=stream,
         )
     print(baseline_line(rows, clean_rows), file=stream)
+    along = along_run_baseline_line(rows, clean_rows)
+    if along:
+        print(along, file=stream)
     false_flags = sum(r["false_flags"] for r in clean_rows)
     detected = sum(bool(r["detected"]) for r in rows)
     worst_ratio = max((r["error_ratio"] for r in rows), default=math.nan)

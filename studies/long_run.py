@@ -5,8 +5,9 @@
 1. ``slipnav run SCENARIO --duration S`` (default: square_laps, an hour of square laps with 5 s at rest
    between them, 3600 s) in a child process: its peak resident
    memory (getrusage of the child, as ``/usr/bin/time -v`` reports it), wall time, and the summary's
-   ``completed``, ``aborted`` and the extreme eigenvalues and asymmetry of the EKF covariance P (checked
-   every 0.1 s of simulated time by navigation_health.NavigationHealth).
+   ``completed``, ``aborted``, the extreme eigenvalues and asymmetry of the EKF covariance P (checked
+   every 0.1 s of simulated time by navigation_health.NavigationHealth) and each estimate's final, RMS
+   and maximum position error along the run (position_error_lines).
 2. ``--spin S`` (default 3600 s; 0 skips): S seconds of spinning on the spot at 20 rad/s through the plain
    navigation loop (systems.navigation.NavigationLoop, the diagram's functions) on synthetic sensors,
    P checked every 0.1 s: without the mixing in P (systems/ekf.py) its velocity block reaches 1e300 in
@@ -89,6 +90,32 @@ def spin(duration: float, T_N: float = 0.002, T_C: float = 0.02, seed: int = 0) 
     }
 
 
+def position_error_lines(summary: dict) -> list[str]:
+    """One line per estimate of a run's summary: its final, RMS and maximum position error along the run
+    (m; the summary's final_position_error_m, rms_position_error_m, max_position_error_m) and when the
+    maximum occurred (s); "-" where the summary has none."""
+
+    def shown(value, digits=4):
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    lines = []
+    for label in ("fused", "odometry", "gyrodometry"):
+        final, rms, largest, when = (
+            summary.get(key, {}).get(label)
+            for key in (
+                "final_position_error_m",
+                "rms_position_error_m",
+                "max_position_error_m",
+                "max_position_error_time_s",
+            )
+        )
+        lines.append(
+            f"  position error {label:<12} final {shown(final)} m, RMS {shown(rms)} m, max "
+            f"{shown(largest)} m at {shown(when, 1)} s"
+        )
+    return lines
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m slipnav.studies.long_run", description=__doc__.split("\n")[0]
@@ -114,6 +141,8 @@ def main(argv=None) -> int:
             f"P over the run: eigenvalues {s['covariance_min_eigenvalue']:.3g} .. "
             f"{s['covariance_max_eigenvalue']:.3g}, asymmetry {s['covariance_max_asymmetry']:.3g}"
         )
+        for line in position_error_lines(s):
+            print(line)
     if s["stderr"]:
         print(f"  stderr: {s['stderr']}")
     if args.spin > 0.0:

@@ -41,7 +41,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.metrics import POSE_DELAY_SAMPLES, final_position_error, rms_position_error
+from slipnav.scenarios.metrics import position_error_columns
 from slipnav.studies.engine import Engine
 from slipnav.studies.fault_cases import MEASURED_KEYS
 from slipnav.studies.faults import run_job
@@ -282,20 +282,11 @@ def other_flag_time(a: dict, channel: str, start: float) -> float:
 
 
 def position_figures(a: dict) -> dict:
-    """Final errors of the fused pose and both baselines; the fused RMS and largest error along the run
-    against the truth POSE_DELAY_SAMPLES back (m)."""
-    n = len(a["true_x"]) - POSE_DELAY_SAMPLES
-    d = np.hypot(
-        np.asarray(a["est_x"])[POSE_DELAY_SAMPLES:] - np.asarray(a["true_x"])[:n],
-        np.asarray(a["est_y"])[POSE_DELAY_SAMPLES:] - np.asarray(a["true_y"])[:n],
-    )
-    return {
-        "fused_error_m": final_position_error(a, "est"),
-        "odometry_error_m": final_position_error(a, "odo"),
-        "gyrodometry_error_m": final_position_error(a, "gyro"),
-        "rms_m": rms_position_error(a, "est", POSE_DELAY_SAMPLES),
-        "max_m": float(np.max(d)) if n > 0 else math.nan,
-    }
+    """Final errors of the fused pose and both baselines, each one's RMS and largest error along the run
+    (metrics.position_error_columns: against the truth POSE_DELAY_SAMPLES back), and the fused RMS and
+    largest as ``rms_m``, ``max_m`` (m)."""
+    columns = position_error_columns(a)
+    return {**columns, "rms_m": columns["fused_rms_error_m"], "max_m": columns["fused_max_error_m"]}
 
 
 def fault_figures(a: dict, job: dict) -> dict:

@@ -18,11 +18,11 @@ def _ms(seconds) -> str:
 
 def print_rows(rows: list, stream) -> None:
     """One line per faulted run: the fault, its significance and latency, the channels flagged first and
-    how long others were, the errors."""
+    how long others were, the errors (final of each estimate; the fused RMS and maximum along the run)."""
     print(
         f"{'scenario':8} {'seed':>4} {'class':10} {'channel':9} {'start':>6} {'dur':>6} {'value':>9} "
         f"{'sig':>3} {'lat ms':>6} {'first flagged':17} {'others s':>8} {'fused m':>8} {'odo m':>7} "
-        f"{'gyrodo m':>8} {'ratio':>6} {'rms':>5}",
+        f"{'gyrodo m':>8} {'ratio':>6} {'rms':>5} {'RMS m':>7} {'max m':>7}",
         file=stream,
     )
     for r in rows:
@@ -32,7 +32,8 @@ def print_rows(rows: list, stream) -> None:
             f"{duration:>6} {r['value']:9.3g} {'yes' if r['significant'] else 'no':>3} "
             f"{_ms(r['latency_s']):>6} {r['first_flagged']:17} {r['other_flag_s']:8.3f} "
             f"{r['fused_error_m']:8.4f} {r['odometry_error_m']:7.4f} {r['gyrodometry_error_m']:8.4f} "
-            f"{r['error_ratio']:6.2f} {r['rms_ratio']:5.2f}",
+            f"{r['error_ratio']:6.2f} {r['rms_ratio']:5.2f} {r.get('rms_m', math.nan):7.4f} "
+            f"{r.get('max_m', math.nan):7.4f}",
             file=stream,
         )
 

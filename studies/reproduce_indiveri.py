@@ -142,7 +142,8 @@ def indiveri_fig5(run: Run, mode: str = "default") -> Reproduced:
 
 def indiveri_fig6(runs: dict, mode: str = "default") -> Reproduced:
     """Indiveri Fig. 6: the circle followed localised by odometry, Gyrodometry (Algorithm 1) and the fusion
-    (ours in place of ICP/Gyrodometry), each compared with the true path (the paper's ICP reference).
+    (ours in place of ICP/Gyrodometry), each compared with the true path (the paper's ICP reference), with
+    the followed estimate's final, RMS and maximum position error.
     ``runs``: {"odometry": Run, "gyrodometry": Run, "fused": Run}."""
     fig, axes = plt.subplots(1, 3, figsize=(15, 5.2))
     prefix = {"odometry": "odo", "gyrodometry": "gyro", "fused": "est"}
@@ -166,6 +167,9 @@ def indiveri_fig6(runs: dict, mode: str = "default") -> Reproduced:
             "end_distance_m": s["end_distance_m"],
             "path_error_rms_m": s["path_error_rms_m"],
             "path_error_max_m": s["path_error_max_m"],
+        } | {  # the followed estimate's own position error (metrics.position_errors)
+            f"position_error_{figure}_m": s[f"{figure}_position_error_m"][source]
+            for figure in ("final", "rms", "max")
         }
         ax.set_title(f"localised by {source}: path error RMS {100 * s['path_error_rms_m']:.1f} cm")
         ax.legend(fontsize=7)
@@ -174,7 +178,9 @@ def indiveri_fig6(runs: dict, mode: str = "default") -> Reproduced:
     fig.tight_layout()
     measured = "; ".join(
         f"{src}: true path error RMS {100 * v['path_error_rms_m']:.1f} cm, ends "
-        f"{100 * v['end_distance_m']:.1f} cm from the path's end"
+        f"{100 * v['end_distance_m']:.1f} cm from the path's end; the {src} estimate's position error final "
+        f"{100 * v['position_error_final_m']:.1f}, RMS {100 * v['position_error_rms_m']:.1f}, max "
+        f"{100 * v['position_error_max_m']:.1f} cm"
         for src, v in numbers.items()
     )
     return Reproduced(

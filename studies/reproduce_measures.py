@@ -7,7 +7,12 @@ from __future__ import annotations
 import dataclasses as dc
 
 import numpy as np
-from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, final_position_error
+from slipnav.scenarios.metrics import (
+    DETECTION_C1_LEVEL,
+    POSITION_ERROR_FIGURES,
+    final_position_error,
+    position_errors_in_percent,
+)
 
 DIVERGENCE = 0.05
 """m/s: |fused v_t - true v_t| above which Seyr Fig. 7's light grey marks a divergence of the estimate."""
@@ -48,6 +53,19 @@ class Run:
 def percent_of_path(run: Run, prefix: str = "est") -> float:
     """Final position error of an estimate in % of the path."""
     return 100.0 * final_position_error(run.arrays, prefix) / float(run.arrays["path_length"])
+
+
+def percent_errors(run: Run, prefix: str = "est") -> dict:
+    """An estimate's final, RMS and maximum position error along the run in % of the path
+    (metrics.position_errors_in_percent)."""
+    return position_errors_in_percent(run.arrays, prefix)
+
+
+def percent_errors_text(errors: dict) -> str:
+    """percent_errors as "final 0.16 %, RMS 0.68 %, max 1.12 %"."""
+    return ", ".join(
+        f"{'RMS' if figure == 'rms' else figure} {errors[figure]:.2f} %" for figure in POSITION_ERROR_FIGURES
+    )
 
 
 def moving_mask(a) -> np.ndarray:

@@ -10,7 +10,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from slipnav.scenarios.metrics import DETECTION_C1_LEVEL, moving_alpha, side_slip_rms_error  # noqa: E402
+from slipnav.scenarios.metrics import (  # noqa: E402
+    DETECTION_C1_LEVEL,
+    moving_alpha,
+    position_errors,
+    side_slip_rms_error,
+)
 from slipnav.scenarios.plots import plot_associated_points, retimed_reference  # noqa: E402
 from slipnav.studies.reproduce_measures import (  # noqa: E402
     DIVERGENCE,
@@ -21,6 +26,8 @@ from slipnav.studies.reproduce_measures import (  # noqa: E402
     divergence_mask,
     following_time,
     moving_mask,
+    percent_errors,
+    percent_errors_text,
     percent_of_path,
     time_above,
     time_axis,
@@ -217,17 +224,18 @@ def seyr_fig7(run: Run, mode: str = "default") -> Reproduced:
 
 def seyr_fig8(corner: Run, square: Run, mode: str = "default") -> Reproduced:
     """Seyr Fig. 8: posture estimates on the corner (left) and the square (right): true, fused S(21) and
-    odometry-only paths; the final error in % of the path (Seyr §VII: about 2.5 %)."""
+    odometry-only paths; the final error in % of the path (Seyr §VII: about 2.5 %) and beside it the RMS
+    and the maximum along the run (metrics.position_errors), which a closed path's end does not cancel."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
     numbers = {}
     for ax, run, name in ((axes[0], corner, "corner"), (axes[1], square, "square")):
         a = run.arrays
+        fused, odometry = percent_errors(run), percent_errors(run, "odo")
         ax.plot(run.reference.x, run.reference.y, "k--", lw=0.8, label="reference")
         ax.plot(a["true_x"], a["true_y"], "C0", lw=4, alpha=0.4, label="true")
-        ax.plot(a["est_x"], a["est_y"], "C3", lw=1, label=f"fused ({percent_of_path(run):.2f} % at the end)")
-        ax.plot(
-            a["odo_x"], a["odo_y"], "C2", lw=0.8, label=f"odometry only ({percent_of_path(run, 'odo'):.2f} %)"
-        )
+        ax.plot(a["est_x"], a["est_y"], "C3", lw=1, label=f"fused ({percent_errors_text(fused)})")
+        odometry_label = f"odometry only ({percent_errors_text(odometry)})"
+        ax.plot(a["odo_x"], a["odo_y"], "C2", lw=0.8, label=odometry_label)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
@@ -236,6 +244,10 @@ def seyr_fig8(corner: Run, square: Run, mode: str = "default") -> Reproduced:
         ax.grid(True, alpha=0.3)
         numbers[f"{name}_fused_pct"] = percent_of_path(run)
         numbers[f"{name}_odometry_pct"] = percent_of_path(run, "odo")
+        for figure in ("rms", "max"):
+            numbers[f"{name}_fused_{figure}_pct"] = fused[figure]
+            numbers[f"{name}_odometry_{figure}_pct"] = odometry[figure]
+        numbers[f"{name}_fused_max_time_s"] = position_errors(a, "est")["max_time_s"]
     fig.suptitle(f"Seyr Fig. 8 ({mode}): posture estimates, corner (left) and square (right)")
     fig.tight_layout()
     return Reproduced(
@@ -246,7 +258,13 @@ def seyr_fig8(corner: Run, square: Run, mode: str = "default") -> Reproduced:
         "About 2.5 % position error with reference to absolute trajectory length (§VII).",
         f"fused final error {numbers['corner_fused_pct']:.2f} % (corner), "
         f"{numbers['square_fused_pct']:.2f} % (square); odometry only "
-        f"{numbers['corner_odometry_pct']:.2f} %, {numbers['square_odometry_pct']:.2f} %.",
+        f"{numbers['corner_odometry_pct']:.2f} %, {numbers['square_odometry_pct']:.2f} %. Along the run "
+        f"(the paper's figure is a final error): fused RMS {numbers['corner_fused_rms_pct']:.2f} %, "
+        f"{numbers['square_fused_rms_pct']:.2f} %, max {numbers['corner_fused_max_pct']:.2f} % "
+        f"(at {numbers['corner_fused_max_time_s']:.2f} s), {numbers['square_fused_max_pct']:.2f} % "
+        f"(at {numbers['square_fused_max_time_s']:.2f} s); odometry only RMS "
+        f"{numbers['corner_odometry_rms_pct']:.2f} %, {numbers['square_odometry_rms_pct']:.2f} %, max "
+        f"{numbers['corner_odometry_max_pct']:.2f} %, {numbers['square_odometry_max_pct']:.2f} %.",
         f"{corner.command}; {square.command}",
         numbers,
     )
@@ -254,7 +272,8 @@ def seyr_fig8(corner: Run, square: Run, mode: str = "default") -> Reproduced:
 
 def slip_control_effect(with_sc: Run, without: Run) -> dict:
     """What slip control does on one scenario: peak |alpha| (deg), time with a wheel's |slip ratio| >
-    EXCESSIVE_SLIP (s), fused final error (%), following time (s), with and without."""
+    EXCESSIVE_SLIP (s), fused final error (``pct``), its RMS and maximum along the run (``rms_pct``,
+    ``max_pct``; % of the path), following time (s), with (``_on``) and without (``_off``)."""
     out = {}
     for tag, run in (("on", with_sc), ("off", without)):
         a = run.arrays
@@ -262,5 +281,7 @@ def slip_control_effect(with_sc: Run, without: Run) -> dict:
         out[f"alpha_{tag}"] = float(np.degrees(np.nanmax(np.abs(moving_alpha(a)))))
         out[f"slip_time_{tag}"] = time_above(a, np.where(moving_mask(a), slip, 0.0), EXCESSIVE_SLIP)
         out[f"pct_{tag}"] = percent_of_path(run)
+        errors = percent_errors(run)
+        out[f"rms_pct_{tag}"], out[f"max_pct_{tag}"] = errors["rms"], errors["max"]
         out[f"time_{tag}"] = following_time(run)
     return out

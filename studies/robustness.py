@@ -7,10 +7,12 @@ keep the nominal model. Cases: the matched robot, every single tolerance at its 
 +-2 %, mass +25 %, friction 0.5 and 0.9) and random draws of the tolerance preset. For each case and
 seed: the final position error (% of the path) of the fused estimate, odometry-only and Gyrodometry, the
 final heading errors, the side-slip RMS (where |alpha| > 1 deg) and, beside the issue's final errors,
-each estimate's RMS position error over the run (% of the path; metrics.rms_position_error: an error made
-along the way counts even where a later one cancels it at the end). Prints a table (the matched row
-first), writes a figure, and ends with
-``robustness worst_fused_pct=<f> worst_fused_over_best_baseline=<f> worst_alpha_rms_deg=<f>``.
+each estimate's RMS position error over the run against the same row's truth (``run_rms_pct``;
+metrics.rms_position_error: an error made along the way counts even where a later one cancels it at the
+end) and its RMS and maximum along the run against the truth of the instant each pose describes
+(``rms_pct``, ``max_pct``; metrics.position_errors). Prints a table (the matched row first), writes a
+figure, and ends with ``robustness worst_fused_pct=<f> worst_fused_over_best_baseline=<f>
+worst_alpha_rms_deg=<f> worst_fused_max_pct=<f>``.
 """
 
 import dataclasses as dc
@@ -23,7 +25,13 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.metrics import ESTIMATES, final_position_error, rms_position_error, side_slip_rms_error
+from slipnav.scenarios.metrics import (
+    ESTIMATES,
+    final_position_error,
+    position_errors_in_percent,
+    rms_position_error,
+    side_slip_rms_error,
+)
 from slipnav.scenarios.model import RobotModel, SensorCalibration, write_model
 from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
@@ -58,7 +66,11 @@ CASES = {
 
 RESULT_COLUMNS = (
     "scenario case seed".split()
-    + [f"{label}_{figure}" for label, _ in ESTIMATES for figure in ("pct", "heading_deg", "run_rms_pct")]
+    + [
+        f"{label}_{figure}"
+        for label, _ in ESTIMATES
+        for figure in ("pct", "heading_deg", "run_rms_pct", "rms_pct", "max_pct")
+    ]
     + ["alpha_rms_deg"]
 )
 """The columns of run_case's row (a resumed robustness.csv must have them all)."""
@@ -83,6 +95,8 @@ def run_case(name: str, case: str, seed: int, open_loop=None) -> dict:
         heading = a[f"{prefix}_phi"][-1] - a["true_phi"][-1]
         out[f"{label}_heading_deg"] = math.degrees(math.remainder(heading, 2.0 * math.pi))
         out[f"{label}_run_rms_pct"] = 100.0 * rms_position_error(a, prefix) / length
+        along = position_errors_in_percent(a, prefix)
+        out[f"{label}_rms_pct"], out[f"{label}_max_pct"] = along["rms"], along["max"]
     out["alpha_rms_deg"] = math.degrees(side_slip_rms_error(a))
     return out
 
@@ -130,10 +144,10 @@ def robustness(
     print(f"{len(jobs)} runs in {time.perf_counter() - start:.0f} s", file=stream)
     figure = plot_robustness(rows, FilePath(out_dir) / "robustness.png")
     print(f"figure: {figure}", file=stream)
-    pct, ratio, alpha = summary
+    pct, ratio, alpha, largest = summary
     print(
         f"robustness worst_fused_pct={pct:.3f} worst_fused_over_best_baseline={ratio:.3f} "
-        f"worst_alpha_rms_deg={alpha:.3f}",
+        f"worst_alpha_rms_deg={alpha:.3f} worst_fused_max_pct={largest:.3f}",
         file=stream,
     )
     return rows
@@ -141,14 +155,16 @@ def robustness(
 
 def summarise(rows: list, stream) -> tuple:
     """Print per scenario and case: mean (worst) of each error, the mean ratio of fused to the better
-    baseline, and the seeds on which fused exceeded either baseline. Returns the last line's figures."""
-    worst_pct, worst_ratio, worst_alpha = 0.0, 0.0, 0.0
+    baseline, the seeds on which fused exceeded either baseline, and the largest error along the run.
+    Returns the last line's figures (the worst fused final error, ratio, side-slip RMS and fused maximum
+    along the run)."""
+    worst_pct, worst_ratio, worst_alpha, worst_max = 0.0, 0.0, 0.0, 0.0
     for name in dict.fromkeys(r["scenario"] for r in rows):
         print(f"\n{name}", file=stream)
         print(
             f"{'case':<26}{'fused %':>14}{'odometry %':>14}{'Gyrodom. %':>14}{'fused/best':>11}"
             f"{'above a baseline':>17}{'heading fused/odo/gyro deg':>30}{'alpha RMS deg':>15}"
-            f"{'run RMS fused/odo/gyro %':>27}{'above':>7}",
+            f"{'run RMS fused/odo/gyro %':>27}{'above':>7}{'max fused/odo/gyro %':>23}",
             file=stream,
         )
         for case in CASES:
@@ -179,18 +195,23 @@ def summarise(rows: list, stream) -> tuple:
             run_rms = "/".join(f"{rms[p].mean():.2f}" for p in labels)
             beyond = (rms["fused"] > rms["odometry"]) | (rms["fused"] > rms["gyrodometry"])
             run_above = f"{int(np.sum(beyond))}/{len(sel)}"
+            largest = "/".join(f"{col[f'{p}_max_pct'].mean():.2f}" for p in labels)
+            worst_max = max(worst_max, col["fused_max_pct"].max())
             print(
                 f"{case:<26}{mw('fused_pct'):>14}{mw('odometry_pct'):>14}{mw('gyrodometry_pct'):>14}{ratio:>11.2f}"
-                f"{f'{above}/{len(sel)}':>17}{heading:>30}{alpha_text:>15}{run_rms:>27}{run_above:>7}",
+                f"{f'{above}/{len(sel)}':>17}{heading:>30}{alpha_text:>15}{run_rms:>27}{run_above:>7}"
+                f"{largest:>23}",
                 file=stream,
             )
     print(
         "\nfigures: mean (worst) over seeds; fused/best = mean fused / mean of the better baseline per seed; "
         "alpha RMS where |alpha| > 1 deg (its mean enters the last line); run RMS = the position error's RMS "
-        "over the run, mean over seeds, and the seeds on which the fused one is above either baseline's",
+        "over the run against the same row's truth, mean over seeds, and the seeds on which the fused one is "
+        "above either baseline's; max = the largest position error along the run (each pose against the "
+        "truth of the instant it describes), mean over seeds",
         file=stream,
     )
-    return worst_pct, worst_ratio, worst_alpha
+    return worst_pct, worst_ratio, worst_alpha, worst_max
 
 
 def plot_robustness(rows: list, path: FilePath) -> FilePath:
@@ -299,8 +320,9 @@ def calibrated_model_path(scenario, seed: int, model_dir) -> FilePath:
 
 def run_calibrated(name: str, seed: int, model_dir, open_loop=None) -> dict:
     """The preset draw of ``seed`` on scenario ``name`` with the nominal, the calibrated and the matched
-    model: each one's fused, odometry and Gyrodometry final errors (% of the path) and headings
-    (``open_loop``: as run_scenario's; True drives the same commands with every model)."""
+    model: each one's fused, odometry and Gyrodometry final errors, their RMS and maximum along the run
+    (% of the path; ``_pct``, ``_rms_pct``, ``_max_pct``) and headings (``open_loop``: as run_scenario's;
+    True drives the same commands with every model)."""
     model_dir = FilePath(model_dir)
     model_dir.mkdir(parents=True, exist_ok=True)
     scenario = load_scenario(name)
@@ -319,6 +341,9 @@ def run_calibrated(name: str, seed: int, model_dir, open_loop=None) -> dict:
         length = float(a["path_length"])
         for estimate, prefix in ESTIMATES:
             out[f"{label}_{estimate}_pct"] = 100.0 * final_position_error(a, prefix) / length
+            along = position_errors_in_percent(a, prefix)
+            for figure in ("rms", "max"):
+                out[f"{label}_{estimate}_{figure}_pct"] = along[figure]
             heading = math.remainder(a[f"{prefix}_phi"][-1] - a["true_phi"][-1], 2.0 * math.pi)
             out[f"{label}_{estimate}_heading_deg"] = math.degrees(heading)
         out[f"{label}_alpha_rms_deg"] = math.degrees(side_slip_rms_error(a))
@@ -375,7 +400,8 @@ def summarise_calibrated(rows: list, stream) -> tuple:
     worst_ratio, worst_pct, above_total = 0.0, 0.0, 0
     print(
         f"\n{'scenario':<12}{'nominal %':>14}{'calibrated %':>14}{'matched %':>14}{'cal/matched':>12}"
-        f"{'cal. odometry %':>17}{'cal. Gyrodom. %':>17}{'above a baseline':>18}",
+        f"{'cal. odometry %':>17}{'cal. Gyrodom. %':>17}{'above a baseline':>18}"
+        f"{'RMS / max nominal %':>21}{'calibrated %':>14}{'matched %':>12}",
         file=stream,
     )
     for name in dict.fromkeys(r["scenario"] for r in rows):
@@ -398,13 +424,19 @@ def summarise_calibrated(rows: list, stream) -> tuple:
         print(
             f"{name:<12}{mw('nominal_fused_pct'):>14}{mw('calibrated_fused_pct'):>14}"
             f"{mw('matched_fused_pct'):>14}{ratio:>12.2f}{mw('calibrated_odometry_pct'):>17}"
-            f"{mw('calibrated_gyrodometry_pct'):>17}{f'{above}/{len(sel)}':>18}",
+            f"{mw('calibrated_gyrodometry_pct'):>17}{f'{above}/{len(sel)}':>18}"
+            + "".join(
+                f"{col[f'{model}_fused_rms_pct'].mean():.2f} / {col[f'{model}_fused_max_pct'].mean():.2f}"
+                .rjust(width)
+                for model, width in (("nominal", 21), ("calibrated", 14), ("matched", 12))
+            ),
             file=stream,
         )
     print(
         f"\nfigures: final position error, % of the path, mean (worst) over the preset draws; cal/matched = "
         f"mean calibrated / mean matched (target <= {CALIBRATED_TARGET}); matched = the true robot as the "
-        "model (an oracle)",
+        "model (an oracle); RMS / max = the fused position error's RMS and maximum along the run, mean over "
+        "the draws",
         file=stream,
     )
     return worst_ratio, worst_pct, above_total

@@ -18,7 +18,12 @@ from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios.config import ScenarioError, check_duration, check_seed_count, load_scenario, with_keys
-from slipnav.scenarios.metrics import ESTIMATES, final_position_error, side_slip_rms_error
+from slipnav.scenarios.metrics import (
+    ESTIMATES,
+    final_position_error,
+    position_errors_in_percent,
+    side_slip_rms_error,
+)
 from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.typed_yaml import parse_value
@@ -100,13 +105,16 @@ def check_sweep(name: str, sets: dict, seeds: int, duration=None) -> None:
 
 
 def final_errors(a: dict) -> dict:
-    """The final position error (% of path length) and heading error (deg) of the fused estimate,
+    """The final position error (% of path length), its RMS and maximum along the run (``_rms_pct``,
+    ``_max_pct``; metrics.position_errors) and the final heading error (deg) of the fused estimate,
     odometry-only and Gyrodometry, and the side-slip RMS error (deg, where |alpha| > 1 deg) of a run's
     arrays."""
     length = float(a["path_length"])
     out = {}
     for label, prefix in ESTIMATES:
         out[f"{label}_pct"] = 100.0 * final_position_error(a, prefix) / length
+        along = position_errors_in_percent(a, prefix)
+        out[f"{label}_rms_pct"], out[f"{label}_max_pct"] = along["rms"], along["max"]
         heading = float(a[f"{prefix}_phi"][-1] - a["true_phi"][-1])
         out[f"{label}_heading_deg"] = math.degrees(math.remainder(heading, 2.0 * math.pi))
     out["alpha_rms_deg"] = math.degrees(side_slip_rms_error(a))
@@ -151,19 +159,19 @@ def _groups(jobs: list, rows: list) -> dict:
 
 def summary_table(name: str, jobs: list, rows: list) -> tuple[list[str], dict]:
     """The summary's lines (per combination: runs, mean (worst) fused, odometry-only and Gyrodometry
-    final error in % of path, mean fused over the mean better baseline, runs not completed) and the
-    figures of the last line."""
+    final error in % of path, the fused error's RMS and maximum along the run, mean (worst), mean fused
+    over the mean better baseline, runs not completed) and the figures of the last line."""
     groups = _groups(jobs, rows)
     width = max(26, *(len(label) + 2 for label in groups))
     lines = [
-        f"{name}: final position error, % of path length, mean (worst) over seeds",
+        f"{name}: final position error, % of path length, mean (worst) over seeds; the fused one's RMS and "
+        "maximum along the run",
         f"{'combination':<{width}}{'runs':>5}{'fused %':>16}{'odometry %':>16}{'Gyrodom. %':>16}"
-        f"{'fused/best':>11}{'incomplete':>11}",
+        f"{'fused RMS %':>16}{'fused max %':>16}{'fused/best':>11}{'incomplete':>11}",
     ]
     for label, sel in groups.items():
-        col = {
-            k: np.array([r[k] for r in sel], float) for k in ("fused_pct", "odometry_pct", "gyrodometry_pct")
-        }
+        keys = ("fused_pct", "odometry_pct", "gyrodometry_pct", "fused_rms_pct", "fused_max_pct")
+        col = {k: np.array([r.get(k, math.nan) for r in sel], float) for k in keys}
         best = np.minimum(col["odometry_pct"], col["gyrodometry_pct"])
 
         def mw(k, col=col):
@@ -173,7 +181,7 @@ def summary_table(name: str, jobs: list, rows: list) -> tuple[list[str], dict]:
         ratio = f"{col['fused_pct'].mean() / best.mean():.3f}" if best.mean() > 0 else "-"
         lines.append(
             f"{label:<{width}}{len(sel):>5}{mw('fused_pct'):>16}{mw('odometry_pct'):>16}"
-            f"{mw('gyrodometry_pct'):>16}{ratio:>11}"
+            f"{mw('gyrodometry_pct'):>16}{mw('fused_rms_pct'):>16}{mw('fused_max_pct'):>16}{ratio:>11}"
             f"{sum(not r['completed'] for r in sel):>11}"
         )
     fused = np.array([r["fused_pct"] for r in rows], float)

@@ -15,6 +15,9 @@ SUMMARY_KEYS = {
     "duration_s",
     "completion_time_s",
     "final_position_error_m",
+    "rms_position_error_m",
+    "max_position_error_m",
+    "max_position_error_time_s",
     "wall_time_s",
     "realtime_factor",
 }
@@ -62,7 +65,8 @@ def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, c
     summary = json.loads((tmp_path / f"{name}-seed3.summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
     assert summary["seed"] == 3 and summary["scenario"] == name
-    assert all(v is not None for v in summary["final_position_error_m"].values())
+    for key in ("final_position_error_m", "rms_position_error_m", "max_position_error_m"):
+        assert all(v is not None and v >= 0.0 for v in summary[key].values()), key
     for fig in ("path", "error", "speeds", "slip", "navigation", "control"):
         assert (tmp_path / f"{name}-seed3.{fig}.png").stat().st_size > 10_000
 

@@ -7,7 +7,12 @@ import math
 import numpy as np
 import pytest
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml, with_keys
-from slipnav.scenarios.metrics import POSE_DELAY_SAMPLES, final_position_error, rms_position_error
+from slipnav.scenarios.metrics import (
+    POSE_DELAY_SAMPLES,
+    final_position_error,
+    position_errors,
+    rms_position_error,
+)
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.fault_cases import (
     NULL_FAULT_BIAS,
@@ -1089,6 +1094,23 @@ def test_the_report_counts_the_runs_where_the_fusion_beats_each_baseline():
     )
 
 
+def test_the_report_counts_the_runs_where_the_fusion_beats_each_baseline_along_the_run():
+    """The same counts for the RMS and the maximum along the run, by hand: the fused RMS is below both
+    baselines' in the one fault run, its maximum below odometry-only's only; nothing when no run has them."""
+    from slipnav.studies.faults import along_run_baseline_line
+
+    run = {"fused_rms_error_m": 0.01, "odometry_rms_error_m": 0.1, "gyrodometry_rms_error_m": 0.02}
+    run |= {"fused_max_error_m": 0.03, "odometry_max_error_m": 0.2, "gyrodometry_max_error_m": 0.03}
+    clean = [{**run, "fused_rms_error_m": 0.05}, {"false_flags": 0}]
+    assert along_run_baseline_line([run, {"fused_error_m": 1.0}], clean) == (
+        "along the run: the fused RMS is below odometry-only's in 1/1 fault runs and 1/1 fault-free runs, "
+        "below Gyrodometry's in 1/1 fault runs and 0/1 fault-free runs; its maximum is below "
+        "odometry-only's in 1/1 fault runs and 1/1 fault-free runs, below Gyrodometry's in 0/1 fault runs "
+        "and 0/1 fault-free runs"
+    )
+    assert along_run_baseline_line([{"fused_error_m": 1.0}], [{"false_flags": 0}]) == ""
+
+
 def test_null_faults_change_nothing_a_check_or_the_estimate_could_see():
     """A 1e-6 bias step for 0.5 s on the gyro: open loop, the estimate moves by rounding only and nothing
     is flagged, so a null fault's final-error ratio in closed loop is what chance gives the metric; the
@@ -1434,6 +1456,12 @@ def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
     )
     assert figures["run_rms_ratio"] == pytest.approx(ratio, rel=1e-12)
     assert ratio != pytest.approx(rms_position_error(faulty, "est") / rms_position_error(clean, "est"))
+    # each estimate's final, RMS and maximum error along the run, the faulted run's own
+    for label, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+        errors = position_errors(faulty, prefix)
+        assert figures[f"{label}_rms_error_m"] == errors["rms"]
+        assert figures[f"{label}_max_error_m"] == errors["max"]
+    assert figures["fused_rms_error_m"] == rms_position_error(faulty, "est", POSE_DELAY_SAMPLES)
     # the outage's heading cost, the yaw dynamics standing in for the gyro in the turn (1.7 deg with the
     # odometric yaw rate)
     cost = (faulty["est_phi"][-1] - faulty["true_phi"][-1]) - (clean["est_phi"][-1] - clean["true_phi"][-1])

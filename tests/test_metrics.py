@@ -6,15 +6,23 @@ import numpy as np
 import pytest
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.metrics import (
+    POSE_DELAY_SAMPLES,
+    along_run_figures,
     detection_latencies,
     final_position_error,
+    position_error_along_run,
+    position_errors,
+    position_errors_in_percent,
     rms_position_error,
     side_slip_rms_error,
     side_slip_rms_error_at_updates,
     side_slip_sample_counts,
     slip_episodes,
 )
-from slipnav.studies.accuracy import side_slip_lines
+from slipnav.studies.accuracy import along_run_lines, side_slip_lines
+from slipnav.studies.long_run import position_error_lines
+
+from tests.shared import scenario_run
 
 
 def synthetic(n=1000, T_N=0.002):
@@ -76,6 +84,111 @@ def test_position_and_side_slip_errors():
     assert math.degrees(side_slip_rms_error(b)) == pytest.approx(math.sqrt(1 / 3))
 
 
+def known_error_profile() -> dict:
+    """A robot at rest, driving 0.1 m a row, at rest again (true x 0, 0, 0.1, 0.2, 0.3, 0.3, 0.3, 0.3);
+    each estimate describes the truth two rows back plus an error of 0, 5, 0, 3, 0, 1 m on rows 2..7:
+    final 1 m, RMS sqrt(35 / 6) m, max 5 m on row 3 (t = 0.3 s), path 0.3 m."""
+    true_x = np.array([0.0, 0.0, 0.1, 0.2, 0.3, 0.3, 0.3, 0.3])
+    error_x = np.array([0.0, 0.0, 0.0, 3.0, 0.0, 3.0, 0.0, 0.0])
+    error_y = np.array([0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0, 1.0])
+    a = {"t": np.arange(8) * 0.1, "true_x": true_x, "true_y": np.zeros(8), "path_length": np.array(0.3)}
+    for prefix in ("est", "odo", "gyro"):
+        a[f"{prefix}_x"] = np.r_[0.0, 0.0, true_x[:-2]] + error_x
+        a[f"{prefix}_y"] = error_y.copy()
+    a["odo_x"] = a["odo_x"] * 2.0  # odometry: twice the error along x
+    return a
+
+
+def test_position_errors_final_rms_and_max_of_a_known_profile():
+    """The three figures of every accuracy report on a hand-made run: the closed path's end (1 m) hides
+    the 5 m mid-run; each pose is judged against the truth of the instant it describes."""
+    a = known_error_profile()
+    assert POSE_DELAY_SAMPLES == 2
+    np.testing.assert_allclose(position_error_along_run(a, "est", 2), [0, 5, 0, 3, 0, 1], atol=1e-12)
+    errors = position_errors(a, "est")
+    assert errors["final"] == pytest.approx(1.0, abs=1e-12)
+    assert errors["rms"] == pytest.approx(math.sqrt(35 / 6), rel=1e-12)
+    assert errors["max"] == pytest.approx(5.0, rel=1e-12) and errors["max_time_s"] == pytest.approx(0.3)
+    percent = position_errors_in_percent(a, "est")
+    expected = {"final": 100 / 0.3, "rms": 100 * math.sqrt(35 / 6) / 0.3, "max": 500 / 0.3}
+    assert percent == pytest.approx(expected, rel=1e-12)
+    # the same row's truth adds the 0.1 m a row of the lag to every moving row (row 2: 0.1 m, not 0)
+    assert position_error_along_run(a, "est")[2] == pytest.approx(0.1)
+    assert rms_position_error(a, "est", POSE_DELAY_SAMPLES) == pytest.approx(errors["rms"], rel=1e-12)
+    figures = along_run_figures(a)
+    assert figures["fused_max_error_m"] == pytest.approx(5.0)
+    assert figures["fused_max_error_time_s"] == pytest.approx(0.3)
+    assert figures["fused_rms_error_pct"] == pytest.approx(100 * math.sqrt(35 / 6) / 0.3, rel=1e-12)
+    # odometry: x doubled, row 3 is (6, 4) m off the truth of row 1
+    odometry = position_errors(a, "odo")
+    assert odometry["max"] == pytest.approx(math.hypot(6.0, 4.0), rel=1e-12)
+    assert figures["fused_over_odometry_max"] == pytest.approx(5.0 / odometry["max"], rel=1e-12)
+
+
+def test_position_errors_skip_rows_without_truth_and_fail_on_a_lost_estimate():
+    """A row whose truth (two rows back) is missing is left out, the final figure is the last row's; an
+    estimate that is not finite where there is truth gives no RMS nor max (NaN), never a smaller one."""
+    a = known_error_profile()
+    a["true_y"] = np.r_[0.0, np.nan, np.zeros(6)]  # row 3's truth: the 5 m error is not judged
+    errors = position_errors(a, "est")
+    assert errors["max"] == pytest.approx(3.0) and errors["rms"] == pytest.approx(math.sqrt(10 / 5))
+    assert errors["final"] == pytest.approx(1.0)
+    a = known_error_profile()
+    a["est_x"][4] = np.nan
+    errors = position_errors(a, "est")
+    assert math.isnan(errors["rms"]) and math.isnan(errors["max"]) and errors["final"] == pytest.approx(1.0)
+
+
+def test_accuracy_states_its_goals_against_the_rms_and_the_maximum_too():
+    """The accuracy study's lines for the hand-made profile: the fused RMS (sqrt(35/6) m of a 0.3 m path,
+    805 %) and maximum (5 m, 1667 %) in % and over odometry-only's, then each estimate's in metres."""
+    figures = along_run_figures(known_error_profile())
+    lines = along_run_lines(lambda key: np.array([figures[key], figures[key]]))
+    rms_pct, ratio = 100 * math.sqrt(35 / 6) / 0.3, figures["fused_over_odometry_rms"]
+    assert lines[0].startswith(f"  fused RMS error        mean {rms_pct:.2f} %  worst {rms_pct:.2f} %")
+    assert "(goal <= 1 %, stated on the final error)" in lines[0]
+    assert lines[1].strip().startswith(f"over odometry-only's: mean {ratio:.2f}") and "<= 0.3" in lines[1]
+    assert lines[2].startswith(f"  fused max error        mean {500 / 0.3:.2f} %")
+    assert lines[5].startswith("  max errors (m)         fused 5.0000  odometry 7.2111")
+
+
+def test_the_long_run_prints_each_estimates_three_errors():
+    """The long-run benchmark's lines from a run's summary, "-" where it has none (a replay without truth,
+    an older summary)."""
+    summary = {
+        "final_position_error_m": {"fused": 0.0086, "odometry": 0.0713, "gyrodometry": None},
+        "rms_position_error_m": {"fused": 0.0363, "odometry": 0.0770, "gyrodometry": None},
+        "max_position_error_m": {"fused": 0.0594, "odometry": 0.1375, "gyrodometry": None},
+        "max_position_error_time_s": {"fused": 5.626, "odometry": 5.626, "gyrodometry": None},
+    }
+    assert position_error_lines(summary) == [
+        "  position error fused        final 0.0086 m, RMS 0.0363 m, max 0.0594 m at 5.6 s",
+        "  position error odometry     final 0.0713 m, RMS 0.0770 m, max 0.1375 m at 5.6 s",
+        "  position error gyrodometry  final - m, RMS - m, max - m at - s",
+    ]
+    assert position_error_lines({})[0] == "  position error fused        final - m, RMS - m, max - m at - s"
+
+
+def test_the_closed_squares_summary_reports_the_error_it_ends_without():
+    """The closed square (seed 0) ends near where its fused estimate puts it, but the estimate was off by
+    several centimetres mid-run: the summary's maximum is far above its final error, and the figures are
+    the arrays' own."""
+    result = scenario_run("square")
+    s, a = result.summary, result.arrays
+    for label, prefix in (("fused", "est"), ("odometry", "odo"), ("gyrodometry", "gyro")):
+        errors = position_errors(a, prefix)
+        assert s["final_position_error_m"][label] == final_position_error(a, prefix)
+        assert s["rms_position_error_m"][label] == errors["rms"]
+        assert s["max_position_error_m"][label] == errors["max"]
+        assert s["max_position_error_time_s"][label] == errors["max_time_s"]
+        final, rms = s["final_position_error_m"][label], s["rms_position_error_m"][label]
+        assert final <= rms < s["max_position_error_m"][label]
+    fused = {key: s[f"{key}_position_error_m"]["fused"] for key in ("final", "rms", "max")}
+    assert fused["max"] > 5.0 * fused["final"]  # measured 5.94 cm against 0.86 cm
+    assert fused["max"] > 0.01 * s["path_length_m"]  # above 1 % of the path mid-run (1.12 %)
+    assert s["standstill_s"] < s["max_position_error_time_s"]["fused"] < s["completion_time_s"]
+
+
 def test_side_slip_error_at_the_updates_leaves_out_the_hold():
     """est_alpha as the T_C block logs it (alpha_K of sample K n on rows K n + 1 ... K n + n) of a true
     alpha ramping by s per sample: exact at the updates, while the per-sample figure counts the hold,
@@ -128,6 +241,7 @@ def test_accuracy_command_smoke(capsys, tmp_path):
     assert main([*argv, "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "fused final error" in out and "tangential slip" in out
+    assert "fused RMS error" in out and "fused max error" in out and "max errors (m)" in out
     assert "side-slip RMS error" in out  # square: peak |alpha| ~ 1 deg, never a bare "goal met"
     assert main(["accuracy", "--seeds", "0"]) == 2
     assert "--seeds=0" in capsys.readouterr().err

@@ -124,6 +124,12 @@ def test_seyr_figures_on_the_corner(corner):
     assert eight.numbers["corner_fused_pct"] == pytest.approx(pct)
     assert f"{pct:.2f} %" in eight.measured
     assert "2.5 %" in eight.claim
+    # beside the paper's final error, the RMS and the maximum along the run, from the summary's metres
+    for figure in ("rms", "max"):
+        along = 100 * corner.summary[f"{figure}_position_error_m"]["fused"] / corner.summary["path_length_m"]
+        assert eight.numbers[f"corner_fused_{figure}_pct"] == pytest.approx(along, rel=1e-12)
+        assert f"{'RMS' if figure == 'rms' else 'max'} {along:.2f} %" in eight.measured
+    assert eight.numbers["corner_fused_max_time_s"] == corner.summary["max_position_error_time_s"]["fused"]
 
 
 def test_indiveri_figures_on_short_circles(circles):
@@ -192,6 +198,13 @@ def test_reproduce_writes_a_page_referencing_every_figure(quick):
     pct = 100 * corner.summary["final_position_error_m"]["fused"] / corner.summary["path_length_m"]
     assert record["figures"]["default"]["seyr-fig8"]["numbers"]["corner_fused_pct"] == pytest.approx(pct)
     assert f"fused {pct:.2f} % corner" in claims[0]["measured"]["default"]
+    # the claim stated against the final error, the RMS and the maximum along the run
+    length = corner.summary["path_length_m"]
+    for figure, label in (("rms", "RMS along the run"), ("max", "max along the run")):
+        along = 100 * corner.summary[f"{figure}_position_error_m"]["fused"] / length
+        assert f"{label}: fused {along:.2f} % corner" in claims[0]["measured"]["default"]
+    assert "final (the paper's figure): fused" in claims[0]["measured"]["default"]
+    assert "final/RMS/max" in claims[1]["measured"]["default"]
     assert claims[0]["measured"]["default"] in page.replace("&#x27;", "'")
     assert "2.5 %" in page and "50 %" in page
     ratio = record["figures"]["default"]["indiveri-fig9"]["numbers"]["time_ratio"]

@@ -35,6 +35,14 @@ def test_cases_change_the_plant_only_and_the_last_line_summarises(monkeypatch, t
     row = next(line for line in stream.getvalue().splitlines() if line.startswith("right radius +1 %"))
     shown = "/".join(f"{right[f'{p}_run_rms_pct']:.2f}" for p in ("fused", "odometry", "gyrodometry"))
     assert shown in row
+    # beside them the largest error along the run, above the final one, and the worst in the last line
+    largest = "/".join(f"{right[f'{p}_max_pct']:.2f}" for p in ("fused", "odometry", "gyrodometry"))
+    assert row.endswith(largest)
+    assert all(r[f"{p}_max_pct"] >= r[f"{p}_rms_pct"] > 0 for r in rows for p in ("fused", "odometry"))
+    # at rest at the end the last row's error is one of those the maximum runs over
+    assert all(r[f"{p}_max_pct"] >= r[f"{p}_pct"] - 1e-9 for r in rows for p in ("fused", "odometry"))
+    worst_max = max(r["fused_max_pct"] for r in rows)
+    assert float(values["worst_fused_max_pct"]) == pytest.approx(worst_max, abs=1e-3)
 
 
 def test_robustness_command_rejects_bad_options(capsys):
@@ -86,6 +94,8 @@ def test_calibrated_model_gives_the_matched_models_baselines(tmp_path):
         row["calibrated_odometry_pct"], row["calibrated_gyrodometry_pct"]
     )
     assert len(list(tmp_path.glob("*.calibrated.model.yaml"))) == 1
+    for model in ("nominal", "calibrated", "matched"):  # beside the final errors, those along the run
+        assert row[f"{model}_fused_max_pct"] >= row[f"{model}_fused_rms_pct"] > 0.0
 
 
 def test_kurt3d_turns_are_the_gyros_when_the_track_is_off():

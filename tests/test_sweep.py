@@ -216,3 +216,20 @@ def test_the_summary_gives_no_ratio_over_a_baseline_that_ended_on_the_truth():
     assert figures == {"mean_fused_pct": pytest.approx(0.2), "worst_fused_pct": 0.3}
     still = [dict(r, odometry_pct=0.0) for r in rows]
     assert sweep_study.summary_table("probe", jobs, still)[0][-1].split()[-2:] == ["-", "1"]
+
+
+def test_the_summary_states_the_fused_rms_and_maximum_beside_the_final_error():
+    """By hand: two seeds whose fused error ends at 0.1 and 0.2 % of the path after an RMS of 0.3 and 0.5 %
+    and a maximum of 0.9 and 1.5 % along the run: mean (worst) 0.400 (0.500) and 1.200 (1.500)."""
+    jobs = sweep_study.sweep_jobs("corner", {}, 2)
+    rows = [
+        {"fused_pct": final, "odometry_pct": 1.0, "gyrodometry_pct": 0.5, "completed": True}
+        | {"fused_rms_pct": rms, "fused_max_pct": largest}
+        for final, rms, largest in ((0.1, 0.3, 0.9), (0.2, 0.5, 1.5))
+    ]
+    lines, figures = sweep_study.summary_table("corner", jobs, rows)
+    assert "RMS and maximum along the run" in lines[0]
+    assert f"{'Gyrodom. %':>16}{'fused RMS %':>16}{'fused max %':>16}{'fused/best':>11}" in lines[1]
+    assert f"{'0.500 (0.500)':>16}{'0.400 (0.500)':>16}{'1.200 (1.500)':>16}{'0.300':>11}" in lines[2]
+    assert lines[2].startswith("as is") and f"{'0.150 (0.200)':>16}" in lines[2]
+    assert figures == {"mean_fused_pct": pytest.approx(0.15), "worst_fused_pct": 0.2}
