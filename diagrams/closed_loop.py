@@ -13,8 +13,9 @@ from slipnav.systems.checks import check_follower_gains, check_start_time, requi
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
-from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
+from slipnav.systems.plant import DEFAULT_TIME_STEP
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.slip_control import StepSizeController, StepSizeParameters, TrajectoryInterpolator

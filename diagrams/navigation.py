@@ -11,14 +11,8 @@ from slipnav.diagrams.split import split_port
 from slipnav.systems.baselines import Baselines
 from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from slipnav.systems.health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
-from slipnav.systems.mixing import (
-    C2C3_STEP_LAYOUT,
-    MIXER_LAYOUT,
-    TYRE_MODEL_STATE_LAYOUT,
-    MixerC1,
-    MixerC2C3,
-    VelocityMixer,
-)
+from slipnav.systems.mixing import MIXER_LAYOUT, TYRE_MODEL_STATE_LAYOUT, VelocityMixer
+from slipnav.systems.mixing_weights import C2C3_STEP_LAYOUT, MixerC1, MixerC2C3
 from slipnav.systems.navigation import (
     NavigationInitialState,
     NavigationParameters,
@@ -26,9 +20,9 @@ from slipnav.systems.navigation import (
     health_geometry,
 )
 from slipnav.systems.odometry import ODOMETRY_STEP_LAYOUT, Odometry
-from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import PoseIntegrator
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.sideslip import SideSlipEstimator

@@ -9,8 +9,8 @@ from slipnav.diagrams.robot import RobotHandles, add_robot_with_sensors
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import RobotParameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters
 

@@ -17,8 +17,9 @@ from slipnav.systems.checks import (
 from slipnav.systems.feedforward import TrajectoryFeedforward
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
+from slipnav.systems.plant import DEFAULT_TIME_STEP
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters
 
@@ -53,7 +54,7 @@ def build_open_loop_diagram(
     PerturbationParameters of the PerturbationMonitor on the commands, encoders and navigation.
     ``motor_enable``: None (the motors always driven, the plant's motor_enable input left unconnected) or
     one row [enable_R, enable_L] of 0/1 per wheel_speeds row, held from that row's time on (a
-    TrajectorySource): 0 switches the motor off (systems.plant.MOTORS_ON; a coasting run)."""
+    TrajectorySource): 0 switches the motor off (systems.motors.MOTORS_ON; a coasting run)."""
     wheel_speeds, reference_poses, motor_enable = check_open_loop_inputs(
         robot,
         sensor_params,

@@ -22,8 +22,9 @@ from slipnav.systems.faults import (
     has_plant_events,
     has_sensor_faults,
 )
-from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
+from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensors import ProprioceptiveSensors, SensorNoise, SensorParameters, initial_biases
 
 

@@ -37,8 +37,10 @@ from slipnav.systems.faults import FaultEvent, check_fault_events
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.navigation import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
-from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
+from slipnav.systems.plant import DEFAULT_TIME_STEP
+from slipnav.systems.plant_dynamics import substeps_per
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import ROBOTS, RobotParameters, robot_parameters
 from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 from slipnav.systems.slip_control import StepSizeParameters

@@ -25,8 +25,8 @@ from slipnav.scenarios.sensor_log import write_text_atomically
 from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
 from slipnav.systems.checks import check_robot_physics
 from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import ROBOTS, RobotParameters, robot_parameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import ROBOTS, RobotParameters, robot_parameters
 from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
 

@@ -15,7 +15,7 @@ import dataclasses as dc
 import math
 import typing
 
-from slipnav.systems.mixing import MixingParameters
+from slipnav.systems.mixing_parameters import MixingParameters
 
 PER_SAMPLE_C3 = {"a3": 60.0, "b3": 0.05}
 """S(14)'s steepness and threshold for the single sample's yaw-rate residual (the defaults a3 = 200,

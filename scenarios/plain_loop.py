@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, control_offset
+from slipnav.systems.contact import NO_DISTURBANCE
 from slipnav.systems.faults import (
     apply_sensor_faults,
     check_fault_events,
@@ -30,6 +31,7 @@ from slipnav.systems.health.perturbation import (
     perturbation_step,
     sideways_push,
 )
+from slipnav.systems.motors import motor_current, motor_currents
 from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
 from slipnav.systems.path_follower import (
     bounded_speed,
@@ -38,16 +40,9 @@ from slipnav.systems.path_follower import (
     saturate_wheel_speeds,
     speed_law,
 )
-from slipnav.systems.plant import (
-    NO_DISTURBANCE,
-    RobotParameters,
-    motor_current,
-    motor_currents,
-    plant_advance,
-    plant_derivatives,
-    substeps_per,
-)
+from slipnav.systems.plant_dynamics import plant_advance, plant_derivatives, substeps_per
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensor_correction import SensorCalibration
 from slipnav.systems.sensors import (
     NOISE_CHANNELS,

@@ -24,8 +24,8 @@ from slipnav.scenarios.trajectories import (
     trajectory_path,
 )
 from slipnav.systems.checks import require_seed
-from slipnav.systems.plant import RobotParameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensors import SensorParameters
 
 

@@ -18,7 +18,7 @@ from pathlib import Path as FilePath
 from slipnav.scenarios.config import Scenario
 from slipnav.scenarios.trajectories import Arc, CosineTurn, Pause, SpotTurn, Straight
 from slipnav.systems.faults import FaultEvent
-from slipnav.systems.plant import ROBOTS, robot_parameters
+from slipnav.systems.robot_parameters import ROBOTS, robot_parameters
 from slipnav.systems.sensors import default_sensor_parameters
 
 EXTRA = {"T_C": "control period (s), an integer multiple of T_N."}

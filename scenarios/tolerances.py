@@ -20,7 +20,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.plant import RobotParameters
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensors import SensorParameters
 
 TOLERANCE_STREAM = 15

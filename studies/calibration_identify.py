@@ -228,7 +228,7 @@ COAST_SETTLE = 0.1
 
 
 def identify_drag(manoeuvres, T_N: float, robot, geometry, counts_per_revolution: int):
-    """The drag per unit mass the tyres push against (systems/mixing.py: drag_acceleration + drag_per_speed
+    """The drag per unit mass the tyres push against (MixingParameters: drag_acceleration + drag_per_speed
     |v|) from the coasting runs: with the motors off the robot rolls out on its shoes, m_eff dv/dt =
     -(m (d_0 + d_1 v) + 2 b_w v / r^2), m_eff = m + 2 J / r^2: the wheels' inertia J and bearing drag
     b_w (the nominal robot's, data sheet) are taken off. The distance rolled (the encoders' mean ground

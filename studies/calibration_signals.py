@@ -60,7 +60,7 @@ def wheel_increments(counts: np.ndarray, step: float) -> np.ndarray:
 def creep_speeds(d: np.ndarray, r_R: float, r_L: float, b: float, robot, T_N: float) -> np.ndarray:
     """(K, 2) slip speeds r theta_dot - v of the right and left tyre (m/s) that the nominal robot's tyres
     need to push it along the wheel motion ``d`` (angle increments): the body's inertia plus the felt
-    shoes' drag and yaw moment (systems.plant.shoe_force with the nominal shoes), each wheel's force
+    shoes' drag and yaw moment (systems.contact.shoe_force with the nominal shoes), each wheel's force
     through the inverse of the nominal tyre curve (mixing.tyre_slip) at the slip's reference speed
     max(|v|, slip_speed_floor). Rubber tyres creep ahead of the body whenever they push: ~0.7 % of the
     distance at cruise for Tinyphoon's shoes, which a calibration that ignored it would put into the
@@ -107,7 +107,7 @@ def dead_reckoning_end(d: np.ndarray, slip: np.ndarray, r_R: float, r_L: float, 
 
 def shoe_forces_per_mass(v_t, v_n, omega, robot) -> tuple[np.ndarray, np.ndarray]:
     """The nominal felt shoes' force per unit mass on the body (x, y) at body velocities (arrays), as
-    systems.plant.shoe_force (tanh-regularised Coulomb plus viscous, at +- shoe_offset)."""
+    systems.contact.shoe_force (tanh-regularised Coulomb plus viscous, at +- shoe_offset)."""
     p = robot
     fx, fy = np.zeros_like(v_t), np.zeros_like(v_t)
     for x_shoe in (p.shoe_offset, -p.shoe_offset):

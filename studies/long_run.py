@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from slipnav.systems.mixing import MixingParameters
+from slipnav.systems.mixing_parameters import MixingParameters
 from slipnav.systems.navigation import NavigationLoop, NavigationParameters
 
 SPIN_RATE = 20.0

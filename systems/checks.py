@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from slipnav.systems.plant import GRAVITY
+from slipnav.systems.robot_parameters import GRAVITY
 
 MIN_TYRE_FRICTION = 0.05
 MIN_DRIVE_MARGIN = 0.5  # m/s^2 of drive acceleration beyond the shoes' drag

@@ -55,24 +55,12 @@ from slipnav.systems.health import (
     slip_detector_blind,
 )
 from slipnav.systems.health.yaw_witness import MIN_YAW_LAG_STEPS, yaw_lag_at_floor
-from slipnav.systems.mixing import (
-    SLIDE_ONSET_INITIAL,
-    MixingParameters,
-    accelerometer_pair_disagreement,
-    believed_tyre,
-    c3_residual,
-    c3_turn_rate,
-    mix_checked,
-    mixer_c1_step,
-    mixing_c2,
-    mixing_c3,
-    mixing_gain,
-    push_taken,
-    slide_onset_step,
-)
+from slipnav.systems.mixing import mix_checked, mixing_gain, push_taken
+from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.mixing_weights import c3_residual, c3_turn_rate, mixer_c1_step, mixing_c2, mixing_c3
 from slipnav.systems.odometry import odometry_step, wheel_radii
-from slipnav.systems.plant import RobotParameters
 from slipnav.systems.pose import pose_step
+from slipnav.systems.robot_parameters import RobotParameters
 from slipnav.systems.sensor_correction import (
     SensorCalibration,
     corrected_accelerometers,
@@ -80,6 +68,7 @@ from slipnav.systems.sensor_correction import (
 )
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
+from slipnav.systems.slide_onset import SLIDE_ONSET_INITIAL, accelerometer_pair_disagreement, slide_onset_step
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 from slipnav.systems.standstill import (
     StandstillParameters,
@@ -91,6 +80,7 @@ from slipnav.systems.standstill import (
     standstill_test,
     zero_velocity_update,
 )
+from slipnav.systems.tyre_identification import believed_tyre
 from slipnav.systems.yaw_calibration import (
     YawCalibrationParameters,
     calibrated_gyro,

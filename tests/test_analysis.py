@@ -12,8 +12,10 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import tangential_slip_speed
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
-from slipnav.systems.mixing import MixingParameters, logsig, mixing_c1, side_slip_from_accelerations
+from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.mixing_weights import logsig, mixing_c1
 from slipnav.systems.slip_control import StepSizeParameters, step_size
+from slipnav.systems.tyre_curve import side_slip_from_accelerations
 
 T_N = 0.002
 OPERATING_POINT = np.array([1.5, 0.1, 3.0, 0.0, 0.0])  # v_t, v_n, omega, a_t, a_n: a steady turn
@@ -234,7 +236,8 @@ def straight_line_loop(follower, seconds: float, T_N=0.002, T_C=0.02, time_step=
     the closed loop. Per control instant: [t, u of I(24), robot speed v, V1, s1]."""
     from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
     from slipnav.systems.path_follower import bounded_speed, follower_step, saturate_wheel_speeds, speed_law
-    from slipnav.systems.plant import kurt3d, plant_advance
+    from slipnav.systems.plant_dynamics import plant_advance
+    from slipnav.systems.robot_parameters import kurt3d
 
     robot, path = kurt3d(), build_path(PathConfig(segments=[Straight(length=60.0)]))
     V_m, half = robot.wheel_speed_limit, 0.5 * robot.track_width

@@ -21,8 +21,8 @@ from slipnav.scenarios import runner
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml
 from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import tinyphoon
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import tinyphoon
 from slipnav.systems.sensors import SensorParameters
 
 STRAIGHT = "trajectory:\n  segments:\n    - !Straight {length: 0.2, v_end: 0.5}\n"

@@ -14,7 +14,7 @@ from slipnav.studies.calibration import compare, simulated_calibration
 from slipnav.studies.calibration_identify import identify_drag
 from slipnav.studies.calibration_manoeuvres import Manoeuvre
 from slipnav.studies.calibration_signals import allan_deviation, correct_accelerometers
-from slipnav.systems.plant import tinyphoon
+from slipnav.systems.robot_parameters import tinyphoon
 from slipnav.systems.sensors import SensorParameters, sensor_frame
 
 from tests.shared import shared_manoeuvres
@@ -267,7 +267,7 @@ def test_spiral_speed_keeps_both_tyres_sliding_alike(monkeypatch):
     from slipnav.scenarios.config import Scenario
     from slipnav.studies import calibration_manoeuvres as procedure
     from slipnav.studies.calibration_identify import identify_peak_acceleration
-    from slipnav.systems.plant import kurt3d, tinyphoon
+    from slipnav.systems.robot_parameters import kurt3d, tinyphoon
 
     for robot in (tinyphoon(), kurt3d()):
         v = procedure.spiral_speed(robot)

@@ -18,6 +18,7 @@ from slipnav.studies.fault_cases import (
     select_cases,
 )
 from slipnav.studies.faults import fault_figures, print_report, run_fault, seed_mean_ratios
+from slipnav.systems.contact import contact_forces
 from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.health import (
     INCONSISTENT,
@@ -39,7 +40,8 @@ from slipnav.systems.health.accelerometer_pair import fast_pair_ratio, pair_omeg
 from slipnav.systems.health.pair_gain import pair_gain_ratio, pair_gain_reset, pair_gain_upper_bound
 from slipnav.systems.health.yaw_witness import yaw_follow_step
 from slipnav.systems.navigation import NavigationParameters, health_geometry
-from slipnav.systems.plant import contact_forces, kurt3d, plant_derivatives, plant_substep, tinyphoon
+from slipnav.systems.plant_dynamics import plant_derivatives, plant_substep
+from slipnav.systems.robot_parameters import kurt3d, tinyphoon
 from slipnav.systems.sensors import accelerometer_truth
 
 T_N = 0.002
@@ -1337,7 +1339,7 @@ def test_the_gyro_replacement_follows_the_wheels_with_the_tyres_lag(robot, grip)
 
 def test_the_gyro_replacement_settles_where_the_plant_stops_turning_faster():
     """With Tinyphoon's felt shoes the body settles below its wheels' yaw rate (the shoes' scrub), where
-    the plant's own equations (systems/plant.contact_forces) give no yaw acceleration."""
+    the plant's own equations (systems/contact.contact_forces) give no yaw acceleration."""
     robot = tinyphoon()
     g = yaw_constants(robot)
     v, omega_wheels, half = 1.0, 2.0, 0.5 * robot.track_width

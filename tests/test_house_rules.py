@@ -13,8 +13,6 @@ MODULE_LINES = 500
 FUNCTION_LINES = 100
 
 OVERSIZED_SYSTEMS = {
-    "systems/mixing.py",
-    "systems/plant.py",
     "systems/navigation.py",
 }
 """systems/ modules not yet within the size rules, restructured under issue 45 (NavigationLoop.step of

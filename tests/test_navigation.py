@@ -26,28 +26,18 @@ from slipnav.systems.ekf import (
 )
 from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
 from slipnav.systems.health import SensorHealthParameters, health_initial_state, health_step
-from slipnav.systems.mixing import (
-    MIXER_LAYOUT,
+from slipnav.systems.mixing import MIXER_LAYOUT, VelocityMixer, mix, mix_checked, mixing_gain
+from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.mixing_weights import (
     MixerC1,
     MixerC2C3,
-    MixingParameters,
-    VelocityMixer,
     accumulate_delta_v,
     c3_residual,
-    free_side_slip_step,
-    lateral_velocity_model,
     logsig,
-    longitudinal_slip_speed,
-    mix,
-    mix_checked,
     mixer_c1_step,
     mixing_c1,
     mixing_c2,
     mixing_c3,
-    mixing_gain,
-    side_slip_from_accelerations,
-    tyre_model_check,
-    tyre_utilisation,
 )
 from slipnav.systems.navigation import (
     LOOP_KEYS,
@@ -61,6 +51,13 @@ from slipnav.systems.pose import pose_step
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.tyre_curve import (
+    lateral_velocity_model,
+    longitudinal_slip_speed,
+    side_slip_from_accelerations,
+    tyre_utilisation,
+)
+from slipnav.systems.tyre_identification import free_side_slip_step, tyre_model_check
 
 from tests.shared import scenario_run
 

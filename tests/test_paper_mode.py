@@ -12,14 +12,9 @@ from slipnav.scenarios.paper import DEVIATIONS, paper_mode
 from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
 from slipnav.systems.gyrodometry import gyrodometry_step
 from slipnav.systems.health import health_initial_state, health_step
-from slipnav.systems.mixing import (
-    MixingParameters,
-    accumulate_delta_v,
-    c3_residual,
-    mix,
-    mixing_c1,
-    mixing_c3,
-)
+from slipnav.systems.mixing import mix
+from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.mixing_weights import accumulate_delta_v, c3_residual, mixing_c1, mixing_c3
 from slipnav.systems.navigation import NavigationParameters, health_geometry
 from slipnav.systems.path_follower import PathFollowerParameters, follower_step
 from slipnav.systems.slip_control import StepSizeController, StepSizeParameters

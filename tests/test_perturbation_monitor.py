@@ -9,6 +9,7 @@ import pytest
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
+from slipnav.systems.contact import NO_DISTURBANCE
 from slipnav.systems.faults import FaultEvent
 from slipnav.systems.health.perturbation import (
     HELD_DEMAND,
@@ -22,7 +23,9 @@ from slipnav.systems.health.perturbation import (
     sideways_push,
 )
 from slipnav.systems.health.perturbation_monitor import PerturbationMonitor
-from slipnav.systems.plant import NO_DISTURBANCE, motor_currents, plant_advance, tinyphoon
+from slipnav.systems.motors import motor_currents
+from slipnav.systems.plant_dynamics import plant_advance
+from slipnav.systems.robot_parameters import tinyphoon
 
 T_N, R, B = 0.002, 0.015, 0.068
 P = PerturbationParameters()

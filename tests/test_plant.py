@@ -7,30 +7,17 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 from scipy.integrate import solve_ivp
-from slipnav.systems.mixing import (
+from slipnav.systems.contact import contact_forces, tyre_force
+from slipnav.systems.motors import motor_current, motor_currents, speed_loop_update
+from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant
+from slipnav.systems.plant_dynamics import PlantState, kinetic_energy, plant_advance, plant_derivatives
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot_parameters import GRAVITY, RobotParameters, kurt3d, robot_parameters, tinyphoon
+from slipnav.systems.tyre_curve import (
     lateral_velocity_model,
     longitudinal_slip_speed,
     side_slip_from_accelerations,
 )
-from slipnav.systems.plant import (
-    DEFAULT_TIME_STEP,
-    GRAVITY,
-    DifferentialDrivePlant,
-    PlantState,
-    RobotParameters,
-    contact_forces,
-    kinetic_energy,
-    kurt3d,
-    motor_current,
-    motor_currents,
-    plant_advance,
-    plant_derivatives,
-    robot_parameters,
-    speed_loop_update,
-    tinyphoon,
-    tyre_force,
-)
-from slipnav.systems.rates import SampleRates
 
 T_C = 0.02
 

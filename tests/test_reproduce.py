@@ -16,7 +16,8 @@ from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.run_plan import follower_path
 from slipnav.studies import reproduce as rp
 from slipnav.studies import reproduce_measures as measures
-from slipnav.systems.mixing import MixingParameters, logsig
+from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.mixing_weights import logsig
 
 from tests.shared import scenario_run
 

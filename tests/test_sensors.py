@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.plant import tinyphoon
+from slipnav.systems.robot_parameters import tinyphoon
 from slipnav.systems.sensors import (
     NOISE_BLOCK,
     NOISE_CHANNELS,

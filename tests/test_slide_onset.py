@@ -1,4 +1,4 @@
-"""The per-sample slide-onset test (systems/mixing.py: slide_onset_step, in the VelocityMixer) that hands
+"""The per-sample slide-onset test (systems/slide_onset.py: slide_onset_step, in the VelocityMixer) that hands
 S(15)'s v_t to the inertial estimate while the wheels have left the body."""
 
 import dataclasses as dc
@@ -9,15 +9,11 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from slipnav.scenarios.config import load_scenario, with_keys
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
-from slipnav.systems.mixing import (
-    SLIDE_ONSET_INITIAL,
-    MixingParameters,
-    VelocityMixer,
-    accelerometer_pair_disagreement,
-    slide_onset_step,
-)
+from slipnav.systems.mixing import VelocityMixer
+from slipnav.systems.mixing_parameters import MixingParameters
 from slipnav.systems.navigation import NavigationParameters, check_slide_onset, health_geometry
 from slipnav.systems.sensors import default_sensor_parameters
+from slipnav.systems.slide_onset import SLIDE_ONSET_INITIAL, accelerometer_pair_disagreement, slide_onset_step
 
 T_N = 0.002
 P = MixingParameters(slide_onset_jump=0.05)  # Tinyphoon's (the default is off)

@@ -11,7 +11,8 @@ import pytest
 from slipnav.scenarios.config import load_scenario, with_keys
 from slipnav.scenarios.metrics import rms_position_error
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
-from slipnav.systems.mixing import MixingParameters, peak_slip, tyre_peak_step
+from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.tyre_identification import peak_slip, tyre_peak_step
 
 T_N = 0.002
 NOMINAL = MixingParameters(drag_acceleration=0.0, drag_per_speed=0.0)  # |a| = |a_n| below

@@ -29,7 +29,7 @@ from slipnav.systems.health.yaw_witness import (
     yaw_test_initial_state,
     yaw_test_threshold,
 )
-from slipnav.systems.plant import kurt3d, tinyphoon
+from slipnav.systems.robot_parameters import kurt3d, tinyphoon
 
 from tests.test_exclusion import check_with_bias
 from tests.test_faults import GEOMETRY, STEP, T_N, B, R, stream

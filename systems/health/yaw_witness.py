@@ -31,7 +31,7 @@ against it, the accelerometer pair breaking the tie (two against one).
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.plant import shoe_drag, tyre_force_and_stiffness
+from slipnav.systems.contact import shoe_drag, tyre_force_and_stiffness
 from slipnav.systems.residual_test import CusumTest, cusum_update
 
 YAW_DRIFT = 0.5
