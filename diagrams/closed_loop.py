@@ -11,7 +11,7 @@ from slipnav.diagrams.onboard import add_command_monitor, add_robot_and_navigati
 from slipnav.diagrams.robot import check_robot_inputs
 from slipnav.systems.checks import check_follower_gains, check_start_time, require_instance
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.navigation_parameters import NavigationParameters
 from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
 from slipnav.systems.plant import DEFAULT_TIME_STEP
 from slipnav.systems.rates import SampleRates

@@ -13,7 +13,7 @@ from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from slipnav.systems.health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
 from slipnav.systems.mixing import MIXER_LAYOUT, TYRE_MODEL_STATE_LAYOUT, VelocityMixer
 from slipnav.systems.mixing_weights import C2C3_STEP_LAYOUT, MixerC1, MixerC2C3
-from slipnav.systems.navigation import (
+from slipnav.systems.navigation_parameters import (
     NavigationInitialState,
     NavigationParameters,
     check_slide_onset,
@@ -69,7 +69,7 @@ def build_navigation_diagram(
 
     ``wheel_radius``: one radius for both wheels or the pair (r_R, r_L) of a calibrated model (m).
     ``sensors``, ``no_load_speed``: the sensors' data sheet (default Tinyphoon's) and the nominal motors'
-    no-load speed (m/s) for the sensor checks (systems.navigation.health_geometry).
+    no-load speed (m/s) for the sensor checks (systems.navigation_parameters.health_geometry).
     ``calibration``: the model's SensorCalibration; unless it is the identity a SensorCorrection block
     removes it from the checked inertial samples before every block that reads them.
     ``robot``: the nominal robot, whose mass, motors and drags give the sensor checks the force reference

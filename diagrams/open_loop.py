@@ -16,7 +16,7 @@ from slipnav.systems.checks import (
 )
 from slipnav.systems.feedforward import TrajectoryFeedforward
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.navigation_parameters import NavigationParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot_parameters import RobotParameters

@@ -35,7 +35,7 @@ from slipnav.scenarios.typed_yaml import (
 from slipnav.systems.checks import check_follower_gains, check_robot_physics, check_start_time
 from slipnav.systems.faults import FaultEvent, check_fault_events
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.navigation_parameters import NavigationParameters
 from slipnav.systems.path_follower import PathFollowerParameters
 from slipnav.systems.plant import DEFAULT_TIME_STEP
 from slipnav.systems.plant_dynamics import substeps_per

@@ -24,7 +24,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from slipnav.scenarios.sensor_log import write_text_atomically
 from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
 from slipnav.systems.checks import check_robot_physics
-from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.navigation_parameters import NavigationParameters
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot_parameters import ROBOTS, RobotParameters, robot_parameters
 from slipnav.systems.sensor_correction import SensorCalibration

@@ -32,7 +32,8 @@ from slipnav.systems.health.perturbation import (
     sideways_push,
 )
 from slipnav.systems.motors import motor_current, motor_currents
-from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
+from slipnav.systems.navigation import LOOP_KEYS, NavigationLoop
+from slipnav.systems.navigation_parameters import NavigationInitialState, NavigationParameters
 from slipnav.systems.path_follower import (
     bounded_speed,
     check_path_curvature,

@@ -50,7 +50,8 @@ from slipnav.scenarios.metrics import (
 )
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.engine import session
-from slipnav.systems.navigation import NavigationInitialState, NavigationLoop, run_navigation_loop
+from slipnav.systems.navigation import NavigationLoop, run_navigation_loop
+from slipnav.systems.navigation_parameters import NavigationInitialState
 from slipnav.systems.sideslip import side_slip_angle
 
 VARIANTS = (

@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 from slipnav.systems.mixing_parameters import MixingParameters
-from slipnav.systems.navigation import NavigationLoop, NavigationParameters
+from slipnav.systems.navigation import NavigationLoop
+from slipnav.systems.navigation_parameters import NavigationParameters
 
 SPIN_RATE = 20.0
 """rad/s: Tinyphoon spinning on the spot at its wheel-speed limit (0.068 m/s per rad/s)."""

@@ -20,7 +20,7 @@ from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios import runner
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml
-from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.navigation_parameters import NavigationParameters
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot_parameters import tinyphoon
 from slipnav.systems.sensors import SensorParameters

@@ -24,7 +24,7 @@ from slipnav.systems.health import (
     health_initial_state,
 )
 from slipnav.systems.motors import MOTORS_ON
-from slipnav.systems.navigation import NavigationParameters, health_geometry
+from slipnav.systems.navigation_parameters import NavigationParameters, health_geometry
 from slipnav.systems.plant_dynamics import _plant_steps
 from slipnav.systems.robot_parameters import kurt3d, tinyphoon
 

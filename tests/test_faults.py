@@ -39,7 +39,7 @@ from slipnav.systems.health import (
 from slipnav.systems.health.accelerometer_pair import fast_pair_ratio, pair_omega_squared
 from slipnav.systems.health.pair_gain import pair_gain_ratio, pair_gain_reset, pair_gain_upper_bound
 from slipnav.systems.health.yaw_witness import yaw_follow_step
-from slipnav.systems.navigation import NavigationParameters, health_geometry
+from slipnav.systems.navigation_parameters import NavigationParameters, health_geometry
 from slipnav.systems.plant_dynamics import plant_derivatives, plant_substep
 from slipnav.systems.robot_parameters import kurt3d, tinyphoon
 from slipnav.systems.sensors import accelerometer_truth
@@ -852,12 +852,8 @@ def test_a_stuck_encoders_restored_travel_never_becomes_s11s_reference():
     the next batch's reference is the last one carried by the inertial speed change, not that sample's
     speed (which gave dv = 0.40 m/s and C1 0.02, a slip that never was). dv stays within the noise of
     the other detections (0.044 m/s) and C1 above 0.6."""
-    from slipnav.systems.navigation import (
-        NavigationInitialState,
-        NavigationLoop,
-        NavigationParameters,
-        run_navigation_loop,
-    )
+    from slipnav.systems.navigation import NavigationLoop, run_navigation_loop
+    from slipnav.systems.navigation_parameters import NavigationInitialState, NavigationParameters
 
     n, v = 600, 0.2
     rng = np.random.default_rng(0)

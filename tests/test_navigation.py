@@ -39,12 +39,11 @@ from slipnav.systems.mixing_weights import (
     mixing_c2,
     mixing_c3,
 )
-from slipnav.systems.navigation import (
-    LOOP_KEYS,
+from slipnav.systems.navigation import LOOP_KEYS, navigation_loop
+from slipnav.systems.navigation_parameters import (
     NavigationInitialState,
     NavigationParameters,
     health_geometry,
-    navigation_loop,
 )
 from slipnav.systems.odometry import odometry, odometry_step
 from slipnav.systems.pose import pose_step

@@ -15,7 +15,7 @@ from slipnav.systems.health import health_initial_state, health_step
 from slipnav.systems.mixing import mix
 from slipnav.systems.mixing_parameters import MixingParameters
 from slipnav.systems.mixing_weights import accumulate_delta_v, c3_residual, mixing_c1, mixing_c3
-from slipnav.systems.navigation import NavigationParameters, health_geometry
+from slipnav.systems.navigation_parameters import NavigationParameters, health_geometry
 from slipnav.systems.path_follower import PathFollowerParameters, follower_step
 from slipnav.systems.slip_control import StepSizeController, StepSizeParameters
 from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step

@@ -11,7 +11,7 @@ from slipnav.scenarios.config import load_scenario, with_keys
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
 from slipnav.systems.mixing import VelocityMixer
 from slipnav.systems.mixing_parameters import MixingParameters
-from slipnav.systems.navigation import NavigationParameters, check_slide_onset, health_geometry
+from slipnav.systems.navigation_parameters import NavigationParameters, check_slide_onset, health_geometry
 from slipnav.systems.sensors import default_sensor_parameters
 from slipnav.systems.slide_onset import SLIDE_ONSET_INITIAL, accelerometer_pair_disagreement, slide_onset_step
 

@@ -5,12 +5,8 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.systems.navigation import (
-    NavigationLoop,
-    NavigationParameters,
-    health_geometry,
-    run_navigation_loop,
-)
+from slipnav.systems.navigation import NavigationLoop, run_navigation_loop
+from slipnav.systems.navigation_parameters import NavigationParameters, health_geometry
 from slipnav.systems.sensors import SensorParameters
 from slipnav.systems.standstill import (
     StandstillParameters,
