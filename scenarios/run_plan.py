@@ -25,8 +25,8 @@ from slipnav.scenarios.trajectories import (
 )
 from slipnav.systems.checks import require_seed
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.robot_parameters import RobotParameters
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 
 def check_run_options(

@@ -15,7 +15,7 @@ from slipnav.scenarios.config import Scenario
 from slipnav.scenarios.progress import TaskProgress
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
-from slipnav.systems.robot_parameters import GRAVITY
+from slipnav.systems.robot.parameters import GRAVITY
 
 STANDSTILL_PREFIX = 1.0
 """s the robot is held still at the start of every manoeuvre (its biases)."""

@@ -21,7 +21,6 @@ An excluded axis reads its partner's plus the rotational difference and the lear
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.contact import shoe_drag
 from slipnav.systems.health.layout import (
     ANALOG_HOLD,
     PAIR_AVERAGE,
@@ -41,6 +40,7 @@ from slipnav.systems.health.pair_gain import (
     pair_gain_upper_bound,
 )
 from slipnav.systems.health.parameters import INCONSISTENT, PLAUSIBLE_CURRENT
+from slipnav.systems.robot.contact import shoe_drag
 
 FAST_ROTATION_SIGMAS = 5.0
 """The fast pair test's bound allows this many standard deviations of the noise that the gyro's

@@ -59,9 +59,9 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.contact import shoe_drag
 from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT
-from slipnav.systems.robot_parameters import RobotParameters
+from slipnav.systems.robot.contact import shoe_drag
+from slipnav.systems.robot.parameters import RobotParameters
 from slipnav.systems.state_layout import layout_indices, layout_size
 
 PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")

@@ -6,7 +6,7 @@ itself.
 import math
 
 from slipnav.systems.health.accelerometer_pair import pair_rotational_difference
-from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
 
 
 def accelerometer_pair_disagreement(accelerometers, omega: float, position) -> float:

@@ -6,7 +6,7 @@ T_N), the logsig switches and filters behind them, and their Drake blocks MixerC
 import math
 
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
 from slipnav.systems.rates import pt1_step
 
 

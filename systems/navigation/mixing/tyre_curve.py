@@ -6,7 +6,7 @@ relaxation.
 
 import math
 
-from slipnav.systems.mixing_parameters import MixingParameters
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
 
 
 def tyre_utilisation(v_t: float, omega: float, p: MixingParameters) -> float:

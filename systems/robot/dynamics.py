@@ -4,7 +4,7 @@ the discrete plant's advance over an update period.
 The body obeys Seyr & Jakubek's kinematics S(1) with body-frame velocities (v_t, v_n, omega) and the
 absolute accelerations a_t = dv_t/dt - v_n*omega, a_n = dv_n/dt + v_t*omega that S(2) assumes. Unlike S(1)
 the velocities are not imposed: they follow from the forces of two rubber tyres and two felt shoes
-(systems/contact.py) and the wheels' DC motors under the PI speed loop (systems/motors.py).
+(systems/robot/contact.py) and the wheels' DC motors under the PI speed loop (systems/robot/motors.py).
 
 Conventions: body x forward (t), y to the left (n); the right wheel sits at y = -track_width/2, so rolling
 without slip gives omega = (v_R - v_L)/track_width (Seyr's b, Indiveri's 2b). Centre of gravity on the axle.
@@ -17,9 +17,9 @@ import math
 import numpy as np
 from pydrake.common.containers import namedview
 from slipnav.systems.compiled import compiled, jitable
-from slipnav.systems.contact import NO_DISTURBANCE, contact_forces
-from slipnav.systems.motors import MOTORS_ON, motor_currents, speed_loop_update
-from slipnav.systems.robot_parameters import PlantConstants, RobotParameters
+from slipnav.systems.robot.contact import NO_DISTURBANCE, contact_forces
+from slipnav.systems.robot.motors import MOTORS_ON, motor_currents, speed_loop_update
+from slipnav.systems.robot.parameters import PlantConstants, RobotParameters
 
 PlantState = namedview(
     "PlantState",

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pydrake.common.containers import namedview
 from slipnav.systems.compiled import jitable
-from slipnav.systems.robot_parameters import RobotParameters
+from slipnav.systems.robot.parameters import RobotParameters
 
 SpeedLoopState = namedview("SpeedLoopState", ["integral_R", "integral_L", "voltage_R", "voltage_L"])
 """Discrete state of the sampled PI wheel-speed loop: error integrals (rad) and held voltages (V)."""

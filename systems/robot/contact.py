@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.robot_parameters import RobotParameters
+from slipnav.systems.robot.parameters import RobotParameters
 
 
 @jitable
@@ -94,7 +94,7 @@ def shoe_drag(v_t: float, v_n: float, omega: float, p, force: float, moment: flo
 
 NO_DISTURBANCE = (1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 """The disturbance input when nothing acts: [contact_R, contact_L, held_R, held_L, torque_R, torque_L,
-force_t, force_n] (systems/faults.py's perturbations: a wheel lifted (contact 0), held by a hand, pushed
+force_t, force_n] (systems/robot/faults.py's perturbations: a wheel lifted (contact 0), held by a hand, pushed
 with a torque (N m); a push on the body (N, body axes))."""
 
 

@@ -1,7 +1,7 @@
 """What the navigation is given: its tuning (NavigationParameters, every part's parameters), its initial
 state (NavigationInitialState), and what the sensor checks know of the robot and its sensors
 (health_geometry), shared by the navigation diagram (diagrams/navigation.py) and the plain loop
-(systems/navigation.py).
+(systems/navigation/loop.py).
 """
 
 import dataclasses as dc
@@ -9,17 +9,17 @@ import math
 from types import SimpleNamespace
 
 import numpy as np
-from slipnav.systems.ekf import EkfParameters
-from slipnav.systems.gyrodometry import GyrodometryParameters
 from slipnav.systems.health import FORCE_REFERENCE_FIELDS, HealthGeometry, SensorHealthParameters
 from slipnav.systems.health.yaw_witness import MIN_YAW_LAG_STEPS, yaw_lag_at_floor
-from slipnav.systems.mixing_parameters import MixingParameters
-from slipnav.systems.odometry import wheel_radii
-from slipnav.systems.robot_parameters import RobotParameters
-from slipnav.systems.sensors import SensorParameters
-from slipnav.systems.sideslip import SideSlipParameters
-from slipnav.systems.standstill import StandstillParameters
-from slipnav.systems.yaw_calibration import YawCalibrationParameters
+from slipnav.systems.navigation.ekf import EkfParameters
+from slipnav.systems.navigation.gyrodometry import GyrodometryParameters
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.odometry import wheel_radii
+from slipnav.systems.navigation.sideslip import SideSlipParameters
+from slipnav.systems.navigation.standstill import StandstillParameters
+from slipnav.systems.navigation.yaw_calibration import YawCalibrationParameters
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 
 @dc.dataclass

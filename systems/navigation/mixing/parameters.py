@@ -1,5 +1,5 @@
-"""The tuning of the mixing of odometric and inertial estimates (Seyr & Jakubek §IV-D, systems/mixing.py)
-and its range checks."""
+"""The tuning of the mixing of odometric and inertial estimates (Seyr & Jakubek §IV-D,
+systems/navigation/mixing/mixer.py) and its range checks."""
 
 import dataclasses as dc
 import math
@@ -22,8 +22,9 @@ class MixingParameters:
             short enough that the inertial v_t taken meanwhile hardly drifts (accelerometer bias sums to
             3.3 x its ~0.4 mm/s per batch, far below b1). 0: the paper's S(12).
         delta_v_running_integral: S(11)'s acceleration term is the running integral of the mean
-            tangential acceleration since the batch start ("discrete integration", §IV-C; systems/
-            slip_detector.py). False: the printed single-sample term (a_t1,k + a_t2,k) T_N/2.
+            tangential acceleration since the batch start ("discrete integration", §IV-C;
+            systems/navigation/slip_detector.py). False: the printed single-sample term (a_t1,k + a_t2,k)
+            T_N/2.
         a2: C2 steepness (s^2/m): 4 gives a 10 %-90 % transition over 1.1 m/s^2.
         b2: C2 threshold on |a_n| (m/s^2): above the EKF's a_n noise (commotion) at speed.
         a3: C3 steepness (s/rad): 200 gives a 10 %-90 % transition over 0.022 rad/s.
@@ -31,8 +32,8 @@ class MixingParameters:
             odometric yaw rate is quantised in steps of 0.11 rad/s (7.7 mm/s / 68 mm); filtered over one
             T_C its error is < 0.011 rad/s and the gyro's noise 0.003 rad/s, while the felt shoes' 1-2 %
             scrub in a 3 rad/s spot turn gives 0.03-0.06 rad/s: with the gyro's bias estimated
-            (systems/gyro_bias.py) the turn is the gyro's (square, 10 seeds: fused heading error RMS
-            1.5 -> 0.3 deg open loop).
+            (systems/navigation/yaw_calibration.py) the turn is the gyro's (square, 10 seeds: fused heading
+            error RMS 1.5 -> 0.3 deg open loop).
         c3_residual_time_constant: PT1 of ^O omega - ^I omega before S(14) (s): 0.02 (one T_C, the
             batch of S(11)); 0: the paper's per-sample residual. The turn rate below is filtered alike.
         gyro_turn_rate: |^I omega| (PT1-filtered as the residual) above which the yaw rate is the gyro's

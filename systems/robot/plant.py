@@ -1,7 +1,7 @@
 """The differential-drive robot as a Drake block (DifferentialDrivePlant): a rigid body with real tyre slip
-(systems/contact.py), DC motors and a sampled wheel-speed loop (systems/motors.py), continuous or
-advanced by semi-implicit steps (systems/plant_dynamics.py), with the physical parameters of
-systems/robot_parameters.py.
+(systems/robot/contact.py), DC motors and a sampled wheel-speed loop (systems/robot/motors.py), continuous or
+advanced by semi-implicit steps (systems/robot/dynamics.py), with the physical parameters of
+systems/robot/parameters.py.
 """
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
-from slipnav.systems.contact import NO_DISTURBANCE, tyre_slip
-from slipnav.systems.motors import MOTORS_ON, motor_current, motor_currents, speed_loop_update
-from slipnav.systems.plant_dynamics import plant_advance, plant_derivatives, substeps_per
-from slipnav.systems.robot_parameters import RobotParameters
+from slipnav.systems.robot.contact import NO_DISTURBANCE, tyre_slip
+from slipnav.systems.robot.dynamics import plant_advance, plant_derivatives, substeps_per
+from slipnav.systems.robot.motors import MOTORS_ON, motor_current, motor_currents, speed_loop_update
+from slipnav.systems.robot.parameters import RobotParameters
 
 DEFAULT_TIME_STEP = 5e-4
 """Default semi-implicit step of the discrete plant (s). Against the continuous model (DOP853, rtol 1e-9),
@@ -49,7 +49,7 @@ class DifferentialDrivePlant(LeafSystem):
     - wheel_speeds: circumferential speeds [r_R*w_R, r_L*w_L] with the true rolling radii (m/s).
     - tyre_slip: [kappa_R, kappa_L, alpha_R, alpha_L]: slip ratios and slip angles (rad).
     - motor_currents: the true armature currents [i_R, i_L] (A) at ``state`` with the voltages held since
-      the last PI sample (motor_currents), for the drivers' current sense (systems/sensors.py).
+      the last PI sample (motor_currents), for the drivers' current sense (systems/robot/sensors.py).
 
     Two time models, as Drake's MultibodyPlant offers:
 

@@ -19,14 +19,13 @@ integral instead (tyre_model_check, free_side_slip_step).
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.mixing_parameters import MixingParameters
-from slipnav.systems.slide_onset import (
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.slide_onset import (
     SLIDE_ONSET_INITIAL,
     accelerometer_pair_disagreement,
     slide_onset_step,
 )
-from slipnav.systems.standstill import zero_velocity_update
-from slipnav.systems.tyre_curve import (
+from slipnav.systems.navigation.mixing.tyre_curve import (
     inertial_relaxation,
     lateral_velocity_model,
     longitudinal_slip_speed,
@@ -34,12 +33,13 @@ from slipnav.systems.tyre_curve import (
     side_slip_from_accelerations,
     tyre_utilisation,
 )
-from slipnav.systems.tyre_identification import (
+from slipnav.systems.navigation.mixing.tyre_identification import (
     believed_tyre,
     free_side_slip_step,
     tyre_model_check,
     tyre_peak_step,
 )
+from slipnav.systems.navigation.standstill import zero_velocity_update
 
 
 def wheels_at_rest(odo) -> bool:
@@ -71,7 +71,7 @@ def mixing_gain(
     ``check``, the weight w of the free integral in the inertial branch (tyre_model_check), takes its
     share from the tyre model: the branch's outside weight is (1 - q_I)(1 - w) (the free integral is the
     EKF's own kinematics, no measurement).
-    While the robot stands (``standing``: the zero-velocity update, systems/standstill.py) both
+    While the robot stands (``standing``: the zero-velocity update, systems/navigation/standstill.py) both
     velocities are measured as zero: [1, 1].
     While an outside force pushes the body (``external_force``, mix_checked) v_n is the free integral
     alone: w_n = 0.
@@ -222,7 +222,7 @@ def mix(odo, inertial, c1: float, c2: float, c3: float, previous, p: MixingParam
     above it the inertial v_n relaxes towards f = side_slip_from_accelerations(v_t, ^O v_t, ^I a_t, ^I a_n)
     (m with side_slip_from_accelerations = False) by q_I = 1 - (1 - q2_inertial) sqrt(1 - u^2), u the
     tyres' utilisation capped at 1. The paper's S(17) for a_peak = inf (m = f = 0) and q2_inertial = 1.
-    At a standstill the zero-velocity update (systems/standstill.py) replaces the whole estimate.
+    At a standstill the zero-velocity update (systems/navigation/standstill.py) replaces the whole estimate.
 
     Args:
         previous: the previous mixed estimate x_k-1 (the EKF state), for v_n,k-1 and m_k-1.
@@ -279,8 +279,8 @@ class VelocityMixer(LeafSystem):
     - external_force (optional): 1 while the perturbation monitor flags a sideways push on the body
       (perturbation_monitor.sideways_push): v_n is the free integral of the lateral kinematics
       (mix_checked); unconnected: 0.
-    - standstill (optional): 1 while the robot stands (systems/standstill.py): the mixed estimate is
-      zero and the check's F and S restart from rest (zero_velocity_update), applied to mix_checked's
+    - standstill (optional): 1 while the robot stands (systems/navigation/standstill.py): the mixed estimate
+      is zero and the check's F and S restart from rest (zero_velocity_update), applied to mix_checked's
       output, with the gain [1, 1] (mixing_gain); unconnected: 0.
     - accelerometers: the checked (and corrected) [a_t1, a_n1, a_t2, a_n2] the EKF reads: the slide-onset
       test trusts the inertial v_t only while the pair agrees (accelerometer_pair_disagreement, with

@@ -1,4 +1,4 @@
-"""The plain sequential reference loop of Seyr & Jakubek's Fig. 3 (its parameters: navigation_parameters.py).
+"""The plain sequential reference loop of Seyr & Jakubek's Fig. 3 (its parameters: parameters.py).
 
 ``navigation_loop`` runs the same pure functions as the LeafSystems of diagrams/navigation.py, in the
 order the diagram's timing implies, over logged sensor rows. It is the test oracle that proves the
@@ -8,8 +8,8 @@ Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K
 1. check every sensor channel (systems/health/: exclude and replace faulty ones, flag them),
    odometry S(10) from the encoder difference;
    the gyro and the odometric yaw rate calibrated with the bias and radius difference learned up to
-   the last batch (systems/yaw_calibration.py); the accelerometers less the biases learned up to sample
-   k-1 and the standstill test of sample k (systems/standstill.py);
+   the last batch (systems/navigation/yaw_calibration.py); the accelerometers less the biases learned up to
+   sample k-1 and the standstill test of sample k (systems/navigation/standstill.py);
 2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
 3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry (C3 of the residual's
    PT1 up to sample k);
@@ -27,15 +27,6 @@ Logged values are those the blocks read at t_k: states before step 5, outputs of
 """
 
 import numpy as np
-from slipnav.systems.baselines import BaselineState, baselines_step
-from slipnav.systems.ekf import (
-    ekf_covariance_update,
-    ekf_gain,
-    ekf_inertial_estimate,
-    ekf_measurement,
-    ekf_prior_covariance,
-)
-from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.health import (
     NO_CURRENTS,
     gyro_bias_step,
@@ -45,27 +36,44 @@ from slipnav.systems.health import (
     odometry_unusable,
     slip_detector_blind,
 )
-from slipnav.systems.mixing import mix_checked, mixing_gain, push_taken
-from slipnav.systems.mixing_weights import c3_residual, c3_turn_rate, mixer_c1_step, mixing_c2, mixing_c3
-from slipnav.systems.navigation_parameters import (
+from slipnav.systems.navigation.baselines import BaselineState, baselines_step
+from slipnav.systems.navigation.ekf import (
+    ekf_covariance_update,
+    ekf_gain,
+    ekf_inertial_estimate,
+    ekf_measurement,
+    ekf_prior_covariance,
+)
+from slipnav.systems.navigation.mixing.mixer import mix_checked, mixing_gain, push_taken
+from slipnav.systems.navigation.mixing.slide_onset import (
+    SLIDE_ONSET_INITIAL,
+    accelerometer_pair_disagreement,
+    slide_onset_step,
+)
+from slipnav.systems.navigation.mixing.tyre_identification import believed_tyre
+from slipnav.systems.navigation.mixing.weights import (
+    c3_residual,
+    c3_turn_rate,
+    mixer_c1_step,
+    mixing_c2,
+    mixing_c3,
+)
+from slipnav.systems.navigation.odometry import odometry_step, wheel_radii
+from slipnav.systems.navigation.parameters import (
     NavigationInitialState,
     NavigationParameters,
     check_slide_onset,
     health_geometry,
 )
-from slipnav.systems.odometry import odometry_step, wheel_radii
-from slipnav.systems.pose import pose_step
-from slipnav.systems.robot_parameters import RobotParameters
-from slipnav.systems.sensor_correction import (
+from slipnav.systems.navigation.pose import pose_step
+from slipnav.systems.navigation.sensor_correction import (
     SensorCalibration,
     corrected_accelerometers,
     corrected_gyro,
 )
-from slipnav.systems.sensors import SensorParameters
-from slipnav.systems.sideslip import side_slip_angle
-from slipnav.systems.slide_onset import SLIDE_ONSET_INITIAL, accelerometer_pair_disagreement, slide_onset_step
-from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
-from slipnav.systems.standstill import (
+from slipnav.systems.navigation.sideslip import side_slip_angle
+from slipnav.systems.navigation.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.navigation.standstill import (
     accelerometer_biases,
     bias_free,
     standstill_constants,
@@ -74,13 +82,15 @@ from slipnav.systems.standstill import (
     standstill_test,
     zero_velocity_update,
 )
-from slipnav.systems.tyre_identification import believed_tyre
-from slipnav.systems.yaw_calibration import (
+from slipnav.systems.navigation.yaw_calibration import (
     calibrated_gyro,
     calibrated_odometry,
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
+from slipnav.systems.robot.faults import SENSOR_CHANNELS
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "

@@ -7,10 +7,10 @@ free_side_slip_step), and the peak a_peak the curve uses, learnt from the naviga
 import copy
 import math
 
-from slipnav.systems.mixing_parameters import MixingParameters
-from slipnav.systems.mixing_weights import logsig
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.tyre_curve import tyre_force_per_mass
+from slipnav.systems.navigation.mixing.weights import logsig
 from slipnav.systems.rates import pt1_step
-from slipnav.systems.tyre_curve import tyre_force_per_mass
 
 
 def tyre_model_check(free_v_n: float, curve_v_n: float, reference_speed: float, p: MixingParameters) -> float:
