@@ -10,14 +10,23 @@ from slipnav.diagrams.loggers import LoggedDiagram, add_loggers, robot_ports
 from slipnav.diagrams.onboard import add_command_monitor, add_robot_and_navigation
 from slipnav.diagrams.robot import check_robot_inputs
 from slipnav.systems.checks import check_follower_gains, check_start_time, require_instance
+from slipnav.systems.control.path_follower import (
+    LyapunovPathFollower,
+    PathFollowerParameters,
+    WheelSpeedSaturator,
+)
+from slipnav.systems.control.slip_control import (
+    StepSizeController,
+    StepSizeParameters,
+    TrajectoryInterpolator,
+)
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.path_follower import LyapunovPathFollower, PathFollowerParameters, WheelSpeedSaturator
-from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
+from slipnav.systems.navigation.parameters import NavigationParameters
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration
-from slipnav.systems.sensors import SensorParameters
-from slipnav.systems.slip_control import StepSizeController, StepSizeParameters, TrajectoryInterpolator
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.plant import DEFAULT_TIME_STEP
+from slipnav.systems.robot.sensors import SensorParameters
 
 
 @dc.dataclass
@@ -206,7 +215,7 @@ def build_closed_loop_diagram(
     ``calibration`` the sensors' systematic errors a calibrated model states (SensorCalibration).
     ``perturbation_monitor``: PerturbationParameters of the PerturbationMonitor on the wheel commands,
     the encoders and the navigation (default PerturbationParameters()).
-    ``faults``: sensor FaultEvents between the sensors and the navigation (systems/faults.py)."""
+    ``faults``: sensor FaultEvents between the sensors and the navigation (systems/robot/faults.py)."""
     check_closed_loop_inputs(
         robot, sensor_params, rates, navigation, control, seed, initial_pose, initial_speed, plant_time_step
     )

@@ -1,40 +1,42 @@
 """The navigation diagram of Seyr & Jakubek's Fig. 3 (plus the odometry-only and Gyrodometry baselines).
 
 Inputs: the sensor signals. Outputs: the navigation estimate and internals. Block timing: see
-systems/navigation.py (the sequential reference loop documents the same ordering).
+systems/navigation/loop.py (the sequential reference loop documents the same ordering).
 """
 
 import dataclasses as dc
 
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from slipnav.diagrams.split import split_port
-from slipnav.systems.baselines import Baselines
-from slipnav.systems.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from slipnav.systems.health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
-from slipnav.systems.mixing import (
-    C2C3_STEP_LAYOUT,
-    MIXER_LAYOUT,
-    TYRE_MODEL_STATE_LAYOUT,
-    MixerC1,
-    MixerC2C3,
-    VelocityMixer,
-)
-from slipnav.systems.navigation import (
+from slipnav.systems.navigation.baselines import Baselines
+from slipnav.systems.navigation.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
+from slipnav.systems.navigation.mixing.mixer import MIXER_LAYOUT, TYRE_MODEL_STATE_LAYOUT, VelocityMixer
+from slipnav.systems.navigation.mixing.weights import C2C3_STEP_LAYOUT, MixerC1, MixerC2C3
+from slipnav.systems.navigation.odometry import ODOMETRY_STEP_LAYOUT, Odometry
+from slipnav.systems.navigation.parameters import (
     NavigationInitialState,
     NavigationParameters,
     check_slide_onset,
     health_geometry,
 )
-from slipnav.systems.odometry import ODOMETRY_STEP_LAYOUT, Odometry
-from slipnav.systems.plant import RobotParameters
-from slipnav.systems.pose import PoseIntegrator
+from slipnav.systems.navigation.pose import PoseIntegrator
+from slipnav.systems.navigation.sensor_correction import SensorCalibration, SensorCorrection
+from slipnav.systems.navigation.sideslip import SideSlipEstimator
+from slipnav.systems.navigation.slip_detector import TangentialSlipDetector
+from slipnav.systems.navigation.standstill import (
+    STANDSTILL_STEP_LAYOUT,
+    StandstillDetector,
+    standstill_constants,
+)
+from slipnav.systems.navigation.yaw_calibration import (
+    CALIBRATED_LAYOUT,
+    PARAMETERS_LAYOUT,
+    YawRateCalibration,
+)
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration, SensorCorrection
-from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
-from slipnav.systems.sideslip import SideSlipEstimator
-from slipnav.systems.slip_detector import TangentialSlipDetector
-from slipnav.systems.standstill import STANDSTILL_STEP_LAYOUT, StandstillDetector, standstill_constants
-from slipnav.systems.yaw_calibration import CALIBRATED_LAYOUT, PARAMETERS_LAYOUT, YawRateCalibration
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters, default_sensor_parameters
 
 NAVIGATION_OUTPUTS = (
     "pose",
@@ -75,15 +77,15 @@ def build_navigation_diagram(
 
     ``wheel_radius``: one radius for both wheels or the pair (r_R, r_L) of a calibrated model (m).
     ``sensors``, ``no_load_speed``: the sensors' data sheet (default Tinyphoon's) and the nominal motors'
-    no-load speed (m/s) for the sensor checks (systems.navigation.health_geometry).
+    no-load speed (m/s) for the sensor checks (systems.navigation.parameters.health_geometry).
     ``calibration``: the model's SensorCalibration; unless it is the identity a SensorCorrection block
     removes it from the checked inertial samples before every block that reads them.
     ``robot``: the nominal robot, whose mass, motors and drags give the sensor checks the force reference
     of the tangential accelerometers from the optional ``motor_currents`` input (None: none).
     ``external_force`` (optional; unconnected: none): the perturbation monitor's sideways push, which
     leaves v_n to the lateral kinematics (VelocityMixer); add_perturbation_monitor connects it.
-    The baselines (odometry-only and Gyrodometry, systems/baselines.py) read the raw encoders and gyro,
-    not the checked ones.
+    The baselines (odometry-only and Gyrodometry, systems/navigation/baselines.py) read the raw encoders and
+    gyro, not the checked ones.
 
     .. pydrake_system::
 

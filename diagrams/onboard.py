@@ -8,11 +8,11 @@ from slipnav.diagrams.navigation import add_navigation
 from slipnav.diagrams.robot import RobotHandles, add_robot_with_sensors
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
-from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import RobotParameters
+from slipnav.systems.navigation.parameters import NavigationParameters
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 
 def add_robot_and_navigation(

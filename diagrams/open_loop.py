@@ -14,13 +14,14 @@ from slipnav.systems.checks import (
     require_instance,
     require_table,
 )
-from slipnav.systems.feedforward import TrajectoryFeedforward
+from slipnav.systems.control.feedforward import TrajectoryFeedforward
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import DEFAULT_TIME_STEP, RobotParameters
+from slipnav.systems.navigation.parameters import NavigationParameters
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.plant import DEFAULT_TIME_STEP
+from slipnav.systems.robot.sensors import SensorParameters
 
 
 def build_open_loop_diagram(
@@ -48,12 +49,12 @@ def build_open_loop_diagram(
     ``start_time``: the table's row 0 plays until then (the standstill; a robot at rest only). Raises
     ValueError naming the parameter for an input that cannot be simulated. ``faults``: sensor FaultEvents
     between the sensors and the navigation; ``nominal_sensors``: the sensors' data sheet the navigation
-    knows (default the robot's, systems.sensors.default_sensor_parameters); ``calibration``: the sensors'
-    systematic errors a calibrated model states (SensorCalibration); ``perturbation_monitor``:
+    knows (default the robot's, systems.robot.sensors.default_sensor_parameters); ``calibration``: the
+    sensors' systematic errors a calibrated model states (SensorCalibration); ``perturbation_monitor``:
     PerturbationParameters of the PerturbationMonitor on the commands, encoders and navigation.
     ``motor_enable``: None (the motors always driven, the plant's motor_enable input left unconnected) or
     one row [enable_R, enable_L] of 0/1 per wheel_speeds row, held from that row's time on (a
-    TrajectorySource): 0 switches the motor off (systems.plant.MOTORS_ON; a coasting run)."""
+    TrajectorySource): 0 switches the motor off (systems.robot.motors.MOTORS_ON; a coasting run)."""
     wheel_speeds, reference_poses, motor_enable = check_open_loop_inputs(
         robot,
         sensor_params,

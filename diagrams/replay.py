@@ -12,10 +12,10 @@ from slipnav.diagrams.loggers import add_loggers
 from slipnav.diagrams.navigation import NAVIGATION_OUTPUTS, build_navigation_diagram
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
-from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
+from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 
 def build_log_replay_diagram(

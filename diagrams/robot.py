@@ -15,16 +15,17 @@ from slipnav.systems.checks import (
     require_pose,
     require_seed,
 )
-from slipnav.systems.faults import (
+from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot.faults import (
     PlantDisturbance,
     SensorFaultInjector,
     check_fault_events,
     has_plant_events,
     has_sensor_faults,
 )
-from slipnav.systems.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant, RobotParameters
-from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensors import ProprioceptiveSensors, SensorNoise, SensorParameters, initial_biases
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant
+from slipnav.systems.robot.sensors import ProprioceptiveSensors, SensorNoise, SensorParameters, initial_biases
 
 
 @dc.dataclass
@@ -50,10 +51,10 @@ def add_robot_with_sensors(
     """Add the plant and the sensors with the seed's noise.
 
     The initial sensor biases are drawn from ``numpy.random.default_rng(seed)``; the white noise, drift
-    and vibration draws are the seed's SensorNoise (systems/sensors.py), which the sensors read row k at
+    and vibration draws are the seed's SensorNoise (systems/robot/sensors.py), which the sensors read row k at
     t_k: a run is a function of the seed alone.
     ``plant_time_step`` > 0 makes the plant discrete, updated with the sensors every T_N; 0: continuous.
-    ``faults``: FaultEvents (systems/faults.py); with sensor faults a SensorFaultInjector sits after the
+    ``faults``: FaultEvents (systems/robot/faults.py); with sensor faults a SensorFaultInjector sits after the
     sensors and ``readings`` is it; with plant perturbations a PlantDisturbance feeds the plant's
     ``disturbance`` input.
     """

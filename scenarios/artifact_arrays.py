@@ -9,9 +9,10 @@ commands) as the blocks updating at t_k read them.
 from __future__ import annotations
 
 import numpy as np
-from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.health.perturbation import FORCE_CHANNELS, PERTURBATION_CHANNELS
-from slipnav.systems.plant import RobotParameters, tyre_slip
+from slipnav.systems.robot.contact import tyre_slip
+from slipnav.systems.robot.faults import SENSOR_CHANNELS
+from slipnav.systems.robot.parameters import RobotParameters
 
 TRUTH_KEYS = (
     "true_x true_y true_phi true_v_t true_v_n true_omega true_alpha true_wheel_R true_wheel_L".split()
@@ -40,7 +41,7 @@ SCALAR_KEYS = ("path_length", "T_N", "T_C", "V_m", "track_width", "start_time")
 
 def collect_arrays(loggers, context, robot: RobotParameters, copy: bool = True) -> dict:
     """Artifact arrays from the loggers of a diagram (every logger publishes on the T_N grid). The wheel
-    speeds, angles and tyre slips are computed from the logged plant state (systems.plant.tyre_slip).
+    speeds, angles and tyre slips are computed from the logged plant state (systems.robot.contact.tyre_slip).
     ``copy=False``: the arrays are views of the loggers' data where they can be (LogDrain's own arrays;
     a Drake log's data lives only as long as its context)."""
     logs = {name: logger.FindLog(context) for name, logger in loggers.items()}

@@ -273,7 +273,7 @@ def _calibrate(args) -> int:
     from slipnav.scenarios.artifacts import check_output_directory
     from slipnav.studies.calibration_commands import calibrate_command
     from slipnav.systems.checks import require_seed
-    from slipnav.systems.plant import ROBOTS
+    from slipnav.systems.robot.parameters import ROBOTS
 
     if args.truth is not None or args.model is not None:
         return _calibrate_against_truth(args)

@@ -7,7 +7,7 @@ import numpy as np
 from slipnav.scenarios.trajectories import (
     Path,
 )
-from slipnav.systems.plant import RobotParameters
+from slipnav.systems.robot.parameters import RobotParameters
 
 
 def path_projection(x, y, path_x, path_y, block: int = 256, margin: float = 0.2):

@@ -33,15 +33,17 @@ from slipnav.scenarios.typed_yaml import (
     replaced_at,
 )
 from slipnav.systems.checks import check_follower_gains, check_robot_physics, check_start_time
-from slipnav.systems.faults import FaultEvent, check_fault_events
+from slipnav.systems.control.path_follower import PathFollowerParameters
+from slipnav.systems.control.slip_control import StepSizeParameters
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.path_follower import PathFollowerParameters
-from slipnav.systems.plant import DEFAULT_TIME_STEP, ROBOTS, RobotParameters, robot_parameters, substeps_per
+from slipnav.systems.navigation.parameters import NavigationParameters
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration
-from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
-from slipnav.systems.slip_control import StepSizeParameters
+from slipnav.systems.robot.dynamics import substeps_per
+from slipnav.systems.robot.faults import FaultEvent, check_fault_events
+from slipnav.systems.robot.parameters import ROBOTS, RobotParameters, robot_parameters
+from slipnav.systems.robot.plant import DEFAULT_TIME_STEP
+from slipnav.systems.robot.sensors import SensorParameters, default_sensor_parameters
 
 BUILTIN_DIR = FilePath(__file__).resolve().parent / "builtin"
 MODES = ("trajectory", "max_speed")
@@ -84,7 +86,7 @@ class Scenario:
             overrides, fixed deviations, tolerances drawn from the seed; scenarios/tolerances.py).
         plant_time_step: semi-implicit integration step of the discrete plant (s), dividing T_N and the
             robot's speed-loop period; 0 integrates the continuous plant with error-controlled RK3
-            (accurate, ~20x slower). Default 0.5 ms (accuracy: systems.plant.DEFAULT_TIME_STEP).
+            (accurate, ~20x slower). Default 0.5 ms (accuracy: systems.robot.plant.DEFAULT_TIME_STEP).
         T_N: navigation period (s). T_C: control period (s), an integer multiple of T_N.
         seed: seed of all sensor noise.
         mode: ``trajectory`` (Seyr: timed trajectory) or ``max_speed`` (Indiveri: geometric path).
@@ -94,7 +96,7 @@ class Scenario:
         initial_pose: [x, y, phi] of the robot at t = 0 (m, m, rad); the reference starts at the origin.
         standstill_time: the robot stands this long before the controller starts (s, a multiple of
             T_C), as a real robot does while its navigation initialises: the yaw calibration learns the
-            gyro's bias there (systems/yaw_calibration.py). Only where the run starts at rest.
+            gyro's bias there (systems/navigation/yaw_calibration.py). Only where the run starts at rest.
         settle_time: simulated time after the reference ends (s).
         duration: hard limit of the simulated time (s); default: reference end + settle_time.
         controller: ``closed_loop`` (navigation -> path follower -> plant) or ``feedforward`` (the
@@ -107,7 +109,7 @@ class Scenario:
             navigation's estimate), ``odometry``, ``gyrodometry`` or ``truth`` (an oracle).
         navigation: tuning of the navigation blocks (NavigationParameters: ekf, mixing, sideslip,
             gyrodometry, yaw_calibration, health, standstill), e.g. ``navigation: {mixing: {b1: 0.05}}``.
-        faults: timed sensor faults between the sensors and the navigation (systems/faults.py
+        faults: timed sensor faults between the sensors and the navigation (systems/robot/faults.py
             FaultEvent: kind, channel, start, duration, value), e.g. ``faults: [{kind: dropout,
             channel: gyro, start: 2.0, duration: 0.5}]``.
         perturbation_monitor: thresholds of the perturbation flags (systems/health/perturbation.py: a

@@ -5,7 +5,7 @@ identified: ``robot_overrides`` (RobotParameters fields, e.g. ``rolling_radius_R
 ``sensor_overrides`` (SensorParameters fields of the nominal sensor set, e.g.
 ``encoder_counts_per_revolution``), ``calibration`` (the sensors' scale errors and misalignments, which
 the navigation removes from every sample, and the calibration day's biases as a record:
-systems/sensor_correction.py), ``navigation`` (tuning of the navigation blocks, e.g. the
+systems/navigation/sensor_correction.py), ``navigation`` (tuning of the navigation blocks, e.g. the
 EKF's ``R`` from an Allan variance, the tyres' ``mixing.tyre_peak_acceleration``, the drag) and
 ``standard_errors`` (informative: each identified value's standard error, keyed as in
 studies/calibration.py). ``slipnav run`` writes the model its navigation read (``<stem>.model.yaml``);
@@ -24,11 +24,11 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from slipnav.scenarios.sensor_log import write_text_atomically
 from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
 from slipnav.systems.checks import check_robot_physics
-from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import ROBOTS, RobotParameters, robot_parameters
+from slipnav.systems.navigation.parameters import NavigationParameters
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration
-from slipnav.systems.sensors import SensorParameters, default_sensor_parameters
+from slipnav.systems.robot.parameters import ROBOTS, RobotParameters, robot_parameters
+from slipnav.systems.robot.sensors import SensorParameters, default_sensor_parameters
 
 __all__ = ["ModelError", "RobotModel", "SensorCalibration", "load_model", "model_from_text", "model_text"]
 

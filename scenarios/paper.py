@@ -8,14 +8,14 @@ the default already. DEVIATIONS is the table of README "Paper mode", one row per
 
 Where the print is ambiguous, paper mode takes the reading the papers' own derivations need and the
 default shares it: I(15)-(16) read the robot's speed, the u of I(11)-(12), under which I(17) holds
-(systems/path_follower.py; ``follower.use_estimated_speed: false`` runs the command u there instead).
+(systems/control/path_follower.py; ``follower.use_estimated_speed: false`` runs the command u there instead).
 """
 
 import dataclasses as dc
 import math
 import typing
 
-from slipnav.systems.mixing import MixingParameters
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
 
 PER_SAMPLE_C3 = {"a3": 60.0, "b3": 0.05}
 """S(14)'s steepness and threshold for the single sample's yaw-rate residual (the defaults a3 = 200,

@@ -2,9 +2,9 @@
 
 ``run_plain_loop`` takes exactly what ``diagrams.closed_loop.build_closed_loop_diagram`` takes and steps,
 every T_N, the discrete plant (plant_advance), the sensors (sensor_update), the navigation
-(systems.navigation.NavigationLoop) and, every T_C, the control blocks (follower_step, the speed law,
+(systems.navigation.loop.NavigationLoop) and, every T_C, the control blocks (follower_step, the speed law,
 step_size, interpolate), in the order Drake's pre-update semantics imply: every block that updates at
-t_k reads the values all blocks held at t_k. With the seed's sensor noise (systems.sensors.sensor_noise,
+t_k reads the values all blocks held at t_k. With the seed's sensor noise (systems.robot.sensors.sensor_noise,
 which the diagram's sensors read too) it reproduces the diagram sample for sample
 (tests/test_plain_loop.py); it is also the baseline of ``slipnav bench``.
 """
@@ -14,13 +14,14 @@ import time
 
 import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, control_offset
-from slipnav.systems.faults import (
-    apply_sensor_faults,
-    check_fault_events,
-    has_plant_events,
-    has_sensor_faults,
-    plant_disturbance,
+from slipnav.systems.control.path_follower import (
+    bounded_speed,
+    check_path_curvature,
+    follower_step,
+    saturate_wheel_speeds,
+    speed_law,
 )
+from slipnav.systems.control.slip_control import interpolate, step_size
 from slipnav.systems.health.perturbation import (
     FORCE_CHANNELS,
     PERTURBATION_CHANNELS,
@@ -30,26 +31,22 @@ from slipnav.systems.health.perturbation import (
     perturbation_step,
     sideways_push,
 )
-from slipnav.systems.navigation import LOOP_KEYS, NavigationInitialState, NavigationLoop, NavigationParameters
-from slipnav.systems.path_follower import (
-    bounded_speed,
-    check_path_curvature,
-    follower_step,
-    saturate_wheel_speeds,
-    speed_law,
-)
-from slipnav.systems.plant import (
-    NO_DISTURBANCE,
-    RobotParameters,
-    motor_current,
-    motor_currents,
-    plant_advance,
-    plant_derivatives,
-    substeps_per,
-)
+from slipnav.systems.navigation.loop import LOOP_KEYS, NavigationLoop
+from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensor_correction import SensorCalibration
-from slipnav.systems.sensors import (
+from slipnav.systems.robot.contact import NO_DISTURBANCE
+from slipnav.systems.robot.dynamics import plant_advance, plant_derivatives, substeps_per
+from slipnav.systems.robot.faults import (
+    apply_sensor_faults,
+    check_fault_events,
+    has_plant_events,
+    has_sensor_faults,
+    plant_disturbance,
+)
+from slipnav.systems.robot.motors import motor_current, motor_currents
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import (
     NOISE_CHANNELS,
     SensorParameters,
     current_noise,
@@ -59,7 +56,6 @@ from slipnav.systems.sensors import (
     sensor_noise,
     sensor_update,
 )
-from slipnav.systems.slip_control import interpolate, step_size
 
 PLAIN_LOOP_KEYS = (
     (

@@ -31,7 +31,7 @@ from slipnav.scenarios.run_summary import POSITION_ERROR_KEYS, position_error_su
 from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_metadata, read_sensor_log
 from slipnav.systems.checks import require_finite
 from slipnav.systems.health.perturbation import perturbation_report
-from slipnav.systems.navigation import NavigationInitialState, NavigationParameters
+from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
 
 
 @dc.dataclass

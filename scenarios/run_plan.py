@@ -24,9 +24,9 @@ from slipnav.scenarios.trajectories import (
     trajectory_path,
 )
 from slipnav.systems.checks import require_seed
-from slipnav.systems.plant import RobotParameters
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 
 def check_run_options(

@@ -17,9 +17,9 @@ from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays
 from slipnav.scenarios.trajectories import (
     Path,
 )
-from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.health import health_report
 from slipnav.systems.health.perturbation import perturbation_report
+from slipnav.systems.robot.faults import SENSOR_CHANNELS
 
 
 def final_position_errors(arrays) -> dict:

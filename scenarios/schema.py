@@ -17,9 +17,9 @@ from pathlib import Path as FilePath
 
 from slipnav.scenarios.config import Scenario
 from slipnav.scenarios.trajectories import Arc, CosineTurn, Pause, SpotTurn, Straight
-from slipnav.systems.faults import FaultEvent
-from slipnav.systems.plant import ROBOTS, robot_parameters
-from slipnav.systems.sensors import default_sensor_parameters
+from slipnav.systems.robot.faults import FaultEvent
+from slipnav.systems.robot.parameters import ROBOTS, robot_parameters
+from slipnav.systems.robot.sensors import default_sensor_parameters
 
 EXTRA = {"T_C": "control period (s), an integer multiple of T_N."}
 """Descriptions the docstrings give on a shared line."""
@@ -154,7 +154,7 @@ def generated_section() -> str:
             "",
             _table(segment_rows()),
             "",
-            "### Sensor faults (`faults`, a list; systems/faults.py)",
+            "### Sensor faults (`faults`, a list; systems/robot/faults.py)",
             "",
             _table(key_rows(FaultEvent, "faults[i].")),
             "",

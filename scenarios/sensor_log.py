@@ -125,7 +125,7 @@ class SensorLog:
         return np.column_stack([self.columns[c] for c in ENCODER_COLUMNS])
 
     def encoder_angles(self, counts_per_revolution: int) -> np.ndarray:
-        """(N, 2): wheel angles (rad) = counts * 2 pi / counts_per_revolution (what systems.sensors'
+        """(N, 2): wheel angles (rad) = counts * 2 pi / counts_per_revolution (what systems.robot.sensors'
         encoders output: for a simulated log bit-identical to the run's samples)."""
         step = 2.0 * math.pi / counts_per_revolution
         return self.encoder_counts * step

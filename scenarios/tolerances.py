@@ -20,8 +20,8 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.plant import RobotParameters
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 TOLERANCE_STREAM = 15
 """Second entropy word of the tolerance draw's SeedSequence (seed, TOLERANCE_STREAM)."""

@@ -23,7 +23,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 from slipnav.scenarios.config import ScenarioError, load_scenario
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.sensors import sensor_noise
+from slipnav.systems.robot.sensors import sensor_noise
 
 
 class _PassThrough(LeafSystem):

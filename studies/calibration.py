@@ -59,7 +59,7 @@ from slipnav.studies.calibration_identify import (
 )
 from slipnav.studies.calibration_manoeuvres import Manoeuvre, simulate_manoeuvres
 from slipnav.studies.calibration_session import read_session, write_session
-from slipnav.systems.navigation import NavigationParameters
+from slipnav.systems.navigation.parameters import NavigationParameters
 
 A_PEAK_MODEL_UNCERTAINTY = 0.02
 """Relative standard uncertainty of a_peak from the lumped tyre model (type B, added to the spirals'

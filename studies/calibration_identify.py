@@ -176,11 +176,11 @@ ACCEL_WINDOW = 0.05
 def identify_accelerometers(manoeuvres, T_N: float, robot, geometry, gyro_scale: float, counts, position):
     """Each accelerometer's scale error s and misalignment gamma: its de-biased reading z' = t' + i n'
     against the prediction z = t + i n from the encoders and the gyro (body_kinematics,
-    accelerometer_predictions; nominal mounting position), z' = (1 + s) exp(-i gamma) z (systems.sensors.
-    sensor_frame), by least squares over the ACCEL_WINDOW block means of each steady spin segment of the
-    ACCEL_KINDS runs (a segment: the blocks between two pauses). The biases' drift between the pauses
-    (piecewise linear, bias_line) errs by the same amount over a whole segment, so each segment is fitted
-    on its own and the estimate is the segments' mean, its standard error their scatter / sqrt(count).
+    accelerometer_predictions; nominal mounting position), z' = (1 + s) exp(-i gamma) z
+    (systems.robot.sensors.sensor_frame), by least squares over the ACCEL_WINDOW block means of each steady
+    spin segment of the ACCEL_KINDS runs (a segment: the blocks between two pauses). The biases' drift between
+    the pauses (piecewise linear, bias_line) errs by the same amount over a whole segment, so each segment is
+    fitted on its own and the estimate is the segments' mean, its standard error their scatter / sqrt(count).
 
     Returns ((s1, gamma1, s2, gamma2), their standard errors, the segments' estimates (K, 4))."""
     n = max(int(round(ACCEL_WINDOW / T_N)), 1)
@@ -228,7 +228,7 @@ COAST_SETTLE = 0.1
 
 
 def identify_drag(manoeuvres, T_N: float, robot, geometry, counts_per_revolution: int):
-    """The drag per unit mass the tyres push against (systems/mixing.py: drag_acceleration + drag_per_speed
+    """The drag per unit mass the tyres push against (MixingParameters: drag_acceleration + drag_per_speed
     |v|) from the coasting runs: with the motors off the robot rolls out on its shoes, m_eff dv/dt =
     -(m (d_0 + d_1 v) + 2 b_w v / r^2), m_eff = m + 2 J / r^2: the wheels' inertia J and bearing drag
     b_w (the nominal robot's, data sheet) are taken off. The distance rolled (the encoders' mean ground

@@ -15,7 +15,7 @@ from slipnav.scenarios.config import Scenario
 from slipnav.scenarios.progress import TaskProgress
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_from_arrays
 from slipnav.scenarios.tolerances import plant_record
-from slipnav.systems.plant import GRAVITY
+from slipnav.systems.robot.parameters import GRAVITY
 
 STANDSTILL_PREFIX = 1.0
 """s the robot is held still at the start of every manoeuvre (its biases)."""
@@ -288,7 +288,7 @@ def simulate_manoeuvres(
 
 
 def true_drag(plant) -> dict:
-    """What the navigation's drag (systems/mixing.py) is for the robot ``plant``: the felt shoes' Coulomb
+    """What the navigation's drag (MixingParameters) is for the robot ``plant``: the felt shoes' Coulomb
     friction per unit mass mu_s (1 - f_w) g and their viscous drag 2 c / m (mixing's Tinyphoon 0.49, 0.25)."""
     return {
         "drag_acceleration": plant.shoe_friction * (1.0 - plant.wheel_load_fraction) * GRAVITY,

@@ -40,8 +40,8 @@ from slipnav.scenarios.sensor_log import (
 from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
 from slipnav.studies.calibration_identify import _turn_data
 from slipnav.studies.calibration_manoeuvres import HEADING_STD, POSITION_STD, Manoeuvre, manoeuvre_plan
-from slipnav.systems.plant import ROBOTS, robot_parameters
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot.parameters import ROBOTS, robot_parameters
 
 MEASURED_KINDS = ("spot_turn", "straight", "square")
 """Manoeuvres whose final pose must be measured by hand."""

@@ -11,7 +11,7 @@ from scipy.optimize import least_squares
 from slipnav.scenarios.model import SensorCalibration
 from slipnav.scenarios.sensor_log import SensorLog
 from slipnav.studies.calibration_manoeuvres import STANDSTILL_PREFIX, Manoeuvre
-from slipnav.systems.sensor_correction import corrected_accelerometers
+from slipnav.systems.navigation.sensor_correction import corrected_accelerometers
 
 
 def fit_least_squares(residuals, x0, **kwargs):
@@ -60,7 +60,7 @@ def wheel_increments(counts: np.ndarray, step: float) -> np.ndarray:
 def creep_speeds(d: np.ndarray, r_R: float, r_L: float, b: float, robot, T_N: float) -> np.ndarray:
     """(K, 2) slip speeds r theta_dot - v of the right and left tyre (m/s) that the nominal robot's tyres
     need to push it along the wheel motion ``d`` (angle increments): the body's inertia plus the felt
-    shoes' drag and yaw moment (systems.plant.shoe_force with the nominal shoes), each wheel's force
+    shoes' drag and yaw moment (systems.robot.contact.shoe_force with the nominal shoes), each wheel's force
     through the inverse of the nominal tyre curve (mixing.tyre_slip) at the slip's reference speed
     max(|v|, slip_speed_floor). Rubber tyres creep ahead of the body whenever they push: ~0.7 % of the
     distance at cruise for Tinyphoon's shoes, which a calibration that ignored it would put into the
@@ -107,7 +107,7 @@ def dead_reckoning_end(d: np.ndarray, slip: np.ndarray, r_R: float, r_L: float, 
 
 def shoe_forces_per_mass(v_t, v_n, omega, robot) -> tuple[np.ndarray, np.ndarray]:
     """The nominal felt shoes' force per unit mass on the body (x, y) at body velocities (arrays), as
-    systems.plant.shoe_force (tanh-regularised Coulomb plus viscous, at +- shoe_offset)."""
+    systems.robot.contact.shoe_force (tanh-regularised Coulomb plus viscous, at +- shoe_offset)."""
     p = robot
     fx, fy = np.zeros_like(v_t), np.zeros_like(v_t)
     for x_shoe in (p.shoe_offset, -p.shoe_offset):
@@ -184,7 +184,7 @@ def body_kinematics(m: Manoeuvre, T_N: float, robot, geometry, gyro_scale: float
 
 def accelerometer_predictions(kinematics: np.ndarray, position) -> np.ndarray:
     """(N, 4) true readings [t1, n1, t2, n2] at body kinematics rows (v_t, omega, a_t, a_n, omega_dot), as
-    systems.sensors.accelerometer_truth with the nominal mounting position (x, y) of accelerometer 1."""
+    systems.robot.sensors.accelerometer_truth with the nominal mounting position (x, y) of accelerometer 1."""
     _, omega, a_t, a_n, omega_dot = kinematics.T
     px, py = position
     w2 = omega * omega
@@ -194,8 +194,8 @@ def accelerometer_predictions(kinematics: np.ndarray, position) -> np.ndarray:
 
 def correct_accelerometers(acc: np.ndarray, values) -> np.ndarray:
     """De-biased readings [t1, n1, t2, n2] (rows) back to the body axes, z = z' exp(i gamma) / (1 + s):
-    the navigation's own correction (systems.sensor_correction.corrected_accelerometers) on each row;
-    ``values``: (s1, gamma1, s2, gamma2)."""
+    the navigation's own correction (systems.navigation.sensor_correction.corrected_accelerometers) on each
+    row; ``values``: (s1, gamma1, s2, gamma2)."""
     s1, gamma1, s2, gamma2 = values
     calibration = SensorCalibration(
         accel1_scale_error=s1, accel1_misalignment=gamma1, accel2_scale_error=s2, accel2_misalignment=gamma2

@@ -1,7 +1,7 @@
 """Error budget of the navigation: ``slipnav error-budget [SCENARIO ...] [--seeds N] [--open-loop]``.
 
 Runs each scenario, then replays its logged sensor samples through the plain navigation loop
-(systems.navigation.NavigationLoop, the diagram's own functions) with oracle inputs that remove one
+(systems.navigation.loop.NavigationLoop, the diagram's own functions) with oracle inputs that remove one
 cause of error at a time, and prints for each variant the fused final position error (% of path length)
 and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the figures of
 ``slipnav accuracy``):
@@ -50,8 +50,9 @@ from slipnav.scenarios.metrics import (
 )
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.engine import session
-from slipnav.systems.navigation import NavigationInitialState, NavigationLoop, run_navigation_loop
-from slipnav.systems.sideslip import side_slip_angle
+from slipnav.systems.navigation.loop import NavigationLoop, run_navigation_loop
+from slipnav.systems.navigation.parameters import NavigationInitialState
+from slipnav.systems.navigation.sideslip import side_slip_angle
 
 VARIANTS = (
     "default",

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 from slipnav.scenarios.metrics import POSE_DELAY_SAMPLES, final_position_error, rms_position_error
-from slipnav.systems.faults import ENCODER_CHANNELS, SENSOR_CHANNELS, FaultEvent, apply_sensor_faults
+from slipnav.systems.robot.faults import ENCODER_CHANNELS, SENSOR_CHANNELS, FaultEvent, apply_sensor_faults
 
 FAULT_DURATION = 0.5
 DETECTION_LIMIT = 0.1
@@ -79,7 +79,7 @@ def fault_cases(a: dict) -> list[dict]:
 
 NOISE_LEVEL = {"gyro": 3 * 0.014, "accel": 3 * 0.062, "encoder": 0.0}
 """A fault has an effect once it changes a reading by more than three white-noise sigmas (the data
-sheets', systems/sensors.py); an encoder's by any count."""
+sheets', systems/robot/sensors.py); an encoder's by any count."""
 
 
 def select_cases(cases: list[dict], channels=None, kinds=None) -> list[dict]:

@@ -1,7 +1,7 @@
 """Sensor-fault benchmark: ``slipnav faults [SCENARIO ...] [--seeds N]``.
 
 For each scenario and seed: one fault-free run (its flags are false flags), then one run per channel
-and fault class with a single fault of ``FAULT_DURATION`` (systems/faults.py), starting 0.1 s before
+and fault class with a single fault of ``FAULT_DURATION`` (systems/robot/faults.py), starting 0.1 s before
 the channel's largest reading while the robot moves (so that a scale or saturation fault acts). Each
 run reports
 
@@ -51,8 +51,8 @@ from slipnav.studies.fault_cases import (
     run_rms_error,
     select_cases,
 )
-from slipnav.systems.faults import SENSOR_CHANNELS, FaultEvent
 from slipnav.systems.health.perturbation import PERTURBATION_CHANNELS
+from slipnav.systems.robot.faults import SENSOR_CHANNELS, FaultEvent
 
 
 def seed_mean_ratios(rows: list, clean_rows: list) -> list:

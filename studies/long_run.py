@@ -9,9 +9,9 @@
    every 0.1 s of simulated time by navigation_health.NavigationHealth) and each estimate's final, RMS
    and maximum position error along the run (position_error_lines).
 2. ``--spin S`` (default 3600 s; 0 skips): S seconds of spinning on the spot at 20 rad/s through the plain
-   navigation loop (systems.navigation.NavigationLoop, the diagram's functions) on synthetic sensors,
-   P checked every 0.1 s: without the mixing in P (systems/ekf.py) its velocity block reaches 1e300 in
-   ~860 s and the estimate NaN.
+   navigation loop (systems.navigation.loop.NavigationLoop, the diagram's functions) on synthetic sensors,
+   P checked every 0.1 s: without the mixing in P (systems/navigation/ekf.py) its velocity block reaches 1e300
+   in ~860 s and the estimate NaN.
 """
 
 import argparse
@@ -24,8 +24,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-from slipnav.systems.mixing import MixingParameters
-from slipnav.systems.navigation import NavigationLoop, NavigationParameters
+from slipnav.systems.navigation.loop import NavigationLoop
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.parameters import NavigationParameters
 
 SPIN_RATE = 20.0
 """rad/s: Tinyphoon spinning on the spot at its wheel-speed limit (0.068 m/s per rad/s)."""

@@ -10,9 +10,9 @@ the benchmark judges whatever health layer the navigation has.
 The draw: the class from CLASS_KINDS, balanced (seeds 13 b .. 13 b + 12 draw every class once, in an
 order shuffled per block b); a channel uniformly among the classes' valid ones (DRAWN_CHANNELS); the
 onset uniform over the reference run's driving part (driving_part); duration and magnitude from the
-constants below, magnitudes in the channel's white-noise sigma of the data sheet (systems/sensors.py:
+constants below, magnitudes in the channel's white-noise sigma of the data sheet (systems/robot/sensors.py:
 accelerometers 0.062 m/s^2, gyro 0.014 rad/s), an encoder's in counts. Current-sense faults are not drawn:
-systems/faults.py's schema has no current channel.
+systems/robot/faults.py's schema has no current channel.
 
 Per run: whether the fault is significant (it moves the reading by more than SIGNIFICANT_SIGMAS noise
 sigmas on consecutive samples for SIGNIFICANT_TIME or longer, the fault applied to the reference run's
@@ -46,7 +46,7 @@ from slipnav.studies.engine import Engine
 from slipnav.studies.fault_cases import MEASURED_KEYS
 from slipnav.studies.faults import run_job
 from slipnav.studies.results_file import ResultsFile
-from slipnav.systems.faults import (
+from slipnav.systems.robot.faults import (
     ENCODER_CHANNELS,
     MAX_FAULT_TIME,
     SENSOR_CHANNELS,
@@ -71,7 +71,8 @@ CLASS_KINDS = {
     "frozen": ("dropout", "stuck"),
     "dead": ("dropout", "stuck"),
 }
-"""Fault class -> its schema kind (systems/faults.py) on an analog channel and on an encoder (None: none)."""
+"""Fault class -> its schema kind (systems/robot/faults.py) on an analog channel and on an encoder
+(None: none)."""
 CLASSES = tuple(CLASS_KINDS)
 DRAWN_CHANNELS = tuple(c for c in SENSOR_CHANNELS if c in MEASURED_KEYS)
 """Channels a fault may be drawn on: the schema's (no current sense)."""

@@ -9,7 +9,7 @@ import numpy as np
 from slipnav.scenarios.plots import save_figure_atomically
 from slipnav.scenarios.sensor_log import write_text_atomically
 from slipnav.studies.random_faults import TARGETS
-from slipnav.systems.faults import MAX_FAULT_TIME
+from slipnav.systems.robot.faults import MAX_FAULT_TIME
 
 
 def _ms(seconds) -> str:
@@ -53,7 +53,7 @@ def print_summary(summary: dict, wall: float, stream) -> None:
             f"{g['mean_error_ratio']:6.2f} {g['max_error_ratio']:6.2f} {g['mean_rms_ratio']:5.2f}",
             file=stream,
         )
-    print("current-sense faults: not drawn (systems/faults.py has no current channel)", file=stream)
+    print("current-sense faults: not drawn (systems/robot/faults.py has no current channel)", file=stream)
     for t in summary["targets"]:
         verdict = {True: "PASS", False: "FAIL", None: "n/a"}[t["pass"]]
         print(f"target {t['target']}: {t['measured']} {verdict}", file=stream)

@@ -33,7 +33,7 @@ from slipnav.studies.reproduce_measures import (  # noqa: E402
     time_axis,
     true_spans,
 )
-from slipnav.systems.mixing import logsig  # noqa: E402
+from slipnav.systems.navigation.mixing.weights import logsig  # noqa: E402
 
 
 def seyr_fig4(mixing, mode: str = "default") -> Reproduced:
@@ -73,7 +73,7 @@ def seyr_fig4(mixing, mode: str = "default") -> Reproduced:
         "No number: a1 as steep as possible, b1 as small as possible but above the accelerometers' bias.",
         f"C1: threshold b1 = {mixing.b1:g} m/s, 10-90 % transition over {width:.3f} m/s of |dv|; "
         f"C3: b3 = {mixing.b3:g} rad/s (a3 = {mixing.a3:g}).",
-        "slipnav reproduce (systems/mixing.py logsig, the mode's MixingParameters)",
+        "slipnav reproduce (systems/navigation/mixing/weights.py logsig, the mode's MixingParameters)",
         {"c1_transition_m_s": width, "b1": mixing.b1, "b3": mixing.b3},
     )
 

@@ -10,8 +10,8 @@ checks across parameters and against what the models can represent:
 - track_width >= 2 wheel_radius: narrower, the two wheels would overlap.
 - drive: the motors' current-limited force must accelerate the robot by at least 0.5 m/s^2 beyond the
   felt shoes' Coulomb drag (mass 1e6 kg on Tinyphoon's motors: 4e-6 m/s^2).
-- follower gains against T_C (systems/path_follower.follower_step): over one control period the heading
-  error e = theta - delta moves by theta_dot T_C with theta_dot = ... - k2 e (I(15)), so
+- follower gains against T_C (systems/control/path_follower.follower_step): over one control period the
+  heading error e = theta - delta moves by theta_dot T_C with theta_dot = ... - k2 e (I(15)), so
   e_K+1 = (1 - k2 T_C) e_K, stable for 0 < k2 T_C < 2; the virtual target s moves by
   (u cos theta + k1 s1) T_C while the robot moves u cos theta T_C, so s1_K+1 = (1 - k1 T_C) s1_K,
   stable for 0 < k1 T_C < 2.
@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from slipnav.systems.plant import GRAVITY
+from slipnav.systems.robot.parameters import GRAVITY
 
 MIN_TYRE_FRICTION = 0.05
 MIN_DRIVE_MARGIN = 0.5  # m/s^2 of drive acceleration beyond the shoes' drag

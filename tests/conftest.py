@@ -7,10 +7,11 @@ matplotlib.use("Agg")
 from slipnav.diagrams.open_loop import build_open_loop_diagram  # noqa: E402
 from slipnav.diagrams.robot import make_simulator  # noqa: E402
 from slipnav.scenarios.artifact_arrays import collect_arrays  # noqa: E402
-from slipnav.systems.mixing import MixingParameters  # noqa: E402
-from slipnav.systems.plant import DEFAULT_TIME_STEP, GRAVITY, RobotParameters  # noqa: E402
+from slipnav.systems.navigation.mixing.parameters import MixingParameters  # noqa: E402
 from slipnav.systems.rates import SampleRates  # noqa: E402
-from slipnav.systems.sensors import SensorParameters  # noqa: E402
+from slipnav.systems.robot.parameters import GRAVITY, RobotParameters  # noqa: E402
+from slipnav.systems.robot.plant import DEFAULT_TIME_STEP  # noqa: E402
+from slipnav.systems.robot.sensors import SensorParameters  # noqa: E402
 
 
 def run_open_loop(

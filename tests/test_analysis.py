@@ -11,9 +11,17 @@ from pydrake.systems.primitives import IsDetectable, IsObservable, LinearSystem
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import tangential_slip_speed
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.ekf import MEASUREMENT_MATRIX, EkfParameters, ekf_gain, ekf_jacobian, ekf_joseph
-from slipnav.systems.mixing import MixingParameters, logsig, mixing_c1, side_slip_from_accelerations
-from slipnav.systems.slip_control import StepSizeParameters, step_size
+from slipnav.systems.control.slip_control import StepSizeParameters, step_size
+from slipnav.systems.navigation.ekf import (
+    MEASUREMENT_MATRIX,
+    EkfParameters,
+    ekf_gain,
+    ekf_jacobian,
+    ekf_joseph,
+)
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.tyre_curve import side_slip_from_accelerations
+from slipnav.systems.navigation.mixing.weights import logsig, mixing_c1
 
 T_N = 0.002
 OPERATING_POINT = np.array([1.5, 0.1, 3.0, 0.0, 0.0])  # v_t, v_n, omega, a_t, a_n: a steady turn
@@ -176,7 +184,7 @@ def test_large_q_delta_produces_the_limit_cycle_the_paper_warns_of():
 def linearised_loop(params, kappa, u, T_C=0.02):
     from pydrake.systems.framework import InputPortSelection, OutputPortSelection
     from pydrake.systems.primitives import Linearize
-    from slipnav.systems.frenet_loop import FrenetFollowingErrors
+    from slipnav.systems.control.frenet_loop import FrenetFollowingErrors
 
     system = FrenetFollowingErrors(params, kappa, u, T_C)
     context = system.CreateDefaultContext()  # zero error: an equilibrium for every kappa
@@ -186,7 +194,7 @@ def linearised_loop(params, kappa, u, T_C=0.02):
 @pytest.mark.parametrize("kappa", [0.0, 1.0 / 3.0, -0.5])
 @pytest.mark.parametrize("u", [0.5, 2.05, 4.1])
 def test_path_following_linearisation_is_stable_for_default_gains(kappa, u):
-    from slipnav.systems.path_follower import PathFollowerParameters
+    from slipnav.systems.control.path_follower import PathFollowerParameters
 
     _, lin = linearised_loop(PathFollowerParameters(), kappa, u)
     assert lin.time_period() == 0.02
@@ -195,7 +203,7 @@ def test_path_following_linearisation_is_stable_for_default_gains(kappa, u):
 
 def test_unstable_gain_set_is_reported_unstable():
     """k2 T_C > 2: the sampled heading loop overshoots within one sample (|1 - k2 T_C| > 1)."""
-    from slipnav.systems.path_follower import PathFollowerParameters
+    from slipnav.systems.control.path_follower import PathFollowerParameters
 
     gains = object.__new__(PathFollowerParameters)  # bypass the range checks on purpose
     gains.__dict__.update(dc.asdict(PathFollowerParameters()), k2=150.0)
@@ -207,7 +215,7 @@ def test_unstable_gain_set_is_reported_unstable():
 
 def test_linearised_and_nonlinear_responses_agree_for_small_perturbations():
     from pydrake.systems.analysis import Simulator
-    from slipnav.systems.path_follower import PathFollowerParameters
+    from slipnav.systems.control.path_follower import PathFollowerParameters
 
     system, lin = linearised_loop(PathFollowerParameters(), 1.0 / 3.0, 2.0)
     for scale in (1e-3, 1e-2):
@@ -233,8 +241,14 @@ def straight_line_loop(follower, seconds: float, T_N=0.002, T_C=0.02, time_step=
     by the plant's own pose and speed (no navigation), the command acting from the next T_N sample as in
     the closed loop. Per control instant: [t, u of I(24), robot speed v, V1, s1]."""
     from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
-    from slipnav.systems.path_follower import bounded_speed, follower_step, saturate_wheel_speeds, speed_law
-    from slipnav.systems.plant import kurt3d, plant_advance
+    from slipnav.systems.control.path_follower import (
+        bounded_speed,
+        follower_step,
+        saturate_wheel_speeds,
+        speed_law,
+    )
+    from slipnav.systems.robot.dynamics import plant_advance
+    from slipnav.systems.robot.parameters import kurt3d
 
     robot, path = kurt3d(), build_path(PathConfig(segments=[Straight(length=60.0)]))
     V_m, half = robot.wheel_speed_limit, 0.5 * robot.track_width
@@ -274,7 +288,7 @@ def test_i16_map_fixed_point_decides_whether_the_i24_switch_slides():
     branch lowers it while v > V_m/2 - 0.632 = 1.42 m/s: between, both point at the surface, a sliding
     mode, which the sampled switch runs as chattering at T_C."""
     from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
-    from slipnav.systems.path_follower import PathFollowerParameters, follower_step
+    from slipnav.systems.control.path_follower import PathFollowerParameters, follower_step
 
     path, T_C, V_m = build_path(PathConfig(segments=[Straight(length=20.0)])), 0.02, 4.1
     robots_speed, command = PathFollowerParameters(), PathFollowerParameters(use_estimated_speed=False)
@@ -312,7 +326,7 @@ def test_commanded_speed_in_i16_slides_on_the_switching_surface_on_kurt3d():
     their range, so the robot holds near V_m/2 (measured 2.05 m/s, 173 switches in 6 s): the ~50 % time
     saving cannot come. (Indiveri's long path, closed loop, seed 0: 1267 switches, 99 % of the constant
     law's time.)"""
-    from slipnav.systems.path_follower import PathFollowerParameters
+    from slipnav.systems.control.path_follower import PathFollowerParameters
 
     p = PathFollowerParameters(use_estimated_speed=False, delayed_speed_law=False)
     t, u, v, V1, s1 = straight_line_loop(p, 6.0).T

@@ -127,9 +127,9 @@ def test_interrupted_write_leaves_the_previous_run_untouched(where, tmp_path, mo
 def test_a_run_whose_estimate_becomes_non_finite_stops_with_status_3(tmp_path, monkeypatch, capsys):
     """The mixer's v_t turned NaN from sample 1000 (t = 2 s) on: the run stops at the next 0.1 s check,
     writes its artifact up to there, says why in the summary and on stderr, and exits with status 3."""
-    from slipnav.systems import mixing
+    from slipnav.systems.navigation.mixing import mixer
 
-    real, calls = mixing.mix_checked, [0]
+    real, calls = mixer.mix_checked, [0]
 
     def broken(*args):
         calls[0] += 1
@@ -139,7 +139,7 @@ def test_a_run_whose_estimate_becomes_non_finite_stops_with_status_3(tmp_path, m
             out[0] = math.nan
         return out, check, state
 
-    monkeypatch.setattr(mixing, "mix_checked", broken)  # the VelocityMixer calls it once a sample
+    monkeypatch.setattr(mixer, "mix_checked", broken)  # the VelocityMixer calls it once a sample
     assert main(["run", "corner", "--out", str(tmp_path), "--no-figures"]) == 3
     err = capsys.readouterr().err
     assert err.startswith("slipnav: error: corner stopped early: the navigation estimate became non-finite")

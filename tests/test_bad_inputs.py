@@ -20,10 +20,10 @@ from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios import runner
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml
-from slipnav.systems.navigation import NavigationParameters
-from slipnav.systems.plant import tinyphoon
+from slipnav.systems.navigation.parameters import NavigationParameters
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.parameters import tinyphoon
+from slipnav.systems.robot.sensors import SensorParameters
 
 STRAIGHT = "trajectory:\n  segments:\n    - !Straight {length: 0.2, v_end: 0.5}\n"
 ENC = "sensor_overrides: {encoder_counts_per_revolution: "

@@ -14,8 +14,8 @@ from slipnav.studies.calibration import compare, simulated_calibration
 from slipnav.studies.calibration_identify import identify_drag
 from slipnav.studies.calibration_manoeuvres import Manoeuvre
 from slipnav.studies.calibration_signals import allan_deviation, correct_accelerometers
-from slipnav.systems.plant import tinyphoon
-from slipnav.systems.sensors import SensorParameters, sensor_frame
+from slipnav.systems.robot.parameters import tinyphoon
+from slipnav.systems.robot.sensors import SensorParameters, sensor_frame
 
 from tests.shared import shared_manoeuvres
 
@@ -47,7 +47,7 @@ def test_gyro_scale_and_bias_are_recovered(calibrated):
     value, true, error, z = compare(calibration, truth)["gyro_scale_error"]
     assert abs(z) < 3.0 and abs(error) < 0.002
     assert abs(true) > 5e-4  # drawn within +-1 %
-    # The standstill's white noise: the sensor's 0.014 rad/s per sample (systems/sensors.py).
+    # The standstill's white noise: the sensor's 0.014 rad/s per sample (systems/robot/sensors.py).
     assert calibration.values["gyro_white_noise_std"] == pytest.approx(0.014, rel=0.05)
     assert calibration.model.navigation.ekf.R[0] == pytest.approx(
         calibration.values["gyro_white_noise_std"] ** 2
@@ -267,7 +267,7 @@ def test_spiral_speed_keeps_both_tyres_sliding_alike(monkeypatch):
     from slipnav.scenarios.config import Scenario
     from slipnav.studies import calibration_manoeuvres as procedure
     from slipnav.studies.calibration_identify import identify_peak_acceleration
-    from slipnav.systems.plant import kurt3d, tinyphoon
+    from slipnav.systems.robot.parameters import kurt3d, tinyphoon
 
     for robot in (tinyphoon(), kurt3d()):
         v = procedure.spiral_speed(robot)

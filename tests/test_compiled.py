@@ -9,21 +9,24 @@ import sys
 import numpy as np
 import pytest
 from slipnav.systems import compiled
-from slipnav.systems.ekf import (
-    EkfParameters,
-    _covariance_update,
-    ekf_gain,
-    ekf_inertial_estimate,
-    ekf_prior_covariance,
-)
 from slipnav.systems.health import (
     SensorHealthParameters,
     health_check,
     health_constants,
     health_initial_state,
 )
-from slipnav.systems.navigation import NavigationParameters, health_geometry
-from slipnav.systems.plant import MOTORS_ON, NO_DISTURBANCE, _plant_steps, kurt3d, tinyphoon
+from slipnav.systems.navigation.ekf import (
+    EkfParameters,
+    _covariance_update,
+    ekf_gain,
+    ekf_inertial_estimate,
+    ekf_prior_covariance,
+)
+from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
+from slipnav.systems.robot.contact import NO_DISTURBANCE
+from slipnav.systems.robot.dynamics import _plant_steps
+from slipnav.systems.robot.motors import MOTORS_ON
+from slipnav.systems.robot.parameters import kurt3d, tinyphoon
 
 T_N = 0.002
 needs_numba = pytest.mark.skipif(not compiled.ENABLED, reason="numba not installed or SLIPNAV_NUMBA=0")
@@ -158,9 +161,11 @@ def test_closed_loop_is_the_same_with_and_without_numba(tmp_path):
 def test_without_numba_the_functions_are_python():
     """SLIPNAV_NUMBA=0 (as without the extra): compiled() and jitable() return the functions themselves."""
     code = (
-        "from slipnav.systems import compiled, plant, ekf, health\n"
+        "from slipnav.systems import compiled, health\n"
+        "from slipnav.systems.navigation import ekf\n"
+        "from slipnav.systems.robot import dynamics\n"
         "assert not compiled.ENABLED\n"
-        "functions = (plant._plant_steps, plant.plant_substep, ekf._covariance_update)\n"
+        "functions = (dynamics._plant_steps, dynamics.plant_substep, ekf._covariance_update)\n"
         "functions += (health.health_check, ekf.ekf_prior_covariance, ekf.ekf_inertial_estimate)\n"
         "for f in functions:\n"
         "    assert type(f).__name__ == 'function' and compiled.pure(f) is f, f\n"

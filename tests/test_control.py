@@ -14,7 +14,7 @@ from slipnav.scenarios.plain_loop import run_scenario_plain_loop
 from slipnav.scenarios.run_plan import closed_loop_settings, follower_path
 from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.trajectories import Arc, PathConfig, Straight, build_path
-from slipnav.systems.path_follower import (
+from slipnav.systems.control.path_follower import (
     LyapunovPathFollower,
     PathFollowerParameters,
     WheelSpeedSaturator,
@@ -27,7 +27,7 @@ from slipnav.systems.path_follower import (
     saturate_wheel_speeds,
     wheel_commands,
 )
-from slipnav.systems.slip_control import (
+from slipnav.systems.control.slip_control import (
     StepSizeParameters,
     interpolate,
     max_step_size,
@@ -173,8 +173,8 @@ def test_controllers_stand_still_until_their_start_time():
     """start_time = 0.1 s (5 T_C): before it the follower keeps zero commands and s = 0, the step-size
     controller delta = 1 and Pi = 0, the feed-forward row 0; from it on K counts from start_time (Pi_K
     = K with slip control off) and the feed-forward plays row round((t - start)/T_C)."""
-    from slipnav.systems.feedforward import TrajectoryFeedforward
-    from slipnav.systems.slip_control import StepSizeController
+    from slipnav.systems.control.feedforward import TrajectoryFeedforward
+    from slipnav.systems.control.slip_control import StepSizeController
 
     T_C, start = 0.02, 0.1
     path = build_path(PathConfig(segments=[Straight(length=5.0)]))
@@ -372,7 +372,7 @@ def test_trajectory_interpolator_gives_the_point_at_Pi_and_the_speed_only():
     """S(25) at i = 0 (no horizon: nothing tracks one) on a straight at 1 m/s sampled every 0.02 m:
     Pi = 2.5 -> x = 0.05 m; u = delta v_ref + k_s (s_ref - s) = 0.8 * 1 + 2 * (0.05 - 0.04) = 0.82 m/s."""
     from slipnav.scenarios.trajectories import TrajectoryConfig, build_trajectory
-    from slipnav.systems.slip_control import TrajectoryInterpolator
+    from slipnav.systems.control.slip_control import TrajectoryInterpolator
 
     config = TrajectoryConfig(initial_speed=1.0, segments=[Straight(length=1.0, v_end=1.0)])
     trajectory = build_trajectory(config, 0.02)

@@ -7,7 +7,6 @@ import pytest
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.faults import FaultEvent
 from slipnav.systems.health import (
     JUMP,
     RECOVERING,
@@ -17,13 +16,14 @@ from slipnav.systems.health import (
     health_step,
 )
 from slipnav.systems.health.gyro import BIAS_STEP_SIGMAS
-from slipnav.systems.yaw_calibration import (
+from slipnav.systems.navigation.yaw_calibration import (
     YawCalibrationParameters,
     bias_step_update,
     calibration_parameters,
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
+from slipnav.systems.robot.faults import FaultEvent
 
 from tests.test_faults import GEOMETRY, STEP, T_N, B, R, stream
 

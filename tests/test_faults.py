@@ -1,4 +1,4 @@
-"""Sensor faults (systems/faults.py) and the sensor checks (systems/health/): every fault class
+"""Sensor faults (systems/robot/faults.py) and the sensor checks (systems/health/): every fault class
 injected, detected within 0.1 s, flagged with its class, excluded and recovered from; numbers by hand."""
 
 import dataclasses as dc
@@ -23,7 +23,6 @@ from slipnav.studies.fault_cases import (
     select_cases,
 )
 from slipnav.studies.faults import fault_figures, print_report, run_fault, seed_mean_ratios
-from slipnav.systems.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.health import (
     INCONSISTENT,
     JUMP,
@@ -43,9 +42,12 @@ from slipnav.systems.health import (
 from slipnav.systems.health.accelerometer_pair import fast_pair_ratio, pair_omega_squared
 from slipnav.systems.health.pair_gain import pair_gain_ratio, pair_gain_reset, pair_gain_upper_bound
 from slipnav.systems.health.yaw_witness import yaw_follow_step
-from slipnav.systems.navigation import NavigationParameters, health_geometry
-from slipnav.systems.plant import contact_forces, kurt3d, plant_derivatives, plant_substep, tinyphoon
-from slipnav.systems.sensors import accelerometer_truth
+from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
+from slipnav.systems.robot.contact import contact_forces
+from slipnav.systems.robot.dynamics import plant_derivatives, plant_substep
+from slipnav.systems.robot.faults import FaultEvent, apply_sensor_faults, plant_disturbance
+from slipnav.systems.robot.parameters import kurt3d, tinyphoon
+from slipnav.systems.robot.sensors import accelerometer_truth
 
 T_N = 0.002
 R, B = 0.015, 0.068
@@ -540,7 +542,7 @@ def test_the_pair_gain_test_by_hand():
 
 
 def commotion_at(speed, rng):
-    """Each accelerometer's commotion (S(3)'s model, systems/sensors.py) at the samples' ``speed``: a
+    """Each accelerometer's commotion (S(3)'s model, systems/robot/sensors.py) at the samples' ``speed``: a
     first-order Gauss-Markov process of 5 ms and 0.3 |v| m/s^2, drawn from ``rng`` sample by sample."""
     phi = math.exp(-T_N / 0.005)
     commotion = np.zeros((len(speed), 4))
@@ -637,7 +639,7 @@ def test_a_gyro_readmitted_off_its_replacement_raises_no_accelerometer_flag():
 
 def test_a_replaced_accelerometer_axis_keeps_the_pairs_yaw_acceleration_term():
     """A turn-in at omega' = 10 rad/s^2 (v = 1 m/s, noise-free): a_n1 - a_n2 = 2 (omega' x - omega^2 y)
-    (systems/sensors.accelerometer_truth). accel1_n reads NaN for 50 samples and is replaced by a_n2
+    (systems/robot/sensors.accelerometer_truth). accel1_n reads NaN for 50 samples and is replaced by a_n2
     plus both rotational terms, omega' from the gyro's difference; the replacement is the true reading.
     Without the omega' term it was 2 omega' x = 0.4 m/s^2 off, and the pair's mean (the body's a_n that
     the EKF integrates) omega' x: v_n off by x omega at the end of the turn (open corner: 2 x 2.6 mm of
@@ -870,12 +872,8 @@ def test_a_stuck_encoders_restored_travel_never_becomes_s11s_reference():
     the next batch's reference is the last one carried by the inertial speed change, not that sample's
     speed (which gave dv = 0.40 m/s and C1 0.02, a slip that never was). dv stays within the noise of
     the other detections (0.044 m/s) and C1 above 0.6."""
-    from slipnav.systems.navigation import (
-        NavigationInitialState,
-        NavigationLoop,
-        NavigationParameters,
-        run_navigation_loop,
-    )
+    from slipnav.systems.navigation.loop import NavigationLoop, run_navigation_loop
+    from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
 
     n, v = 600, 0.2
     rng = np.random.default_rng(0)
@@ -1213,7 +1211,7 @@ def test_closed_loop_wheel_held_by_hand_is_followed():
 
 
 def test_the_accelerometer_pair_measures_omega_squared():
-    """The sensors' rigid-body model (systems/sensors.accelerometer_truth): the pair's rotational terms
+    """The sensors' rigid-body model (systems/robot/sensors.accelerometer_truth): the pair's rotational terms
     give omega^2 back exactly, whatever omega_dot and the centre's acceleration."""
     for omega, omega_dot in ((12.0, 50.0), (-9.0, -20.0), (3.0, 0.0)):
         acc = accelerometer_truth((1.5, 2.0, omega_dot), omega, (0.02, 0.015))
@@ -1374,7 +1372,7 @@ def test_the_gyro_replacement_follows_the_wheels_with_the_tyres_lag(robot, grip)
 
 def test_the_gyro_replacement_settles_where_the_plant_stops_turning_faster():
     """With Tinyphoon's felt shoes the body settles below its wheels' yaw rate (the shoes' scrub), where
-    the plant's own equations (systems/plant.contact_forces) give no yaw acceleration."""
+    the plant's own equations (systems/robot/contact.contact_forces) give no yaw acceleration."""
     robot = tinyphoon()
     g = yaw_constants(robot)
     v, omega_wheels, half = 1.0, 2.0, 0.5 * robot.track_width

@@ -12,14 +12,6 @@ PACKAGES = ("systems", "diagrams", "scenarios", "studies")
 MODULE_LINES = 500
 FUNCTION_LINES = 100
 
-OVERSIZED_SYSTEMS = {
-    "systems/mixing.py",
-    "systems/plant.py",
-    "systems/navigation.py",
-}
-"""systems/ modules not yet within the size rules, restructured under issue 45 (NavigationLoop.step of
-systems/navigation.py is 122 lines); the rules hold for every other module."""
-
 MODULES = sorted(
     path.relative_to(ROOT).as_posix() for folder in PACKAGES for path in (ROOT / folder).rglob("*.py")
 )
@@ -33,21 +25,11 @@ def _functions(tree: ast.AST):
 
 @pytest.mark.parametrize("module", MODULES)
 def test_modules_and_functions_are_within_the_size_limits(module):
-    if module in OVERSIZED_SYSTEMS:
-        pytest.skip("issue 45: restructured apart")
     text = (ROOT / module).read_text()
     assert text.count("\n") <= MODULE_LINES, f"{module}: {text.count(chr(10))} lines"
     for function in _functions(ast.parse(text)):
         length = function.end_lineno - function.lineno + 1
         assert length <= FUNCTION_LINES, f"{module}:{function.lineno} {function.name}: {length} lines"
-
-
-def test_the_allow_list_names_only_oversized_modules():
-    """An allow-listed module that meets the rules leaves the list."""
-    for module in sorted(OVERSIZED_SYSTEMS):
-        text = (ROOT / module).read_text()
-        longest = max(f.end_lineno - f.lineno + 1 for f in _functions(ast.parse(text)))
-        assert text.count("\n") > MODULE_LINES or longest > FUNCTION_LINES, module
 
 
 def _module_name(module: str) -> str:

@@ -13,8 +13,8 @@ from slipnav.scenarios.importers import write_import
 from slipnav.scenarios.model import load_model
 from slipnav.scenarios.replay import replay_log
 from slipnav.scenarios.sensor_log import SensorLog, read_sensor_log
-from slipnav.systems.faults import SENSOR_CHANNELS
 from slipnav.systems.health import STUCK
+from slipnav.systems.robot.faults import SENSOR_CHANNELS
 
 DATASETS = Path(__file__).resolve().parents[1].parent / "shared" / "datasets"
 TURTLEBOT = DATASETS / "phil-turtlebot2-vicon"

@@ -10,12 +10,12 @@ from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml
 from slipnav.scenarios.model import RobotModel, SensorCalibration, write_model
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.sensor_correction import (
+from slipnav.systems.navigation.sensor_correction import (
     SensorCorrection,
     corrected_accelerometers,
     corrected_gyro,
 )
-from slipnav.systems.sensors import SensorParameters, sensor_frame
+from slipnav.systems.robot.sensors import SensorParameters, sensor_frame
 
 CALIBRATION = SensorCalibration(
     gyro_scale_error=0.012,

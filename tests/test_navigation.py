@@ -10,7 +10,8 @@ from pydrake.systems.analysis import Simulator
 from slipnav.diagrams.replay import build_navigation_replay
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.ekf import (
+from slipnav.systems.health import SensorHealthParameters, health_initial_state, health_step
+from slipnav.systems.navigation.ekf import (
     MEASUREMENT_MATRIX,
     EkfParameters,
     ekf_bound_velocity_variance,
@@ -24,43 +25,38 @@ from slipnav.systems.ekf import (
     ekf_prior_covariance,
     ekf_update,
 )
-from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
-from slipnav.systems.health import SensorHealthParameters, health_initial_state, health_step
-from slipnav.systems.mixing import (
-    MIXER_LAYOUT,
+from slipnav.systems.navigation.gyrodometry import GyrodometryParameters, gyrodometry_step
+from slipnav.systems.navigation.loop import LOOP_KEYS, navigation_loop
+from slipnav.systems.navigation.mixing.mixer import MIXER_LAYOUT, VelocityMixer, mix, mix_checked, mixing_gain
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.tyre_curve import (
+    lateral_velocity_model,
+    longitudinal_slip_speed,
+    side_slip_from_accelerations,
+    tyre_utilisation,
+)
+from slipnav.systems.navigation.mixing.tyre_identification import free_side_slip_step, tyre_model_check
+from slipnav.systems.navigation.mixing.weights import (
     MixerC1,
     MixerC2C3,
-    MixingParameters,
-    VelocityMixer,
     accumulate_delta_v,
     c3_residual,
-    free_side_slip_step,
-    lateral_velocity_model,
     logsig,
-    longitudinal_slip_speed,
-    mix,
-    mix_checked,
     mixer_c1_step,
     mixing_c1,
     mixing_c2,
     mixing_c3,
-    mixing_gain,
-    side_slip_from_accelerations,
-    tyre_model_check,
-    tyre_utilisation,
 )
-from slipnav.systems.navigation import (
-    LOOP_KEYS,
+from slipnav.systems.navigation.odometry import odometry, odometry_step
+from slipnav.systems.navigation.parameters import (
     NavigationInitialState,
     NavigationParameters,
     health_geometry,
-    navigation_loop,
 )
-from slipnav.systems.odometry import odometry, odometry_step
-from slipnav.systems.pose import pose_step
+from slipnav.systems.navigation.pose import pose_step
+from slipnav.systems.navigation.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
+from slipnav.systems.navigation.slip_detector import slip_detector_batch_end, slip_detector_step
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle, track_speed, validity
-from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
 
 from tests.shared import scenario_run
 
@@ -386,7 +382,7 @@ def test_a_locked_slide_keeps_s17_and_a_standstill_is_measured():
     """With the wheels at rest and C1 = 0 (a locked slide) the mixing keeps S(17), whose fixed point, by
     hand, solves v (1 - C2 q2 - (1 - C2) q_I) = (1 - C2) (f (1 - q_I) + q_I a_n T_N) with f the tyre
     curve's slip at the force (m = 0 at v_t = 0); wheels at rest are no measurement by themselves.
-    The standstill (systems/standstill.py) is: mixing_gain is [1, 1], and the VelocityMixer block's
+    The standstill (systems/navigation/standstill.py) is: mixing_gain is [1, 1], and the VelocityMixer block's
     estimate is zero with the check's F and S restarted from rest."""
     p = MixingParameters()
     a_n, T_N = 0.05, 0.002
@@ -1098,7 +1094,7 @@ def test_tyre_model_check_on_a_floor_with_less_grip():
     # the sensor checks exclude it (square, seed 1, accel2_n from 2.73 s at 0.4 m/s): below the gate's
     # reference speed of 1 m/s that is no evidence, and the run ends as without the check (16.1 mm; with
     # the side slip referred to 0.4 m/s the check opened to 0.78 and the run ended at 54.7 mm).
-    from slipnav.systems.faults import FaultEvent
+    from slipnav.systems.robot.faults import FaultEvent
 
     square = dc.replace(load_scenario("square"), faults=[FaultEvent("scale", "accel2_n", 2.73, 0.5, 1.0)])
     a = run_scenario_plain_loop(square, 1, 2000)

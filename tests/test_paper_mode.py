@@ -10,21 +10,16 @@ from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml, with_keys
 from slipnav.scenarios.paper import DEVIATIONS, paper_mode
 from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
-from slipnav.systems.gyrodometry import gyrodometry_step
+from slipnav.systems.control.path_follower import PathFollowerParameters, follower_step
+from slipnav.systems.control.slip_control import StepSizeController, StepSizeParameters
 from slipnav.systems.health import health_initial_state, health_step
-from slipnav.systems.mixing import (
-    MixingParameters,
-    accumulate_delta_v,
-    c3_residual,
-    mix,
-    mixing_c1,
-    mixing_c3,
-)
-from slipnav.systems.navigation import NavigationParameters, health_geometry
-from slipnav.systems.path_follower import PathFollowerParameters, follower_step
-from slipnav.systems.slip_control import StepSizeController, StepSizeParameters
-from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
-from slipnav.systems.yaw_calibration import calibrated_gyro, calibrated_odometry
+from slipnav.systems.navigation.gyrodometry import gyrodometry_step
+from slipnav.systems.navigation.mixing.mixer import mix
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.weights import accumulate_delta_v, c3_residual, mixing_c1, mixing_c3
+from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
+from slipnav.systems.navigation.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.navigation.yaw_calibration import calibrated_gyro, calibrated_odometry
 
 T_N = 0.002
 PAPER = paper_mode(load_scenario("corner"))
@@ -193,7 +188,7 @@ def test_s22_reads_c1_and_alpha_of_the_same_instant():
     delta_K of paper mode is S(22) of C1_K and alpha_K to the last bit, and misses it with C1_K-1,
     alpha_K-1 (slip control acts: the step size is cut); the default reads C1_K-1, alpha_K-1."""
     from slipnav.scenarios.runner import run_scenario
-    from slipnav.systems.slip_control import step_size
+    from slipnav.systems.control.slip_control import step_size
 
     def misses(scenario):
         """Largest |logged delta_K - S(22)| with the inputs of row k + 1 (this batch) and of row k."""
@@ -234,7 +229,7 @@ def test_i24_reads_v1_of_the_same_instant():
     robot at s = 1 m, 0.2 m left of the path, heading along it: delta = -0.5 tanh(0.2) = -0.0986877, V1 =
     0.2^2 / 2 + delta^2 / (2 * 0.5) = 0.0297393 < epsilon -> u = V_m = 4.1 m/s at once (paper mode). The
     follower's V1 of the previous update, 0.06 >= epsilon, sets u = V_m/2 = 2.05 m/s (default)."""
-    from slipnav.systems.path_follower import WheelSpeedSaturator, speed_law
+    from slipnav.systems.control.path_follower import WheelSpeedSaturator, speed_law
 
     path = build_path(PathConfig(segments=[Straight(length=5.0)]))
     paper = PathFollowerParameters(delayed_speed_law=PAPER.follower.delayed_speed_law)

@@ -9,7 +9,6 @@ import pytest
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.faults import FaultEvent
 from slipnav.systems.health.perturbation import (
     HELD_DEMAND,
     SLIDE_VELOCITY,
@@ -22,7 +21,11 @@ from slipnav.systems.health.perturbation import (
     sideways_push,
 )
 from slipnav.systems.health.perturbation_monitor import PerturbationMonitor
-from slipnav.systems.plant import NO_DISTURBANCE, motor_currents, plant_advance, tinyphoon
+from slipnav.systems.robot.contact import NO_DISTURBANCE
+from slipnav.systems.robot.dynamics import plant_advance
+from slipnav.systems.robot.faults import FaultEvent
+from slipnav.systems.robot.motors import motor_currents
+from slipnav.systems.robot.parameters import tinyphoon
 
 T_N, R, B = 0.002, 0.015, 0.068
 P = PerturbationParameters()
@@ -393,7 +396,7 @@ def test_a_stuck_encoder_at_the_current_limit_is_not_a_held_wheel():
     one for the excluded encoder, and flags nothing (reading the raw counts it flagged wheel_R braked
     for 270 ms; with the former rule that took an excluded encoder's wheel as commanded below 0.9 of the
     current limit, a 3-sample body flag)."""
-    from slipnav.systems.faults import FaultEvent
+    from slipnav.systems.robot.faults import FaultEvent
 
     scenario = load_scenario("circle")
     a = run_scenario(

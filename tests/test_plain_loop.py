@@ -12,7 +12,7 @@ from slipnav.scenarios.plain_loop import (
 )
 from slipnav.scenarios.run_plan import closed_loop_settings
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.faults import FaultEvent
+from slipnav.systems.robot.faults import FaultEvent
 
 FAULT_EVENTS = [
     FaultEvent("dropout", "gyro", 1.4, 0.1),

@@ -1,4 +1,4 @@
-"""Physics of the slipping robot plant (systems/plant.py)."""
+"""Physics of the slipping robot plant (systems/robot/plant.py)."""
 
 import dataclasses
 import math
@@ -7,30 +7,17 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 from scipy.integrate import solve_ivp
-from slipnav.systems.mixing import (
+from slipnav.systems.navigation.mixing.tyre_curve import (
     lateral_velocity_model,
     longitudinal_slip_speed,
     side_slip_from_accelerations,
 )
-from slipnav.systems.plant import (
-    DEFAULT_TIME_STEP,
-    GRAVITY,
-    DifferentialDrivePlant,
-    PlantState,
-    RobotParameters,
-    contact_forces,
-    kinetic_energy,
-    kurt3d,
-    motor_current,
-    motor_currents,
-    plant_advance,
-    plant_derivatives,
-    robot_parameters,
-    speed_loop_update,
-    tinyphoon,
-    tyre_force,
-)
 from slipnav.systems.rates import SampleRates
+from slipnav.systems.robot.contact import contact_forces, tyre_force
+from slipnav.systems.robot.dynamics import PlantState, kinetic_energy, plant_advance, plant_derivatives
+from slipnav.systems.robot.motors import motor_current, motor_currents, speed_loop_update
+from slipnav.systems.robot.parameters import GRAVITY, RobotParameters, kurt3d, robot_parameters, tinyphoon
+from slipnav.systems.robot.plant import DEFAULT_TIME_STEP, DifferentialDrivePlant
 
 T_C = 0.02
 
@@ -424,7 +411,7 @@ def _coast(p, enable, plant_time_step=DEFAULT_TIME_STEP, duration=2.0):
     from slipnav.diagrams.open_loop import build_open_loop_diagram
     from slipnav.diagrams.robot import make_simulator
     from slipnav.scenarios.artifact_arrays import collect_arrays
-    from slipnav.systems.sensors import SensorParameters
+    from slipnav.systems.robot.sensors import SensorParameters
 
     rates = SampleRates()
     table = ramp(1.0, 0.5, duration)

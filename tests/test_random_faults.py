@@ -35,8 +35,8 @@ from slipnav.studies.random_faults import (
     significance,
     summarise,
 )
-from slipnav.systems.faults import ENCODER_CHANNELS, MAX_FAULT_TIME, FaultEvent
-from slipnav.systems.sensors import SensorParameters
+from slipnav.systems.robot.faults import ENCODER_CHANNELS, MAX_FAULT_TIME, FaultEvent
+from slipnav.systems.robot.sensors import SensorParameters
 
 SENSORS = SensorParameters()
 GYRO_SIGMA, ACCEL_SIGMA = 0.014, 0.062

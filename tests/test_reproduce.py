@@ -16,7 +16,8 @@ from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.run_plan import follower_path
 from slipnav.studies import reproduce as rp
 from slipnav.studies import reproduce_measures as measures
-from slipnav.systems.mixing import MixingParameters, logsig
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.weights import logsig
 
 from tests.shared import scenario_run
 

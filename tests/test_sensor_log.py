@@ -19,8 +19,8 @@ from slipnav.scenarios.sensor_log import (
     sensor_log_text,
     write_sensor_log,
 )
-from slipnav.systems.faults import FaultEvent
 from slipnav.systems.health import INCONSISTENT
+from slipnav.systems.robot.faults import FaultEvent
 
 COMPARED = [
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed",

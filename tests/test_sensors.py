@@ -1,4 +1,4 @@
-"""Sensor models (systems/sensors.py): statistics measured from simulations, geometry, quantisation."""
+"""Sensor models (systems/robot/sensors.py): statistics measured from simulations, geometry, quantisation."""
 
 import math
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.plant import tinyphoon
-from slipnav.systems.sensors import (
+from slipnav.systems.robot.parameters import tinyphoon
+from slipnav.systems.robot.sensors import (
     NOISE_BLOCK,
     NOISE_CHANNELS,
     ProprioceptiveSensors,

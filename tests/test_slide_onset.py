@@ -1,5 +1,5 @@
-"""The per-sample slide-onset test (systems/mixing.py: slide_onset_step, in the VelocityMixer) that hands
-S(15)'s v_t to the inertial estimate while the wheels have left the body."""
+"""The per-sample slide-onset test (systems/navigation/mixing/slide_onset.py: slide_onset_step, in the
+VelocityMixer) that hands S(15)'s v_t to the inertial estimate while the wheels have left the body."""
 
 import dataclasses as dc
 import math
@@ -9,15 +9,15 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from slipnav.scenarios.config import load_scenario, with_keys
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
-from slipnav.systems.mixing import (
+from slipnav.systems.navigation.mixing.mixer import VelocityMixer
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.slide_onset import (
     SLIDE_ONSET_INITIAL,
-    MixingParameters,
-    VelocityMixer,
     accelerometer_pair_disagreement,
     slide_onset_step,
 )
-from slipnav.systems.navigation import NavigationParameters, check_slide_onset, health_geometry
-from slipnav.systems.sensors import default_sensor_parameters
+from slipnav.systems.navigation.parameters import NavigationParameters, check_slide_onset, health_geometry
+from slipnav.systems.robot.sensors import default_sensor_parameters
 
 T_N = 0.002
 P = MixingParameters(slide_onset_jump=0.05)  # Tinyphoon's (the default is off)
@@ -101,7 +101,7 @@ def test_pair_disagreement_removes_the_centripetal_difference_of_S3():
 
 
 def test_velocity_mixer_runs_the_test_and_takes_v_t_from_the_ekf_while_it_holds():
-    from slipnav.systems.mixing import MIXER_START
+    from slipnav.systems.navigation.mixing.mixer import MIXER_START
 
     onset_at = MIXER_START["slide_onset"]
     mixer = VelocityMixer(P, T_N, 0.0, (0.02, 0.015))

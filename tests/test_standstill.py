@@ -1,18 +1,13 @@
-"""Standstill as a measurement (systems/standstill.py): the test against hand-computed values, the
+"""Standstill as a measurement (systems/navigation/standstill.py): the test against hand-computed values, the
 accelerometer biases' Kalman filter, and the navigation at rest with drifting biases."""
 
 import math
 
 import numpy as np
 import pytest
-from slipnav.systems.navigation import (
-    NavigationLoop,
-    NavigationParameters,
-    health_geometry,
-    run_navigation_loop,
-)
-from slipnav.systems.sensors import SensorParameters
-from slipnav.systems.standstill import (
+from slipnav.systems.navigation.loop import NavigationLoop, run_navigation_loop
+from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
+from slipnav.systems.navigation.standstill import (
     StandstillParameters,
     StandstillState,
     accelerometer_biases,
@@ -23,6 +18,7 @@ from slipnav.systems.standstill import (
     standstill_test,
     zero_velocity_update,
 )
+from slipnav.systems.robot.sensors import SensorParameters
 
 T_N = 0.002
 GEOMETRY = health_geometry(NavigationParameters(), 0.015, 0.068, T_N)  # Tinyphoon's data sheet

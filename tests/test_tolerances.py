@@ -10,7 +10,7 @@ from slipnav.scenarios.config import BUILTIN_DIR, ScenarioError, load_scenario, 
 from slipnav.scenarios.run_plan import closed_loop_settings
 from slipnav.scenarios.runner import run_scenario
 from slipnav.scenarios.tolerances import TOLERANCE_PRESET
-from slipnav.systems.sensors import SensorParameters, accelerometer_truth, sensor_frame
+from slipnav.systems.robot.sensors import SensorParameters, accelerometer_truth, sensor_frame
 
 
 def corner_with(extra: str):

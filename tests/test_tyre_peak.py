@@ -11,7 +11,8 @@ import pytest
 from slipnav.scenarios.config import load_scenario, with_keys
 from slipnav.scenarios.metrics import rms_position_error
 from slipnav.scenarios.plain_loop import run_scenario_plain_loop
-from slipnav.systems.mixing import MixingParameters, peak_slip, tyre_peak_step
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
+from slipnav.systems.navigation.mixing.tyre_identification import peak_slip, tyre_peak_step
 
 T_N = 0.002
 NOMINAL = MixingParameters(drag_acceleration=0.0, drag_per_speed=0.0)  # |a| = |a_n| below
@@ -146,7 +147,7 @@ def test_mix_checked_learns_only_from_checked_samples_of_rolling_wheels():
     """mix_checked's tyre peak (the state's last three) moves on a sliding sample, and not while a sensor
     check excludes an inertial channel or an encoder, nor with both wheels at rest; a two-element check
     state keeps the nominal curve without identification."""
-    from slipnav.systems.mixing import mix_checked
+    from slipnav.systems.navigation.mixing.mixer import mix_checked
 
     p = MixingParameters()
     sigma = peak_slip(p)

@@ -1,5 +1,5 @@
-"""Online gyro/odometry calibration (systems/yaw_calibration.py): the Kalman filter against the batch
-least-squares posterior, the plausibility gates, the LeafSystem against the step function, and the
+"""Online gyro/odometry calibration (systems/navigation/yaw_calibration.py): the Kalman filter against the
+batch least-squares posterior, the plausibility gates, the LeafSystem against the step function, and the
 convergence of the bias and the radius difference on scripted runs of the real diagram."""
 
 import dataclasses as dc
@@ -10,8 +10,7 @@ from pydrake.systems.analysis import Simulator
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.faults import FaultEvent
-from slipnav.systems.yaw_calibration import (
+from slipnav.systems.navigation.yaw_calibration import (
     YawCalibrationParameters,
     YawRateCalibration,
     batch_selection,
@@ -22,6 +21,7 @@ from slipnav.systems.yaw_calibration import (
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
+from slipnav.systems.robot.faults import FaultEvent
 
 T_N, N_BATCH, TRACK = 0.002, 10, 0.068
 

@@ -11,7 +11,6 @@ import pytest
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.faults import FaultEvent
 from slipnav.systems.health import (
     INCONSISTENT,
     HealthConstants,
@@ -31,7 +30,8 @@ from slipnav.systems.health.yaw_witness import (
     yaw_test_initial_state,
     yaw_test_threshold,
 )
-from slipnav.systems.plant import kurt3d, tinyphoon
+from slipnav.systems.robot.faults import FaultEvent
+from slipnav.systems.robot.parameters import kurt3d, tinyphoon
 
 from tests.test_exclusion import check_with_bias
 from tests.test_faults import GEOMETRY, STEP, T_N, B, R, stream

@@ -41,7 +41,7 @@ from slipnav.systems.health.pair_gain import (
     pair_gain_upper_bound,
 )
 from slipnav.systems.health.parameters import INCONSISTENT, PLAUSIBLE_CURRENT
-from slipnav.systems.plant import shoe_drag
+from slipnav.systems.robot.contact import shoe_drag
 
 FAST_ROTATION_SIGMAS = 5.0
 """The fast pair test's bound allows this many standard deviations of the noise that the gyro's

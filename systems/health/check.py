@@ -13,8 +13,8 @@ The order within a sample:
    systems/health/pair_gain.py);
 5. the analog outputs: the reading, else its replacement.
 
-The replacements read the online calibration's [b_g, D] (systems/yaw_calibration.py) as it stood before
-the sample: the gyro's reference and replacement are the gyro less b_g, and an excluded gyro's output
+The replacements read the online calibration's [b_g, D] (systems/navigation/yaw_calibration.py) as it stood
+before the sample: the gyro's reference and replacement are the gyro less b_g, and an excluded gyro's output
 carries b_g back, which the navigation removes.
 """
 

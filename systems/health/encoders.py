@@ -17,7 +17,7 @@ increments.
 
 An excluded encoder advances by v_pred T_N / r (encoder_outputs), else by its last increment; the first
 increment after an exclusion (it spans the gap) is never used. The prediction reads the calibration:
-v_R - v_L = b (gyro - b_g) - D v_o (systems/yaw_calibration.py).
+v_R - v_L = b (gyro - b_g) - D v_o (systems/navigation/yaw_calibration.py).
 """
 
 import math

@@ -23,8 +23,8 @@ NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
 @dc.dataclass
 class SensorHealthParameters:
     """Thresholds of the sensor checks (systems/health/: each test's module). Defaults: the data sheets of
-    systems/sensors.py and, for the rates of change, 4-5x the largest change per sample in the fault-free
-    built-in runs (gyro 0.11 rad/s, accelerometers 6.4 m/s^2, wheel speed 0.14 m/s on Tinyphoon's
+    systems/robot/sensors.py and, for the rates of change, 4-5x the largest change per sample in the
+    fault-free built-in runs (gyro 0.11 rad/s, accelerometers 6.4 m/s^2, wheel speed 0.14 m/s on Tinyphoon's
     square).
 
     Args:
@@ -272,7 +272,7 @@ class HealthGeometry:
         gyro_noise_std: the gyro's white noise per sample (rad/s, data sheet): the fast pair test's
             allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
         accel_noise_std, accel_vibration_per_speed, accel_vibration_time_constant: the accelerometers'
-            white noise and commotion (data sheet and S(3)'s model, systems/sensors.py): the gain test's
+            white noise and commotion (data sheet and S(3)'s model, systems/robot/sensors.py): the gain test's
             noise (pair_gain_ratio) and the pair offset's (pair_offset_update).
         accel_initial_bias_std, accel_drift_density: the accelerometers' initial bias and its random
             walk (data sheet): the pair offset's prior and drift (pair_offset_update).

@@ -60,7 +60,8 @@ import math
 
 import numpy as np
 from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT
-from slipnav.systems.plant import RobotParameters, shoe_drag
+from slipnav.systems.robot.contact import shoe_drag
+from slipnav.systems.robot.parameters import RobotParameters
 from slipnav.systems.state_layout import layout_indices, layout_size
 
 PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")

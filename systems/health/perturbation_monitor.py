@@ -12,7 +12,7 @@ from slipnav.systems.health.perturbation import (
     perturbation_initial_state,
     perturbation_step,
 )
-from slipnav.systems.plant import RobotParameters
+from slipnav.systems.robot.parameters import RobotParameters
 
 
 class PerturbationMonitor(LeafSystem):

@@ -33,8 +33,8 @@ against it, the accelerometer pair breaking the tie (two against one).
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.plant import shoe_drag, tyre_force_and_stiffness
 from slipnav.systems.residual_test import CusumTest, cusum_update
+from slipnav.systems.robot.contact import shoe_drag, tyre_force_and_stiffness
 
 YAW_DRIFT = 0.5
 """The yaw test's CUSUM drift k (sigma): soonest for a shift of one sigma."""

@@ -21,11 +21,11 @@ Channels: ``accel1_t accel1_n accel2_t accel2_n gyro encoder_R encoder_L`` (the 
 vector [accelerometers (4), gyro, encoders (2)]). Several events may overlap; they apply in list order.
 
 Perturbations of the plant (Indiveri et al. Fig. 5), on ``wheel_R``, ``wheel_L`` or the ``body``, act on
-the simulated robot through its ``disturbance`` input (systems/plant.py):
+the simulated robot through its ``disturbance`` input (systems/robot/plant.py):
 
 =================  ======================================================================================
 ``wheel_lifted``   the wheel loses ground contact: no tyre force (it spins freely on its motor)
-``wheel_held``     a hand stops the wheel (a brake of time constant plant.HOLD_TIME_CONSTANT)
+``wheel_held``     a hand stops the wheel (a brake of time constant dynamics.HOLD_TIME_CONSTANT)
 ``wheel_pushed``   a hand turns the wheel with ``value`` N m more torque
 ``body_push``      a push of ``value`` N on the body, along its heading (``body_t``) or to its left
                    (``body_n``)
@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.plant import NO_DISTURBANCE
+from slipnav.systems.robot.contact import NO_DISTURBANCE
 
 SENSOR_CHANNELS = ("accel1_t", "accel1_n", "accel2_t", "accel2_n", "gyro", "encoder_R", "encoder_L")
 ENCODER_CHANNELS = ("encoder_R", "encoder_L")

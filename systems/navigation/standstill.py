@@ -18,8 +18,8 @@ changed cannot keep the estimate integrating at rest. Its PT1 average at rest (`
 state) is the gyro's residual against the standstill; its bias is the yaw calibration's state.
 
 ZUPT. While the robot stands the navigation's estimate [v_t, v_n, omega, a_t, a_n] is zero, a
-measurement the velocity mixer (systems/mixing.py) applies to S(15)-(17)'s output, with the gain 1 in
-the EKF's covariance (mixing_gain), so that the pose S(21) holds whatever the sensors' biases do.
+measurement the velocity mixer (systems/navigation/mixing/mixer.py) applies to S(15)-(17)'s output, with the
+gain 1 in the EKF's covariance (mixing_gain), so that the pose S(21) holds whatever the sensors' biases do.
 
 Accelerometer biases. Each axis i of each accelerometer reads b_i plus white noise while the robot
 stands; b_i is a random walk of the data sheet's drift density (m/s^2 per sqrt(s)). A scalar Kalman

@@ -12,10 +12,10 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.gyrodometry import GyrodometryParameters, gyrodometry_step
-from slipnav.systems.odometry import odometry_step, wheel_radii
-from slipnav.systems.pose import pose_step
-from slipnav.systems.sensor_correction import SensorCalibration, corrected_gyro
+from slipnav.systems.navigation.gyrodometry import GyrodometryParameters, gyrodometry_step
+from slipnav.systems.navigation.odometry import odometry_step, wheel_radii
+from slipnav.systems.navigation.pose import pose_step
+from slipnav.systems.navigation.sensor_correction import SensorCalibration, corrected_gyro
 
 
 def held_reading(value: float, last: float) -> float:

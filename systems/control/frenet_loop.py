@@ -15,7 +15,7 @@ TemplateSystem (LeafSystem_[T]) so that Drake's Linearize can differentiate it w
 import pydrake.math as drake_math
 from pydrake.systems.framework import LeafSystem_
 from pydrake.systems.scalar_conversion import TemplateSystem
-from slipnav.systems.path_follower import PathFollowerParameters, path_following_law
+from slipnav.systems.control.path_follower import PathFollowerParameters, path_following_law
 
 
 def frenet_error_step(x, kappa: float, u: float, p: PathFollowerParameters, T_C: float, ops=drake_math):

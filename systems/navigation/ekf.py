@@ -39,7 +39,7 @@ MEASUREMENT_MATRIX = np.array(
 class EkfParameters:
     """Noise covariances of the EKF (diagonals).
 
-    Defaults, from the sensor models of systems/sensors.py:
+    Defaults, from the sensor models of systems/robot/sensors.py:
     - R: gyro 0.014^2 (ADXRS300 rms noise); each acceleration channel is the mean of two sensors,
       (0.062^2 + 0.3^2)/2 = 0.047: white noise plus the commotion at ~1 m/s, halved by averaging S(3).
     - Q: "as small as possible but large enough to ensure convergence" (§IV-A): velocities 1e-8 (they

@@ -239,8 +239,8 @@ def yaw_calibration_step(
 ) -> np.ndarray:
     """One T_N sample: accumulate the batch; at its end (batch_length samples) the Kalman update of theta
     if every check passed. ``standing``: the standstill detector's decision for this sample
-    (systems/standstill.py; None: without the detector the wheels alone say the robot stands). A batch
-    whose wheels did not turn counts as a standstill only while the detector said so on every sample;
+    (systems/navigation/standstill.py; None: without the detector the wheels alone say the robot stands). A
+    batch whose wheels did not turn counts as a standstill only while the detector said so on every sample;
     otherwise (the wheels' counts lag a turn's start or end) it is neither learned from nor tested.
     ``bias_step``: a step of b_g the sensor checks measured on an excluded gyro (rad/s, 0: none;
     systems/health/gyro.py, gyro_bias_step_block), taken as a bias change (bias_step_update with R =

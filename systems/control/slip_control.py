@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.mixing import logsig
+from slipnav.systems.navigation.mixing.weights import logsig
 
 
 @dc.dataclass

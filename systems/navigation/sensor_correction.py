@@ -1,6 +1,6 @@
 """The sensors' systematic errors as a calibrated model knows them, removed from every sample.
 
-The sensor model (systems/sensors.py) reads a gyro as (1 + s_g) omega + b_g and each two-axis
+The sensor model (systems/robot/sensors.py) reads a gyro as (1 + s_g) omega + b_g and each two-axis
 accelerometer i as (1 + s_i) R(gamma_i) [t, n] + b_i, with R(gamma) [t, n] = [c t + s n, c n - s t]
 (c, s = cos, sin of the misalignment gamma). A model file's ``calibration`` (identified by ``slipnav
 calibrate``, studies/calibration.py) states s_g, gamma_i and s_i; SensorCorrection inverts the model's
@@ -8,9 +8,10 @@ gains for each sample: omega = gyro / (1 + s_g), [t, n] = R(-gamma_i) reading / 
 
 The biases are not removed: they change at every power-up (the data sheets' turn-on repeatability, the
 simulated sensors draw them anew for every run), so the calibration day's b_g and b_i are a record of
-that day, and the navigation learns the gyro's at every run's standstill (systems/yaw_calibration.py).
-Removing a stale bias adds the turn-on repeatability to the bias error (sqrt(2) times the data sheet's
-residual in expectation; corner, one seed, happened to end 2.4 mm with it removed and 3.3 mm without).
+that day, and the navigation learns the gyro's at every run's standstill
+(systems/navigation/yaw_calibration.py). Removing a stale bias adds the turn-on repeatability to the bias
+error (sqrt(2) times the data sheet's residual in expectation; corner, one seed, happened to end 2.4 mm with
+it removed and 3.3 mm without).
 
 Where the navigation sits in Seyr & Jakubek's Fig. 3: between the sensor checks (systems/health/,
 which judge the readings in the sensors' own units: their data-sheet range, a stuck value) and every

@@ -1,4 +1,4 @@
-"""Navigation parameters and the plain sequential reference loop of Seyr & Jakubek's Fig. 3.
+"""The plain sequential reference loop of Seyr & Jakubek's Fig. 3 (its parameters: parameters.py).
 
 ``navigation_loop`` runs the same pure functions as the LeafSystems of diagrams/navigation.py, in the
 order the diagram's timing implies, over logged sensor rows. It is the test oracle that proves the
@@ -8,8 +8,8 @@ Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K
 1. check every sensor channel (systems/health/: exclude and replace faulty ones, flag them),
    odometry S(10) from the encoder difference;
    the gyro and the odometric yaw rate calibrated with the bias and radius difference learned up to
-   the last batch (systems/yaw_calibration.py); the accelerometers less the biases learned up to sample
-   k-1 and the standstill test of sample k (systems/standstill.py);
+   the last batch (systems/navigation/yaw_calibration.py); the accelerometers less the biases learned up to
+   sample k-1 and the standstill test of sample k (systems/navigation/standstill.py);
 2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
 3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry (C3 of the residual's
    PT1 up to sample k);
@@ -26,27 +26,9 @@ Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K
 Logged values are those the blocks read at t_k: states before step 5, outputs of steps 1-4.
 """
 
-import dataclasses as dc
-import math
-from types import SimpleNamespace
-
 import numpy as np
-from slipnav.systems.baselines import BaselineState, baselines_step
-from slipnav.systems.ekf import (
-    EkfParameters,
-    ekf_covariance_update,
-    ekf_gain,
-    ekf_inertial_estimate,
-    ekf_measurement,
-    ekf_prior_covariance,
-)
-from slipnav.systems.faults import SENSOR_CHANNELS
-from slipnav.systems.gyrodometry import GyrodometryParameters
 from slipnav.systems.health import (
-    FORCE_REFERENCE_FIELDS,
     NO_CURRENTS,
-    HealthGeometry,
-    SensorHealthParameters,
     gyro_bias_step,
     health_check,
     health_constants,
@@ -54,35 +36,44 @@ from slipnav.systems.health import (
     odometry_unusable,
     slip_detector_blind,
 )
-from slipnav.systems.health.yaw_witness import MIN_YAW_LAG_STEPS, yaw_lag_at_floor
-from slipnav.systems.mixing import (
+from slipnav.systems.navigation.baselines import BaselineState, baselines_step
+from slipnav.systems.navigation.ekf import (
+    ekf_covariance_update,
+    ekf_gain,
+    ekf_inertial_estimate,
+    ekf_measurement,
+    ekf_prior_covariance,
+)
+from slipnav.systems.navigation.mixing.mixer import mix_checked, mixing_gain, push_taken
+from slipnav.systems.navigation.mixing.slide_onset import (
     SLIDE_ONSET_INITIAL,
-    MixingParameters,
     accelerometer_pair_disagreement,
-    believed_tyre,
+    slide_onset_step,
+)
+from slipnav.systems.navigation.mixing.tyre_identification import believed_tyre
+from slipnav.systems.navigation.mixing.weights import (
     c3_residual,
     c3_turn_rate,
-    mix_checked,
     mixer_c1_step,
     mixing_c2,
     mixing_c3,
-    mixing_gain,
-    push_taken,
-    slide_onset_step,
 )
-from slipnav.systems.odometry import odometry_step, wheel_radii
-from slipnav.systems.plant import RobotParameters
-from slipnav.systems.pose import pose_step
-from slipnav.systems.sensor_correction import (
+from slipnav.systems.navigation.odometry import odometry_step, wheel_radii
+from slipnav.systems.navigation.parameters import (
+    NavigationInitialState,
+    NavigationParameters,
+    check_slide_onset,
+    health_geometry,
+)
+from slipnav.systems.navigation.pose import pose_step
+from slipnav.systems.navigation.sensor_correction import (
     SensorCalibration,
     corrected_accelerometers,
     corrected_gyro,
 )
-from slipnav.systems.sensors import SensorParameters
-from slipnav.systems.sideslip import SideSlipParameters, side_slip_angle
-from slipnav.systems.slip_detector import slip_detector_batch_end, slip_detector_step
-from slipnav.systems.standstill import (
-    StandstillParameters,
+from slipnav.systems.navigation.sideslip import side_slip_angle
+from slipnav.systems.navigation.slip_detector import slip_detector_batch_end, slip_detector_step
+from slipnav.systems.navigation.standstill import (
     accelerometer_biases,
     bias_free,
     standstill_constants,
@@ -91,57 +82,15 @@ from slipnav.systems.standstill import (
     standstill_test,
     zero_velocity_update,
 )
-from slipnav.systems.yaw_calibration import (
-    YawCalibrationParameters,
+from slipnav.systems.navigation.yaw_calibration import (
     calibrated_gyro,
     calibrated_odometry,
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
-
-
-@dc.dataclass
-class NavigationParameters:
-    """All tuning of the navigation diagram (each part documents its defaults)."""
-
-    ekf: EkfParameters = dc.field(default_factory=EkfParameters)
-    mixing: MixingParameters = dc.field(default_factory=MixingParameters)
-    sideslip: SideSlipParameters = dc.field(default_factory=SideSlipParameters)
-    gyrodometry: GyrodometryParameters = dc.field(default_factory=GyrodometryParameters)
-    yaw_calibration: YawCalibrationParameters = dc.field(default_factory=YawCalibrationParameters)
-    health: SensorHealthParameters = dc.field(default_factory=SensorHealthParameters)
-    standstill: StandstillParameters = dc.field(default_factory=StandstillParameters)
-
-    def validate(self) -> "NavigationParameters":
-        """Re-run every part's range checks (YAML loading sets fields after construction)."""
-        parts = (
-            self.ekf,
-            self.mixing,
-            self.sideslip,
-            self.gyrodometry,
-            self.yaw_calibration,
-            self.health,
-            self.standstill,
-        )
-        for part in parts:
-            part.__post_init__()
-        return self
-
-
-@dc.dataclass(frozen=True)
-class NavigationInitialState:
-    """Initial conditions shared by the diagram and the loop."""
-
-    speed: float = 0.0
-    pose: tuple = (0.0, 0.0, 0.0)
-
-    def ekf_state(self) -> np.ndarray:
-        return np.array([self.speed, 0.0, 0.0, 0.0, 0.0])
-
-    def odometry_state(self) -> list:
-        v = self.speed
-        return [np.nan, np.nan, 0.0, v, 0.0, v, v]
-
+from slipnav.systems.robot.faults import SENSOR_CHANNELS
+from slipnav.systems.robot.parameters import RobotParameters
+from slipnav.systems.robot.sensors import SensorParameters
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
@@ -150,70 +99,6 @@ LOOP_KEYS = (
     "odo_v_t odo_omega fault est_gyro_bias standstill est_accel_bias_t1 est_accel_bias_n1 "
     "est_accel_bias_t2 est_accel_bias_n2"
 ).split() + [f"health_{channel}" for channel in SENSOR_CHANNELS]
-
-DEFAULT_WHEEL_SPEED_BOUND = 10.0
-"""Plausible wheel speed (m/s) when neither the health parameters nor the robot give one."""
-
-
-SLIDE_ONSET_MIN_QUANTA = 3.0
-"""The per-sample slide-onset test's threshold must exceed this many encoder counts of the 2 ms odometric
-speed (one count, r dtheta / T_N, would set it at every flicker)."""
-
-
-def check_slide_onset(mixing: MixingParameters, geometry: HealthGeometry) -> None:
-    """Raise ValueError when mixing.slide_onset_jump is within SLIDE_ONSET_MIN_QUANTA encoder counts of one
-    sample's odometric speed (the larger wheel's), naming the allowed range."""
-    quantum = max(geometry.radius_R, geometry.radius_L) * geometry.encoder_step / geometry.T_N
-    if mixing.slide_onset_jump < SLIDE_ONSET_MIN_QUANTA * quantum:
-        raise ValueError(
-            f"mixing.slide_onset_jump={mixing.slide_onset_jump!r} is out of range for these encoders "
-            f"(one count is {quantum:.4g} m/s in a sample): allowed [{SLIDE_ONSET_MIN_QUANTA * quantum:.4g}, "
-            "inf] m/s (inf: no per-sample test)"
-        )
-
-
-def health_geometry(
-    params: NavigationParameters,
-    wheel_radius,
-    track_width: float,
-    T_N: float,
-    sensors: SensorParameters | None = None,
-    no_load_speed: float | None = None,
-    robot: RobotParameters | None = None,
-) -> HealthGeometry:
-    """What the sensor checks know: the nominal (or calibrated) geometry and the sensors' data sheet
-    (default Tinyphoon's); the plausible wheel speed is the parameter's, else 1.5 x the nominal motors'
-    no-load speed; the nominal ``robot``'s mass, motors and drags for the force reference (None: none)."""
-    r_R, r_L = wheel_radii(wheel_radius)
-    sensors = sensors or SensorParameters()
-    bound = params.health.max_wheel_speed
-    if bound is None:
-        bound = 1.5 * no_load_speed if no_load_speed else DEFAULT_WHEEL_SPEED_BOUND
-    force = {}
-    if robot is not None:
-        force = {name: float(getattr(robot, name)) for name in FORCE_REFERENCE_FIELDS}
-        force["track_width"] = track_width  # the believed track, as the checks use it
-        if yaw_lag_at_floor(SimpleNamespace(**force)) < MIN_YAW_LAG_STEPS * T_N:  # no lag to model
-            force["yaw_inertia"] = 0.0
-        del force["track_width"]
-    return HealthGeometry(
-        r_R,
-        r_L,
-        track_width,
-        T_N,
-        sensors.encoder_step,
-        tuple(sensors.accelerometer_position),
-        bound,
-        gyro_noise_std=sensors.gyro_noise_std,
-        accel_noise_std=sensors.accel_noise_std,
-        accel_vibration_per_speed=sensors.accel_vibration_per_speed,
-        accel_vibration_time_constant=sensors.accel_vibration_time_constant,
-        accel_initial_bias_std=sensors.accel_initial_bias_std,
-        accel_drift_density=sensors.accel_drift_density,
-        inertial_hold_time=sensors.inertial_hold_time,
-        tyre_peak_acceleration=robot.traction_limit_acceleration if robot is not None else math.inf,
-        **force,
-    )
 
 
 class NavigationLoop:
@@ -300,6 +185,66 @@ class NavigationLoop:
         the values the blocks output at t_k, in LOOP_KEYS order (the covariance P_k-1 is ``self.P``
         before the call)."""
         mp, T_N = self.params.mixing, self.T_N
+        raw, sample, codes, acc, g, corrected = self.checked_sensors(accelerometers, gyro, encoders, currents)
+        fault_imu = 1.0 if any(codes[0:5]) else 0.0
+        self.inertial_fault = fault_imu > 0.5  # the tyre-model check rests (velocity_mix)
+        self.pushed = push_taken(external_force, self.inertial_fault)
+        odo_next, odo_raw, odometry_held = odometry_step(
+            self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
+        )
+        self.encoder_fault = any(codes[5:7])  # the tyre peak learns nothing (velocity_mix)
+        fault_enc = max(odometry_held, 1.0 if self.encoder_fault else 0.0)
+        cal, theta = self.params.yaw_calibration, self.calibration[0:2]
+        odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
+        gyro_calibrated = calibrated_gyro(g, theta, cal)
+        measurement = ekf_measurement(acc, [gyro_calibrated])
+        standing, standstill_test_state = standstill_test(
+            self.standstill,
+            acc,
+            gyro_calibrated,
+            self.checked_encoders,
+            self.standstill_constants,
+        )
+        inertial = ekf_inertial_estimate(self.x, self.L, measurement, T_N)
+        P_prior = ekf_prior_covariance(self.P, self.x, self.Q, T_N)
+        excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
+        det_next, _ = slip_detector_step(
+            self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
+        )
+        c2, c3, residual, turn = self.mixing_weights(odo, inertial, acc)
+        tyre_state = self.tyre_model_state
+        mixed = self.velocity_mix(odo, inertial, c2, c3, self.x, standing)
+        row = self.output_row(mixed, c2, c3, odo_raw, max(fault_imu, fault_enc), theta[0], standing, codes)
+        self.update_estimate(mixed, P_prior, c2, standing, tyre_state)
+        baselines_step(
+            self.baselines,
+            raw[5:7],
+            raw[4],
+            self.wheel_radius,
+            self.track_width,
+            self.params.gyrodometry,
+            T_N,
+            self.sensor_calibration,
+        )
+        fault = fault_imu > 0.5 or fault_enc > 0.5
+        self.update_calibrations(g, odo_raw, fault, standing, corrected, standstill_test_state)
+        self.c3_residual, self.c3_turn_rate = residual, turn
+        self.odo_state = odo_next
+        self.det_state = det_next
+        if self.k % self.n == 0:
+            self.control_instant(odo, excluded, P_prior, mixed)
+        self.k += 1
+        return row
+
+    def checked_sensors(self, accelerometers, gyro: float, encoders, currents) -> tuple:
+        """Step 1's sensor checks (health_check, which updates ``health``; ``checked_encoders`` the checked
+        angles), the model's calibration removed (SensorCorrection) and the accelerometers' learned
+        biases (bias_free).
+
+        Returns:
+            (raw readings, checked sample, health codes, bias-free accelerometers, gyro, corrected
+            accelerometers before bias_free)
+        """
         raw = tuple([float(v) for v in (*accelerometers, gyro, *encoders)])
         amps = (float(currents[0]), float(currents[1]))
         velocity = (float(self.x[0]), float(self.x[1]))  # x_k-1's body velocity: the gyro's replacement
@@ -315,33 +260,17 @@ class NavigationLoop:
             acc, g = corrected_accelerometers(cal, acc), corrected_gyro(cal, g)
         corrected = acc
         acc = bias_free(self.standstill, corrected)  # StandstillDetector
-        fault_imu = 1.0 if any(codes[0:5]) else 0.0
-        self.inertial_fault = fault_imu > 0.5  # the tyre-model check rests (velocity_mix)
-        self.pushed = push_taken(external_force, self.inertial_fault)
-        odo_next, odo_raw, odometry_held = odometry_step(
-            self.odo_state, sample[5:7], self.wheel_radius, self.track_width, T_N
-        )
-        self.encoder_fault = any(codes[5:7])  # the tyre peak learns nothing (velocity_mix)
-        fault_enc = max(odometry_held, 1.0 if self.encoder_fault else 0.0)
-        cal, theta = self.params.yaw_calibration, self.calibration[0:2]
-        odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
-        bias = theta[0]
-        x = self.x
-        gyro_calibrated = calibrated_gyro(g, theta, cal)
-        measurement = ekf_measurement(acc, [gyro_calibrated])
-        standing, standstill_test_state = standstill_test(
-            self.standstill,
-            acc,
-            gyro_calibrated,
-            self.checked_encoders,
-            self.standstill_constants,
-        )
-        inertial = ekf_inertial_estimate(x, self.L, measurement, T_N)
-        P_prior = ekf_prior_covariance(self.P, x, self.Q, T_N)
-        excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
-        det_next, _ = slip_detector_step(
-            self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
-        )
+        return raw, sample, codes, acc, g, corrected
+
+    def mixing_weights(self, odo, inertial, acc) -> tuple:
+        """Step 3's C2 S(13) and C3 S(14) (of the residual's and the turn rate's PT1 up to this sample) and
+        the slide-onset test, which sets ``slide_onset_state``, ``slide_onset`` and the C1 the mixer
+        takes (``c1_mixed``: 0 while the test holds).
+
+        Returns:
+            (C2, C3, filtered residual, filtered turn rate)
+        """
+        mp, T_N = self.params.mixing, self.T_N
         c2 = mixing_c2(inertial[4], mp)
         residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
         turn = c3_turn_rate(self.c3_turn_rate, inertial[2], mp, T_N)
@@ -351,9 +280,14 @@ class NavigationLoop:
             self.slide_onset_state, odo[0], inertial[0], inertial[3], disagreement, mp, T_N
         )
         self.c1_mixed = 0.0 if self.slide_onset else self.c1
-        tyre_state = self.tyre_model_state
-        mixed = self.velocity_mix(odo, inertial, c2, c3, x, standing)
-        row = (
+        return c2, c3, residual, turn
+
+    def output_row(
+        self, mixed, c2: float, c3: float, odo_raw, fault: float, bias: float, standing: bool, codes
+    ) -> tuple:
+        """The values the blocks output at t_k, in LOOP_KEYS order: the states before step 5 and the
+        outputs of steps 1-4."""
+        return (
             *self.pose,
             *mixed.tolist(),
             self.alpha,
@@ -370,50 +304,54 @@ class NavigationLoop:
             self.dv_held,
             odo_raw[0],
             odo_raw[1],
-            max(fault_imu, fault_enc),
+            fault,
             bias,
             1.0 if standing else 0.0,
             *accelerometer_biases(self.standstill),
             *codes,
         )
+
+    def update_estimate(self, mixed, P_prior, c2: float, standing: bool, tyre_state) -> None:
+        """Step 5's EKF state (the mixed estimate), its covariance (S(9) and the mixing's gain at the tyre
+        peak believed before this sample, ``tyre_state``) and the pose S(21)."""
         self.x = mixed
-        tyre = believed_tyre(mp, tyre_state[2])
+        tyre = believed_tyre(self.params.mixing, tyre_state[2])
         gain = mixing_gain(mixed, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
-        self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], T_N)
-        baselines_step(
-            self.baselines,
-            raw[5:7],
-            raw[4],
-            self.wheel_radius,
-            self.track_width,
-            self.params.gyrodometry,
-            T_N,
-            self.sensor_calibration,
-        )
-        fault = fault_imu > 0.5 or fault_enc > 0.5
+        self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], self.T_N)
+
+    def update_calibrations(self, g: float, odo_raw, fault: bool, standing: bool, corrected, test) -> None:
+        """Step 5's yaw-rate calibration (from the raw gyro and odometry and the C1 in force) and the
+        standstill detector's state with the accelerometers' biases (``test``: standstill_test's state)."""
         rest = standing if self.params.standstill.enabled else None  # the detector's, else the wheels'
         self.calibration = yaw_calibration_step(
-            self.calibration, g, odo_raw, self.c1, fault, self.track_width, cal, T_N, self.n, rest,
+            self.calibration,
+            g,
+            odo_raw,
+            self.c1,
+            fault,
+            self.track_width,
+            self.params.yaw_calibration,
+            self.T_N,
+            self.n,
+            rest,
             gyro_bias_step(self.health),
         )
-        self.c3_residual, self.c3_turn_rate = residual, turn
         self.standstill = standstill_step(
-            self.standstill, corrected, self.checked_encoders, standing, standstill_test_state,
-            self.standstill_constants,
+            self.standstill, corrected, self.checked_encoders, standing, test, self.standstill_constants
         )
-        self.odo_state = odo_next
-        self.det_state = det_next
-        if self.k % self.n == 0:
-            dv, self.det_state = slip_detector_batch_end(
-                self.det_state, odo[0], self.n, excluded, mp.delta_v_running_integral
-            )
-            self.c1, self.dv_sum = mixer_c1_step(self.c1, self.dv_sum, dv, mp)
-            self.dv_held = dv
-            self.L = ekf_gain(P_prior, self.R)
-            self.v_track, self.alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], self.params.sideslip)
-        self.k += 1
-        return row
+
+    def control_instant(self, odo, excluded: bool, P_prior, mixed) -> None:
+        """Step 5 at a control instant: C1 S(12) from this batch's dv and the batches' leaky sum, the
+        detector's reset, L S(7) from P_{k|k-1} and S(18)-(20) from the mixed estimate."""
+        mp = self.params.mixing
+        dv, self.det_state = slip_detector_batch_end(
+            self.det_state, odo[0], self.n, excluded, mp.delta_v_running_integral
+        )
+        self.c1, self.dv_sum = mixer_c1_step(self.c1, self.dv_sum, dv, mp)
+        self.dv_held = dv
+        self.L = ekf_gain(P_prior, self.R)
+        self.v_track, self.alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], self.params.sideslip)
 
 
 def navigation_loop(
