@@ -23,11 +23,16 @@ from slipnav.studies.reproduce_measures import (  # noqa: E402
     time_axis,
 )
 
+FIG2_POINTS = {"A": (1.0, 0.0), "B": (0.0, 1.0), "C": (1.0, 1.0), "D": (0.0, 0.0)}
+"""Indiveri Fig. 2's points as (v_l, v_r) over V_m: D u = 0, C u = V_m, BA the line u = V_m / 2."""
+
 
 def indiveri_fig2(V_m: float, b: float, runs=(), mode: str = "default") -> Reproduced:
     """Indiveri Fig. 2: curvature I(5) and linear speed I(3) over the wheel speeds v_l, v_r in [0, V_m]
     (b: half the track, Indiveri's b), the line BA (u = V_m/2) and the I(24) speed's edge max(v_l, v_r) =
-    V_m; ``runs``: (label, Run) whose wheel commands are drawn on top."""
+    V_m, and the paper's points: D (u = 0), C (u = V_m) and the ends A, B of the line BA (the paper
+    does not say which end is which: here A at v_l = V_m, B at v_r = V_m); ``runs``: (label, Run) whose
+    wheel commands are drawn on top."""
     v = np.linspace(0.0, V_m, 201)
     vl, vr = np.meshgrid(v, v)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -40,6 +45,8 @@ def indiveri_fig2(V_m: float, b: float, runs=(), mode: str = "default") -> Repro
     fig.colorbar(c1, ax=axes[1], label="linear speed u I(3) (m/s)")
     for ax in axes:
         ax.plot([0, V_m], [V_m, 0], "w--", lw=1.2, label="BA: u = $V_m$/2")
+        for name, (x, y) in FIG2_POINTS.items():
+            ax.annotate(name, (x * V_m, y * V_m), textcoords="offset points", xytext=(4, 4), fontsize=11)
         for (label, run), color in zip(runs, ("k", "m"), strict=False):
             a, following = run.arrays, following_mask(run)
             ax.plot(a["cmd_L"][following], a["cmd_R"][following], ".", color=color, ms=1.5, label=label)

@@ -97,6 +97,9 @@ def test_seyr_fig4_is_the_logsig_of_the_modes_mixing():
 
 def test_indiveri_fig2_without_runs_is_the_wheel_speed_square():
     r = rp.indiveri_fig2(4.1, 0.25)
+    for ax in r.figure.axes[0:2]:  # the two plots (their colour bars after them): the paper's points
+        labels = {text.get_text(): text.xy for text in ax.texts}
+        assert labels == {"A": (4.1, 0.0), "B": (0.0, 4.1), "C": (4.1, 4.1), "D": (0.0, 0.0)}
     assert ("$v_l$ (m/s)", "$v_r$ (m/s)") in _labels(r.figure)
     assert "V_m = 4.1" in r.measured
     assert r.figure.axes[0].get_xlim()[1] == pytest.approx(4.1 * 1.02)
