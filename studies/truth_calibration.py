@@ -31,7 +31,7 @@ from slipnav.scenarios import alignment as al
 from slipnav.scenarios.artifacts import check_output_directory
 from slipnav.scenarios.evaluate import read_truth, truth_on
 from slipnav.scenarios.model import RobotModel, write_model
-from slipnav.scenarios.replay import read_log
+from slipnav.scenarios.replay import log_name, read_log
 from slipnav.scenarios.typed_yaml import ScenarioError
 
 SMOOTHING = 0.2
@@ -170,7 +170,7 @@ def calibrate_truth_command(log_path, truth_path, model_path=None, out_dir="runs
     log, model, _ = read_log(log_path, model_path)
     truth = read_truth(truth_path)
     fit = calibrate_from_truth(log.columns, truth, model)
-    stem = FilePath(log_path).name.removesuffix(".csv").removesuffix(".sensors")
+    stem = log_name(log_path)
     out = check_output_directory(out_dir)
     path = write_model(
         calibrated_model(model, fit, FilePath(truth_path).name), out / f"{stem}.calibrated.model.yaml"

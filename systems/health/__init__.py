@@ -11,7 +11,7 @@ evidence that it agrees again.
 - monitor.py: the Drake block, the flags and the run's report.
 """
 
-from slipnav.systems.health.check import NUM_CHANNELS, health_check, health_step
+from slipnav.systems.health.check import health_check, health_step
 from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
 from slipnav.systems.health.monitor import (
     HEALTH_STEP_LAYOUT,
@@ -30,6 +30,7 @@ from slipnav.systems.health.parameters import (
     NO_VELOCITY,
     NO_YAW_CALIBRATION,
     NONFINITE,
+    NUM_CHANNELS,
     PLAUSIBLE_CURRENT,
     RECOVERING,
     SATURATED,

@@ -35,16 +35,15 @@ from slipnav.systems.health.layout import (
     PAYBACK_RATE,
 )
 from slipnav.systems.health.parameters import (
+    GYRO,
     INCONSISTENT,
     JUMP,
     NONFINITE,
+    NUM_ANALOG,
     RECOVERING,
     SATURATED,
     STUCK,
 )
-
-NUM_ANALOG = 5
-GYRO = 4
 
 
 @jitable

@@ -28,7 +28,7 @@ from slipnav.systems.health.accelerometer_pair import (
     pair_omega_squared_update,
     pair_rotational_terms,
 )
-from slipnav.systems.health.analog import GYRO, analog_checks, analog_outputs, checks_off
+from slipnav.systems.health.analog import analog_checks, analog_outputs, checks_off
 from slipnav.systems.health.encoders import (
     encoder_increments,
     encoder_outputs,
@@ -51,17 +51,17 @@ from slipnav.systems.health.layout import (
     YAW_WITNESS,
 )
 from slipnav.systems.health.parameters import (
+    GYRO,
     NO_CURRENTS,
     NO_VELOCITY,
     NO_YAW_CALIBRATION,
+    NUM_CHANNELS,
     SATURATED,
     HealthConstants,
     HealthGeometry,
     SensorHealthParameters,
     health_constants,
 )
-
-NUM_CHANNELS = 7
 
 
 def health_step(

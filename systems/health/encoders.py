@@ -40,9 +40,8 @@ from slipnav.systems.health.layout import (
     ENCODER_SUSPECT,
     TRAVEL_RESTORED,
 )
-from slipnav.systems.health.parameters import JUMP, NONFINITE, RECOVERING, STUCK
+from slipnav.systems.health.parameters import FIRST_ENCODER, JUMP, NONFINITE, RECOVERING, STUCK
 
-FIRST_ENCODER = 5
 READMISSION_TRAVEL_COUNTS = 10.0
 """An encoder excluded for a disagreement (a jump, a stuck count, an increment or a block off the
 prediction) has its re-admission block judged only once the encoder itself has counted this many counts

@@ -48,7 +48,7 @@ from slipnav.systems.health.layout import (
     YAW_WITNESS,
     YAW_WITNESS_SMOOTH,
 )
-from slipnav.systems.health.parameters import INCONSISTENT, JUMP, RECOVERING, SATURATED, STUCK
+from slipnav.systems.health.parameters import GYRO, INCONSISTENT, JUMP, RECOVERING, SATURATED, STUCK
 from slipnav.systems.health.yaw_witness import (
     CUSUM,
     GRIP_STIFFNESS_RATIO,
@@ -59,7 +59,6 @@ from slipnav.systems.health.yaw_witness import (
     yaw_witness_step,
 )
 
-GYRO = 4
 PAIR_SPIN_MARGIN = 1.5
 """A gyro railed at its full scale while the odometry says below it reads the accelerometer pair's yaw
 rate only when the pair says more than the full scale and this many times the odometric yaw rate (a

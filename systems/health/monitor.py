@@ -5,13 +5,14 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.health.check import NUM_CHANNELS, health_check
+from slipnav.systems.health.check import health_check
 from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
 from slipnav.systems.health.parameters import (
     HEALTH_CLASSES,
     NO_CURRENTS,
     NO_VELOCITY,
     NO_YAW_CALIBRATION,
+    NUM_CHANNELS,
     HealthGeometry,
     SensorHealthParameters,
     health_constants,

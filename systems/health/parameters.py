@@ -18,6 +18,9 @@ force test from it."""
 HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
 """Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
 NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
+NUM_ANALOG, GYRO, FIRST_ENCODER, NUM_CHANNELS = 5, 4, 5, 7
+"""A sample's channels [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L]: the analog ones first, the
+gyro's index, the right encoder's, all of them."""
 
 
 @dc.dataclass
