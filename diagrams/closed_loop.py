@@ -244,7 +244,9 @@ def build_closed_loop_diagram(
         builder.Connect(nav.GetOutputPort("side_slip_angle"), ctrl.GetInputPort("side_slip_angle"))
     command = ctrl.GetOutputPort("wheel_speed_command")
     builder.Connect(command, handles.plant.GetInputPort("wheel_speed_command"))
-    monitor = add_command_monitor(builder, perturbation_monitor, command, nav, robot, rates, handles)
+    monitor = add_command_monitor(
+        builder, perturbation_monitor, command, nav, robot, rates, handles, nominal_sensors
+    )
     loggers = {}
     if log:
         ports = robot_ports(handles)

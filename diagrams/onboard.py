@@ -12,7 +12,7 @@ from slipnav.systems.navigation.parameters import NavigationParameters
 from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.parameters import RobotParameters
-from slipnav.systems.robot.sensors import SensorParameters
+from slipnav.systems.robot.sensors import SensorParameters, default_sensor_parameters
 
 
 def add_robot_and_navigation(
@@ -72,10 +72,13 @@ def add_command_monitor(
     robot: RobotParameters,
     rates: SampleRates,
     handles: RobotHandles,
+    nominal_sensors: SensorParameters | None = None,
 ):
     """The PerturbationMonitor (``parameters``, default PerturbationParameters()) on the wheel-speed
     commands ``command_port``, the navigation's checked encoders and estimate and the motor drivers'
-    currents; returns it."""
+    currents; ``nominal_sensors`` (default the robot's data sheet) say whether it carries accelerometers;
+    returns it."""
+    sensors = nominal_sensors or default_sensor_parameters(robot.name)
     return add_perturbation_monitor(
         builder,
         parameters or PerturbationParameters(),
@@ -85,4 +88,5 @@ def add_command_monitor(
         robot,
         rates.T_N,
         handles.sensors.GetOutputPort("motor_currents"),
+        sensors.accelerometer_sets > 0,
     )

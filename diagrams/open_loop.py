@@ -99,7 +99,9 @@ def build_open_loop_diagram(
     ports["command"] = feedforward.GetOutputPort("wheel_speed_command")
     if nav is not None:
         command = feedforward.GetOutputPort("wheel_speed_command")
-        monitor = add_command_monitor(builder, perturbation_monitor, command, nav, robot, rates, handles)
+        monitor = add_command_monitor(
+            builder, perturbation_monitor, command, nav, robot, rates, handles, nominal_sensors
+        )
         ports["perturbation"] = monitor.GetOutputPort("perturbation")
         ports["force_residual"] = monitor.GetOutputPort("force_residual")
     ports["reference_pose"] = feedforward.GetOutputPort("reference_pose")

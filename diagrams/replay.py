@@ -15,7 +15,7 @@ from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
 from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.robot.sensors import SensorParameters
+from slipnav.systems.robot.sensors import SensorParameters, default_sensor_parameters
 
 
 def build_log_replay_diagram(
@@ -74,6 +74,7 @@ def build_log_replay_diagram(
             robot,
             rates.T_N,
             source.GetOutputPort("motor_currents"),
+            (sensors or default_sensor_parameters(robot.name)).accelerometer_sets > 0,
         )
         ports["perturbation"] = monitor.GetOutputPort("perturbation")
         ports["force_residual"] = monitor.GetOutputPort("force_residual")

@@ -127,7 +127,6 @@ def collect_navigation(a: dict, data) -> None:
     a["delta_v"] = data("nav_delta_v")[0]
     odo = data("nav_odometry")
     a["odo_v_t"], a["odo_omega"] = odo[0], odo[1]
-    a["fault"] = np.maximum(data("nav_inertial_fault")[0], data("nav_encoder_fault")[0])
     a["est_gyro_bias"] = data("nav_gyro_bias")[0]
     a["standstill"] = data("nav_standstill")[0]
     accel_bias = data("nav_accelerometer_bias")
@@ -136,6 +135,9 @@ def collect_navigation(a: dict, data) -> None:
     health = data("nav_health")
     for i, channel in enumerate(SENSOR_CHANNELS):
         a[f"health_{channel}"] = health[i]
+    # a channel excluded (any health code > 0; an absent accelerometer set is none), or the odometry held
+    excluded = (np.max(health[0:5], axis=0) > 0).astype(float)
+    a["fault"] = np.maximum(excluded, data("nav_encoder_fault")[0])
     calibration = data("nav_yaw_calibration")
     a["est_gyro_bias_std"] = calibration[2]
     a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1], calibration[3]

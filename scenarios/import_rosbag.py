@@ -39,7 +39,11 @@ TRUTH_WORD = "truth"
 
 def default_model() -> RobotModel:
     """The nominal Tinyphoon: a bag's robot is described by ``--model``."""
-    return RobotModel(robot="tinyphoon", description="nominal Tinyphoon: give the robot's --model").validate()
+    return RobotModel(
+        robot="tinyphoon",
+        description="nominal Tinyphoon with the bag's one IMU: give the robot's --model",
+        sensor_overrides={"accelerometer_sets": 1},
+    ).validate()
 
 
 def stamp(message, receive_ns: int) -> float:

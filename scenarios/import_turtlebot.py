@@ -13,12 +13,14 @@ What the import estimates from the data (scenarios/alignment.py) and reports (``
   quarter turn, the board's axes lying along the robot's);
 - the Vicon object's rigid offset from the robot (the forward axis's angle and the axle centre's offset);
 - the longest time the navX repeats a reading (imu_hold): a model that states no inertial_hold_time gets
-  HOLD_MARGIN times it, so that the stuck test does not read the device's own holds as a frozen sensor.
+  importers.HOLD_MARGIN times it, so that the stuck test does not read the device's own holds as a frozen
+  sensor.
 
 The log (scenarios/sensor_log.py) holds every stream on the T_N grid of the model over the interval all
 three cover, ``interpolate``d (linear between samples; the wheel ticks between the messages that carry a
 new count, alignment.fresh_counts) or ``hold``. The one IMU fills both accelerometer pairs (acc1 = acc2:
-the log requires two). Encoder counts are whole counts of the model's resolution: the Kobuki's 2578.33 ticks
+the log requires two); the default model states one set (SensorParameters.accelerometer_sets), so the
+second is not read. Encoder counts are whole counts of the model's resolution: the Kobuki's 2578.33 ticks
 per revolution are 7735/3, so the default model counts thirds of a tick (7735 per revolution) and the log
 holds the ticks times 3. The truth columns and ``<name>.truth.csv`` are the axle centre's pose in the
 Vicon's frame.
@@ -26,7 +28,6 @@ Vicon's frame.
 
 from __future__ import annotations
 
-import dataclasses as dc
 import math
 from pathlib import Path as FilePath
 
@@ -39,8 +40,9 @@ from slipnav.scenarios.importers import (
     log_summary,
     read_table,
     resolve_model,
+    with_measured_hold,
 )
-from slipnav.scenarios.model import RobotModel, model_text
+from slipnav.scenarios.model import RobotModel
 from slipnav.scenarios.sensor_log import SensorLog
 
 KOBUKI_TICKS_PER_REVOLUTION = 7735.0 / 3.0
@@ -53,20 +55,15 @@ SMOOTHING = 0.2
 """Window (s) of the Savitzky-Golay derivatives of the truth and of the streams compared with it."""
 ACCEL_SMOOTHING = 0.5
 """Window (s) of the accelerations the accelerometer's mapping is fitted on (second derivatives)."""
-HOLD_MARGIN = 2.0
-"""A model that states no inertial_hold_time gets this many times the longest hold the trial's navX
-shows (imu_hold): the stuck test judges a reading frozen only beyond it."""
-
-
 def default_model() -> RobotModel:
     """The TurtleBot 2 as a model: Tinyphoon's sensor set and tuning with the Kobuki's data-sheet wheel
     radius, track and encoder resolution in thirds of a tick (7735 counts per revolution)."""
     return RobotModel(
         robot="tinyphoon",
         description="TurtleBot 2 (Kobuki), data sheet: wheel radius 0.035 m, track 0.230 m, 2578.33 ticks "
-        "per revolution (7735 counts of a third of a tick); navX IMU, one for both accelerometer pairs",
+        "per revolution (7735 counts of a third of a tick); navX IMU: one accelerometer set",
         robot_overrides={"wheel_radius": KOBUKI_WHEEL_RADIUS, "track_width": KOBUKI_TRACK},
-        sensor_overrides={"encoder_counts_per_revolution": 7735},
+        sensor_overrides={"encoder_counts_per_revolution": 7735, "accelerometer_sets": 1},
     ).validate()
 
 
@@ -397,10 +394,7 @@ def import_trial(trial_dir, model_path=None, resample: str = "interpolate") -> I
     name = f"phil-turtlebot-{FilePath(trial_dir).resolve().name}"
     est = estimate_clocks(files, model)
     hold = imu_hold(est)
-    if model.sensor_parameters().inertial_hold_time == 0.0:  # not stated: the trial's own, with a margin
-        overrides = {**model.sensor_overrides, "inertial_hold_time": HOLD_MARGIN * hold}
-        model = dc.replace(model, sensor_overrides=overrides).validate()
-        text = model_text(model)
+    model, text = with_measured_hold(model, text, "inertial_hold_time", hold, 1.0)
     log, table, grid = build_log(est, model, resample, name)
     g, frames = est["gyro_fit"], est["frames"]
     offset, rotation = frames["offset"], frames["rotation"]

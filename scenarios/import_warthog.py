@@ -19,11 +19,13 @@ What the import estimates (reported in ``<name>.import.json``):
 
 The truth point is the middle antenna: on a skid-steer robot that slides sideways through its doughnuts the
 wheels' kinematics do not locate the axle's centre (the TurtleBot's offset fit needs no lateral
-velocity). The log has no accelerometer: its accelerometer columns are empty (``nan``: a missing sample
-on every row, which the navigation's sensor check holds and flags). Wheel angles are interpolated between
+velocity). The log has no accelerometer: its accelerometer columns are empty (``nan``) and the default model
+states none (SensorParameters.accelerometer_sets 0: not judged). Wheel angles are interpolated between
 readings (``interpolate``, no standstill rule: the gaps are the encoders' dropouts) or held; counts are
-2^16 per revolution. The default model is Kurt3D's (a skid steer taken as differential drive) with the
-Warthog's wheel radius 0.3 m and effective track 1.1652 m.
+2^16 per revolution. A model that states no encoder_hold_time gets importers.HOLD_MARGIN times the
+longest interval between the trial's wheel readings, over which the speed may step. The default model
+is Kurt3D's (a skid steer taken as differential drive) with the Warthog's wheel radius 0.3 m and
+effective track 1.1652 m.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from slipnav.scenarios.importers import (
     log_summary,
     read_table,
     resolve_model,
+    with_measured_hold,
 )
 from slipnav.scenarios.model import RobotModel
 from slipnav.scenarios.sensor_log import SensorLog
@@ -62,7 +65,7 @@ def default_model() -> RobotModel:
         description="Clearpath Warthog (skid steer as differential drive): wheel radius 0.3 m, effective "
         "track 1.1652 m; wheel angles as 65536 counts per revolution; a gyro, no accelerometers",
         robot_overrides={"wheel_radius": WARTHOG_WHEEL_RADIUS, "track_width": WARTHOG_TRACK},
-        sensor_overrides={"encoder_counts_per_revolution": COUNTS_PER_REVOLUTION},
+        sensor_overrides={"encoder_counts_per_revolution": COUNTS_PER_REVOLUTION, "accelerometer_sets": 0},
     ).validate()
 
 
@@ -291,6 +294,8 @@ def import_trial(folder, model_path=None, resample: str = "interpolate") -> Impo
     log_path, pos_paths = find_files(folder)
     model, text = resolve_model(model_path, default_model)
     robot_log = read_robot_log(log_path)
+    encoder_hold = float(np.max(np.diff(robot_log["t_wheels"])))
+    model, text = with_measured_hold(model, text, "encoder_hold_time", encoder_hold, 10.0)
     wheels = wheel_rates(robot_log, model)
     ant = antennas(pos_paths, robot_log["t_gyro"][0], robot_log["t_gyro"][-1])
     truth = gnss_truth(ant, wheels)
@@ -335,7 +340,12 @@ def import_trial(folder, model_path=None, resample: str = "interpolate") -> Impo
             "straight_epochs": truth["straight_epochs"],
             "point": "the middle antenna",
         },
-        "encoders": {"readings": len(robot_log["t_wheels"]), "counts_per_revolution": COUNTS_PER_REVOLUTION},
+        "encoders": {
+            "readings": len(robot_log["t_wheels"]),
+            "counts_per_revolution": COUNTS_PER_REVOLUTION,
+            "longest_interval_s": encoder_hold,
+            "model_encoder_hold_time_s": model.sensor_parameters().encoder_hold_time,
+        },
         "accelerometer": {"mapping": "none: the log's accelerometer columns are empty (nan)"},
         "log": {
             "T_N_s": model.T_N,

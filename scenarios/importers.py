@@ -27,6 +27,10 @@ from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, write_tex
 
 ADAPTERS = ("phil-turtlebot", "norlab-warthog", "ros-bag")
 RESAMPLING = ("interpolate", "hold")
+HOLD_MARGIN = 2.0
+"""A model that states no hold time of a stream (SensorParameters.inertial_hold_time, encoder_hold_time)
+gets this many times the longest one the trial shows (with_measured_hold): the checks judge a held
+reading frozen, or a speed step a jump, only beyond it."""
 
 
 class LogImportError(ScenarioError):
@@ -76,6 +80,16 @@ def log_summary(report: dict) -> str:
     """The start of an import's summary line: its name, rows, T_N and resampling (report's keys)."""
     log = report["log"]
     return f"{report['name']}: {log['rows']} rows at T_N {log['T_N_s']:g} s ({log['resampling']}); "
+
+
+def with_measured_hold(model: RobotModel, text: str, field: str, measured: float, limit: float):
+    """(model, its YAML text) with SensorParameters ``field`` at HOLD_MARGIN x ``measured`` (s, at most
+    ``limit``, the field's range) when the model states none (0); else as given."""
+    if getattr(model.sensor_parameters(), field) != 0.0:
+        return model, text
+    overrides = {**model.sensor_overrides, field: min(HOLD_MARGIN * float(measured), limit)}
+    model = dc.replace(model, sensor_overrides=overrides).validate()
+    return model, model_text(model)
 
 
 def resolve_model(model_path, default) -> tuple[RobotModel, str]:

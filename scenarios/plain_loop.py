@@ -134,7 +134,7 @@ def run_plain_loop(
     # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
     ctrl = PlainControl(control, robot, rates.T_C)
     faults = check_fault_events(faults)
-    monitor = PlainMonitor(perturbation_monitor, robot, rates.T_N)
+    monitor = PlainMonitor(perturbation_monitor, robot, rates.T_N, nav.geometry.accelerometer_sets > 0)
     spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
     out = _step_plain_loop(world, sensors, nav, ctrl, monitor, faults, rates, noise, spent)
     if timings is not None:
@@ -273,14 +273,20 @@ class PlainSensors:
 class PlainMonitor:
     """The PerturbationMonitor as plain state (``state``: perturbation_initial_state's layout)."""
 
-    def __init__(self, parameters: PerturbationParameters | None, robot: RobotParameters, T_N: float):
+    def __init__(
+        self,
+        parameters: PerturbationParameters | None,
+        robot: RobotParameters,
+        T_N: float,
+        accelerations: bool,
+    ):
         self.params = (parameters or PerturbationParameters()).validate()
         self.state, self.radii, self.force = (
             perturbation_initial_state(),
             (robot.radius_R, robot.radius_L),
             force_model(robot),
         )
-        self.track_width, self.T_N = robot.track_width, T_N
+        self.track_width, self.T_N, self.accelerations = robot.track_width, T_N, accelerations
 
     def push(self):
         """The sideways push the navigation reads (sideways_push)."""
@@ -301,6 +307,7 @@ class PlainMonitor:
             current,
             self.force,
             nav.slide_onset,
+            self.accelerations,
         )
 
 

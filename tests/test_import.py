@@ -217,6 +217,10 @@ def test_warthog_import_finds_the_antennas_and_replays_without_accelerometers():
     short = SensorLog({k: v[:2500] for k, v in c.items()}, dict(result.log.metadata))  # 5 s
     replayed = replay_log(short, result.model, "short")
     assert np.isfinite(replayed.arrays["est_x"]).all() and np.isfinite(replayed.arrays["gyro_x"]).all()
+    # the model states no accelerometer: their empty columns are not judged, nothing is flagged
+    assert result.model.sensor_parameters().accelerometer_sets == 0
+    assert replayed.summary["sensor_faults"] == 0
+    assert not any(replayed.arrays[key].any() for key in replayed.arrays if key.startswith("health_"))
 
 
 @needs_turtlebot

@@ -106,15 +106,16 @@ def test_a_gyro_half_again_too_large_in_a_turn_raises_the_alarm_in_its_fifth_sam
     assert not any(alarms)
 
 
-def test_the_pair_witnesses_only_apart_finite_and_not_copied():
-    g = SimpleNamespace(accelerometer_position=(0.02, 0.015))
+def test_the_pair_witnesses_only_apart_finite_two_and_not_copied():
+    g = SimpleNamespace(accelerometer_position=(0.02, 0.015), accelerometer_sets=2)
     assert pair_witnesses((0.1, 0.2, 0.3, 0.4, 1.0, 0.0, 0.0), g)
     assert not pair_witnesses((0.1, 0.2, 0.1, 0.2, 1.0, 0.0, 0.0), g)  # one IMU in both sets
     assert pair_witnesses((0.1, 0.2, 0.1, 0.25, 1.0, 0.0, 0.0), g)
     assert not pair_witnesses((0.1, math.nan, 0.3, 0.4, 1.0, 0.0, 0.0), g)
-    assert not pair_witnesses(
-        (0.1, 0.2, 0.3, 0.4, 1.0, 0.0, 0.0), SimpleNamespace(accelerometer_position=(0, 0))
-    )
+    at_one_point = SimpleNamespace(accelerometer_position=(0, 0), accelerometer_sets=2)
+    assert not pair_witnesses((0.1, 0.2, 0.3, 0.4, 1.0, 0.0, 0.0), at_one_point)
+    one_set = SimpleNamespace(accelerometer_position=(0.02, 0.015), accelerometer_sets=1)
+    assert not pair_witnesses((0.1, 0.2, 0.3, 0.4, 1.0, 0.0, 0.0), one_set)  # set 2's columns not read
     assert math.isnan(pair_omega_squared((0.1, 0.2, 0.3, 0.4), (0.0, 0.0)))
 
 

@@ -15,8 +15,8 @@ sensor stays out until the pair's averages fall below half their bounds (a hold 
 alone: until its evidence is gone and that of a gain within gain_release is in).
 
 An excluded axis reads its partner's plus the rotational difference and the learned offset
-(systems/health/analog.py). A log whose one IMU fills both sets (pair_copied) has no pair: nothing is
-judged.
+(systems/health/analog.py). A robot with fewer than two sets, or a log whose one IMU fills both
+(pair_copied), has no pair: nothing is judged (pair_present).
 """
 
 import math
@@ -76,10 +76,17 @@ def pair_copied(raw) -> bool:
 
 
 @jitable
+def pair_present(raw, g) -> bool:
+    """The robot has two accelerometer sets (HealthGeometry.accelerometer_sets) and they are two sensors:
+    not one IMU copied into both sets of a log (pair_copied)."""
+    return g.accelerometer_sets == 2 and not pair_copied(raw)
+
+
+@jitable
 def pair_omega_squared_update(s, raw, p, g) -> float:
-    """This sample's omega^2 from the pair (rad^2/s^2; NaN unless all four readings are finite), averaged
-    into the state over consistency_samples."""
-    finite = (
+    """This sample's omega^2 from the pair (rad^2/s^2; NaN unless the robot has two sets and all four
+    readings are finite), averaged into the state over consistency_samples."""
+    finite = g.accelerometer_sets == 2 and (
         math.isfinite(raw[0]) and math.isfinite(raw[1]) and math.isfinite(raw[2]) and math.isfinite(raw[3])
     )
     squared = pair_omega_squared(raw, g.accelerometer_position) if finite else math.nan
@@ -181,7 +188,7 @@ def pair_check(s, raw, codes, rot, rot_dot, omega, a_force, v_o, moving, fast_kn
         # an axis out of the pair for its own fault: the gain test's window is stale when it returns
         pair_gain_reset(s)
         return
-    if pair_copied(raw):  # one sensor in both sets: no pair to judge
+    if not pair_present(raw, g):  # fewer than two sensors: no pair to judge
         return
     for c in range(4):
         deviation[c] += (raw[c] - kinematic[c % 2] - deviation[c]) / p.consistency_samples

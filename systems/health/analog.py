@@ -12,6 +12,7 @@ against its data sheet and its last accepted value (health codes 1-4), and the v
    the last accepted value, the gyro's less b_g) against what the robot can do in one sample
    (gyro_max_step, accel_max_step); ``recovering`` while the channel is excluded and still beyond it.
 
+A channel of an absent accelerometer set (SensorParameters.accelerometer_sets) is not judged.
 An excluded channel outputs its replacement (analog_outputs): the gyro the yaw rate of its witnesses
 (systems/health/gyro.py) plus b_g, which the navigation removes; an accelerometer axis the other
 sensor's reading of that axis plus the rotational difference and the pair's learned offset
@@ -75,6 +76,8 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
     steps = (p.accel_max_step, p.accel_max_step, p.accel_max_step, p.accel_max_step, p.gyro_max_step)
     for c in range(NUM_ANALOG):
         x = raw[c]
+        if not channel_present(c, p.accelerometer_sets):  # not judged: analog_outputs replaces it
+            continue
         if not math.isfinite(x):
             codes[c] = NONFINITE
             continue
@@ -119,15 +122,29 @@ def clip_returns(ring, base: int, position: int, x: float, p) -> int:
 
 
 @jitable
-def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation, out) -> None:
+def channel_present(c: int, accelerometer_sets: int) -> bool:
+    """Channel ``c`` of [a_t1, a_n1, a_t2, a_n2, omega] exists on a robot with ``accelerometer_sets``
+    two-axis accelerometers (0, 1 or 2; the gyro always)."""
+    return c == GYRO or c < 2 * accelerometer_sets
+
+
+@jitable
+def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation, sets: int, out) -> None:
     """Writes out[0:5]: the reading, else its replacement (module docstring), and the references; a
     frozen gyro's owed heading is paid back on out[4] (systems/health/gyro.py). ``gyro_replacement``:
     the excluded gyro's yaw rate from its witnesses (rad/s, without b_g); ``rotation``: the pair's
-    rotational difference per axis (t, n) with its angular-acceleration terms (m/s^2)."""
+    rotational difference per axis (t, n) with its angular-acceleration terms (m/s^2); ``sets``: the
+    accelerometer sets present (channel_present). An absent set 2 reads set 1's output moved across the
+    pair (the rotational difference), so that S(3)'s mean is the body centre's; without accelerometers
+    the four channels read 0 (the navigation then measures no acceleration: monitor.health_flags)."""
     reference = s[ANALOG_REFERENCE]
     excluded = s[ANALOG_EXCLUDED]
     offset = s[PAIR_OFFSET]
     for c in range(NUM_ANALOG):
+        if not channel_present(c, sets):
+            value = out[c ^ 2] - rotation[c % 2] - offset[c % 2] if channel_present(c ^ 2, sets) else 0.0
+            out[c] = reference[c] = value if math.isfinite(value) else 0.0
+            continue
         if codes[c] == 0:  # the reference is the gyro less b_g, as its replacement is
             out[c] = raw[c]
             reference[c] = raw[c] - (bias if c == GYRO else 0.0)
@@ -136,7 +153,7 @@ def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation
         excluded[c] += 1.0
         if c == GYRO:
             value = gyro_replacement
-        elif codes[c ^ 2] == 0:  # the partner's reading of the axis, plus the pair's difference
+        elif codes[c ^ 2] == 0 and channel_present(c ^ 2, sets):  # the partner's reading, plus the difference
             value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * (rotation[c % 2] + offset[c % 2])
         else:
             value = reference[c]

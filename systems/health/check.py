@@ -164,7 +164,7 @@ def health_check(
     else:
         replacement = s[ANALOG_REFERENCE][GYRO]
     rotation = (rot[0] + rot_dot[0], rot[1] + rot_dot[1])
-    analog_outputs(s, raw, bias, codes, replacement, rotation, out)
+    analog_outputs(s, raw, bias, codes, replacement, rotation, p.accelerometer_sets, out)
     return s, out, codes
 
 

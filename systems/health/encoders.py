@@ -3,7 +3,9 @@ increments.
 
 - ``nonfinite``: NaN or inf.
 - ``jump``: an increment implying a wheel speed beyond max_wheel_speed, or a change of the wheel speed
-  beyond max_wheel_acceleration T_N plus two counts against the last used increment.
+  beyond max_wheel_acceleration max(T_N, encoder_hold_time) plus two counts against the last used
+  increment (a log that holds or interpolates its angles between readings changes its speed at once by
+  what the wheel gained over the interval).
 - ``stuck``: a count standing still for stuck_samples while the other wheel and the gyro say it turns
   faster than stuck_min_speed + stuck_speed_fraction |v_other| (v_pred = v_other +- b omega: a wheel
   held by hand, about which the robot pivots on rolling tyres, is not flagged), counted only while the
@@ -105,7 +107,7 @@ def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: b
             continue
         d, last[w] = x - last[w], x
         d_prev, raw_increment[w] = raw_increment[w], d
-        bound = (p.max_wheel_acceleration * g.T_N / radii[w] + count_speed) * g.T_N
+        bound = (p.max_wheel_acceleration * max(g.T_N, g.encoder_hold_time) / radii[w] + count_speed) * g.T_N
         if lost[w] > 0:
             codes[FIRST_ENCODER + w] = RECOVERING  # this increment spans the exclusion
         elif abs(d) * radii[w] / g.T_N > g.max_wheel_speed:
@@ -153,12 +155,14 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
     code = s[ENCODER_CODE]
     suspect = s[ENCODER_SUSPECT]
     radii = (g.radius_R, g.radius_L)
-    # the body's deceleration from the healthy tangential accelerometers (NaN if neither is)
+    # the body's deceleration from the healthy tangential accelerometers present (NaN if none is)
+    first_ok = codes[0] == 0 and g.accelerometer_sets >= 1
+    second_ok = codes[2] == 0 and g.accelerometer_sets == 2
     a_body = math.nan
-    if codes[0] == 0 and codes[2] == 0:
+    if first_ok and second_ok:
         a_body = 0.5 * (raw[0] + raw[2])
-    elif codes[0] == 0 or codes[2] == 0:
-        a_body = raw[0] if codes[0] == 0 else raw[2]
+    elif first_ok or second_ok:
+        a_body = raw[0] if first_ok else raw[2]
     missed = [0.0, 0.0]
     for w in range(2):
         braking = math.isfinite(predicted[w]) and a_body * math.copysign(1.0, predicted[w]) < (

@@ -25,7 +25,7 @@ pair (|omega| from S(3)'s centripetal difference).
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.health.accelerometer_pair import pair_copied
+from slipnav.systems.health.accelerometer_pair import pair_present
 from slipnav.systems.health.layout import (
     ANALOG_EXCLUDED,
     ANALOG_HOLD,
@@ -195,15 +195,15 @@ def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: f
 @jitable
 def pair_witnesses(raw, g) -> bool:
     """The accelerometer pair is a third witness of the yaw rate on this sample: its sensors sit apart
-    (accelerometer_position not (0, 0)), all four readings are finite, and the two sensors do not read
-    the same values on both axes (one IMU copied into both sets of a log says nothing of omega^2)."""
+    (accelerometer_position not (0, 0)), all four readings are finite, and the robot has two sensors
+    (pair_present: two sets, not one IMU copied into both, which says nothing of omega^2)."""
     x, y = g.accelerometer_position
     if not x * x + y * y > 0.0:
         return False
     for c in range(4):
         if not math.isfinite(raw[c]):
             return False
-    return not pair_copied(raw)
+    return pair_present(raw, g)
 
 
 @jitable

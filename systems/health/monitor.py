@@ -54,12 +54,12 @@ HEALTH_STEP_LAYOUT = (
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
-def slip_detector_blind(codes, unusable: bool = False) -> bool:
+def slip_detector_blind(codes, unusable: bool = False, accelerometer_sets: int = 2) -> bool:
     """S(11) cannot use the sample: both encoders excluded, one encoder excluded while the gyro is (its
     replacement is then its last increment, not the other wheel's and the gyro's), an encoder output that
     cannot serve (``unusable``, odometry_unusable: a stuck encoder's missed travel restored in this one
-    sample, or a non-finite angle that the odometry holds over), or both tangential accelerometers
-    excluded.
+    sample, or a non-finite angle that the odometry holds over), or no tangential accelerometer of the
+    robot's ``accelerometer_sets`` (0, 1 or 2) in.
 
     An encoder excluded otherwise advances by the other wheel's increment and the gyro's yaw rate (v_R -
     v_L = b omega): the odometric v_t is then the healthy wheel's, and its slip is what S(11) is there to
@@ -71,7 +71,7 @@ def slip_detector_blind(codes, unusable: bool = False) -> bool:
     right, left = codes[5] > 0, codes[6] > 0
     if unusable or (right and left) or ((right or left) and codes[4] > 0):
         return True
-    return codes[0] > 0 and codes[2] > 0
+    return not any(codes[c] == 0 for c in (0, 2) if c < 2 * accelerometer_sets)
 
 
 def odometry_unusable(state, sample) -> bool:
@@ -81,12 +81,15 @@ def odometry_unusable(state, sample) -> bool:
     return travel_restored(state) or not (math.isfinite(sample[5]) and math.isfinite(sample[6]))
 
 
-def health_flags(codes, unusable: bool = False) -> list:
+def health_flags(codes, unusable: bool = False, accelerometer_sets: int = 2) -> list:
     """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder is
-    excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind)."""
-    inertial = 1.0 if max(codes[0:5]) > 0 else 0.0
+    excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind). A robot without
+    accelerometers (``accelerometer_sets`` 0) has an inertial_fault on every sample: its inertial estimate
+    carries no kinematics of its own, so the tyre-model check rests and the yaw calibration does not
+    learn from wheels whose slip nothing can see."""
+    inertial = 1.0 if max(codes[0:5]) > 0 or accelerometer_sets == 0 else 0.0
     encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
-    return [inertial, encoder, 1.0 if slip_detector_blind(codes, unusable) else 0.0]
+    return [inertial, encoder, 1.0 if slip_detector_blind(codes, unusable, accelerometer_sets) else 0.0]
 
 
 class SensorHealthMonitor(LeafSystem):
@@ -172,7 +175,7 @@ class SensorHealthMonitor(LeafSystem):
         state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak, calibration)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
-        flags = health_flags(codes, odometry_unusable(state, out))
+        flags = health_flags(codes, odometry_unusable(state, out), self._g.accelerometer_sets)
         step[STATE_SIZE:] = [*out, *codes, *flags, gyro_bias_step(state)]
 
     def _update(self, context, discrete_state):

@@ -281,6 +281,11 @@ class HealthGeometry:
             walk (data sheet): the pair offset's prior and drift (pair_offset_update).
         inertial_hold_time: the longest time the inertial stream repeats a reading while healthy (s,
             data sheet or the import's measurement; SensorParameters): the stuck test allows it.
+        encoder_hold_time: the longest time between fresh wheel-angle readings while healthy (s;
+            SensorParameters): the jump test allows max_wheel_acceleration over it.
+        accelerometer_sets: the two-axis accelerometers the robot carries (0, 1 or 2; SensorParameters):
+            an absent set's channels are not judged and output their replacement (analog.py), and with
+            fewer than two there is no pair (accelerometer_pair.pair_present).
         tyre_peak_acceleration: the nominal robot's tyre curve's peak mu g f_w (m/s^2; inf: none): the
             navigation's identified peak over it scales the replacement's tyre forces (yaw_follow_step's
             grip), so that a calibrated floor (mixing.tyre_peak_acceleration) counts from the start.
@@ -305,6 +310,8 @@ class HealthGeometry:
     accel_initial_bias_std: float = 0.05
     accel_drift_density: float = 0.0065
     inertial_hold_time: float = 0.0
+    encoder_hold_time: float = 0.0
+    accelerometer_sets: int = 2
     tyre_peak_acceleration: float = math.inf
     mass: float = 0.0
     wheel_inertia: float = 0.0
@@ -336,8 +343,8 @@ HealthConstants = collections.namedtuple(
     "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
     "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant accel_initial_bias_std "
-    "accel_drift_density inertial_hold_time tyre_peak_acceleration mass wheel_inertia motor_constant "
-    "motor_current_limit "
+    "accel_drift_density inertial_hold_time encoder_hold_time accelerometer_sets tyre_peak_acceleration "
+    "mass wheel_inertia motor_constant motor_current_limit "
     "bearing_drag shoe_offset "
     "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
     "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
@@ -378,6 +385,7 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
             "gain_samples",
             "gain_block_samples",
             "bias_step_samples",
+            "accelerometer_sets",
         ):
             value = int(value)
         else:

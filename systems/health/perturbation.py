@@ -51,7 +51,8 @@ later, as every state output). Thresholds: above the largest value in the fault-
 What cannot be seen without the current sense: a push the speed loop or the tyres absorb without the
 motion changing (a wheel pushed within the motor's authority, a push below the tyres' grip while driving
 straight) leaves no trace in the encoders and the estimate; the force balance (4.) sees the first and a
-push along the heading; the slide test of 3. a sideways push the tyres hold.
+push along the heading; the slide test of 3. a sideways push the tyres hold. Without accelerometers
+(SensorParameters.accelerometer_sets 0) the body's acceleration is not measured: only 1. and 2. run.
 """
 
 import collections
@@ -253,6 +254,7 @@ def perturbation_step(
     currents=NO_CURRENTS,
     robot: ForceModel | RobotParameters | None = None,
     sliding: bool = False,
+    accelerations: bool = True,
 ):
     """One T_N update (module docstring).
 
@@ -269,6 +271,8 @@ def perturbation_step(
         robot: the believed robot (its mass, inertias, motor constant, drags) for the force test, its
             ForceModel (faster) or RobotParameters; None: no force test.
         sliding: the navigation's slide-onset test holds this sample (the wheels slide): no yaw test.
+        accelerations: the estimate's a_t, a_n are measured (the robot carries accelerometers); False:
+            no body or force test (3., 4.), which judge the body's motion by them.
 
     Returns:
         the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
@@ -280,10 +284,13 @@ def perturbation_step(
     # 1. each wheel against its command's band
     expected, outside, rates = wheel_band_test(s, command, encoders, radii, a, params, T_N)
     # 4. the force balance (with the current sense)
-    along = force_test(s, command, rates, currents, estimate, robot, outside, a, params, T_N)
+    along = False
+    if accelerations:
+        along = force_test(s, command, rates, currents, estimate, robot, outside, a, params, T_N)
     # 2. the body's yaw rate against the wheels'; 3. the lateral acceleration and the side slip
     omega_wheels = (expected[0] - expected[1]) / track_width
     yaw_beyond, sideways = body_tests(s, estimate, omega_wheels, sliding, a, params, T_N)
+    sideways = sideways and accelerations
     conditions = (
         outside[0],
         outside[1],

@@ -56,7 +56,8 @@ class PerturbationMonitor(LeafSystem):
     Args:
         params: PerturbationParameters. radii: the believed rolling radii (r_R, r_L) (m). track_width: the
             believed track (m). T_N: period (s). robot: the believed robot for the force test (None: no
-            force test).
+            force test). accelerations: the robot carries accelerometers (False: no body or force
+            test, perturbation_step).
     """
 
     def __init__(
@@ -66,11 +67,13 @@ class PerturbationMonitor(LeafSystem):
         track_width: float,
         T_N: float,
         robot: RobotParameters | None = None,
+        accelerations: bool = True,
     ):
         super().__init__()
         self._p = params.validate()
         self._radii, self._b, self._T_N = (float(radii[0]), float(radii[1])), float(track_width), T_N
         self._robot = None if robot is None else force_model(robot)
+        self._accelerations = bool(accelerations)
         self._command = self.DeclareVectorInputPort("wheel_speed_command", 2)
         self._encoders = self.DeclareVectorInputPort("encoders", 2)
         self._estimate = self.DeclareVectorInputPort("mixed_estimate", 5)
@@ -101,6 +104,7 @@ class PerturbationMonitor(LeafSystem):
             currents,
             self._robot,
             self._sliding.HasValue(context) and self._sliding.Eval(context).tolist()[0] > 0.5,
+            self._accelerations,
         )
         discrete_state.set_value(self._state, state)
         discrete_state.set_value(self._flags, [state[i] for i in FLAGS])
@@ -109,14 +113,22 @@ class PerturbationMonitor(LeafSystem):
 
 
 def add_perturbation_monitor(
-    builder, params, command_port, encoders_port, navigation, robot, T_N, currents_port=None
+    builder,
+    params,
+    command_port,
+    encoders_port,
+    navigation,
+    robot,
+    T_N,
+    currents_port=None,
+    accelerations=True,
 ):
     """Add a PerturbationMonitor reading ``command_port``, ``encoders_port``, the navigation subsystem's
-    mixed estimate and slide-onset flag and the drivers' ``currents_port`` (None: no force test); returns
-    the monitor."""
-    monitor = builder.AddSystem(
-        PerturbationMonitor(params, (robot.radius_R, robot.radius_L), robot.track_width, T_N, robot)
-    )
+    mixed estimate and slide-onset flag and the drivers' ``currents_port`` (None: no force test);
+    ``accelerations``: the robot carries accelerometers (perturbation_step); returns the monitor."""
+    radii = (robot.radius_R, robot.radius_L)
+    monitor = PerturbationMonitor(params, radii, robot.track_width, T_N, robot, accelerations)
+    monitor = builder.AddSystem(monitor)
     monitor.set_name("Perturbation monitor")
     builder.Connect(command_port, monitor.GetInputPort("wheel_speed_command"))
     builder.Connect(encoders_port, monitor.GetInputPort("encoders"))

@@ -32,9 +32,9 @@ from slipnav.systems.health import (
     gyro_bias_step,
     health_check,
     health_constants,
+    health_flags,
     health_initial_state,
     odometry_unusable,
-    slip_detector_blind,
 )
 from slipnav.systems.navigation.baselines import BaselineState, baselines_step
 from slipnav.systems.navigation.ekf import (
@@ -186,7 +186,8 @@ class NavigationLoop:
         before the call)."""
         mp, T_N = self.params.mixing, self.T_N
         raw, sample, codes, acc, g, corrected = self.checked_sensors(accelerometers, gyro, encoders, currents)
-        fault_imu = 1.0 if any(codes[0:5]) else 0.0
+        unusable = odometry_unusable(self.health, sample)
+        fault_imu, _, blind = health_flags(codes, unusable, self.geometry.accelerometer_sets)
         self.inertial_fault = fault_imu > 0.5  # the tyre-model check rests (velocity_mix)
         self.pushed = push_taken(external_force, self.inertial_fault)
         odo_next, odo_raw, odometry_held = odometry_step(
@@ -207,7 +208,7 @@ class NavigationLoop:
         )
         inertial = ekf_inertial_estimate(self.x, self.L, measurement, T_N)
         P_prior = ekf_prior_covariance(self.P, self.x, self.Q, T_N)
-        excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
+        excluded = blind > 0.5
         det_next, _ = slip_detector_step(
             self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
         )

@@ -72,6 +72,13 @@ class SensorParameters:
             while healthy (s, in [0, 1]): a driver that republishes its last message when the device has
             no new one. 0: every sample fresh (the simulated sensors). The stuck test allows it on top
             of its repeats (systems/health/analog.py).
+        encoder_hold_time: the longest time between fresh wheel-angle readings while healthy (s, in
+            [0, 10]): a log that holds or interpolates its angles between readings. 0: a fresh count every
+            sample (the simulated encoders). The jump test lets the wheel speed change by
+            max_wheel_acceleration over it (systems/health/encoders.py).
+        accelerometer_sets: how many two-axis accelerometers the robot carries, 0, 1 or 2: set 1 (channels
+            a_t1, a_n1) at accelerometer_position, set 2 (a_t2, a_n2) opposite it. An absent set reads NaN
+            and is not judged by the checks (systems/health/analog.py).
     """
 
     accelerometer_position: tuple[float, float] = (0.02, 0.015)
@@ -95,6 +102,8 @@ class SensorParameters:
     current_noise_std: float = 0.012
     current_scale_error: float = 0.0
     inertial_hold_time: float = 0.0
+    encoder_hold_time: float = 0.0
+    accelerometer_sets: int = 2
 
     def __post_init__(self):
         nonneg = (
@@ -128,6 +137,13 @@ class SensorParameters:
             raise ValueError(
                 f"inertial_hold_time={self.inertial_hold_time!r} is out of range: allowed [0, 1] s"
             )
+        if not (math.isfinite(self.encoder_hold_time) and 0.0 <= self.encoder_hold_time <= 10.0):
+            raise ValueError(
+                f"encoder_hold_time={self.encoder_hold_time!r} is out of range: allowed [0, 10] s"
+            )
+        sets = self.accelerometer_sets
+        if isinstance(sets, bool) or not isinstance(sets, (int, float)) or sets not in (0, 1, 2):
+            raise ValueError(f"accelerometer_sets={sets!r} is out of range: allowed 0, 1 or 2")
         if len(self.accelerometer_position) != 2:
             raise ValueError("accelerometer_position must be a pair (x, y) in metres")
 
@@ -280,7 +296,7 @@ def sensor_update(internal, plant_state, body_acceleration, noise, params: Senso
         a = truth[i] + b + v + params.accel_noise_std * noise[i]
         bias.append(b)
         vibration.append(v)
-        accel.append(min(max(a, -limit), limit))
+        accel.append(min(max(a, -limit), limit) if i < 2 * params.accelerometer_sets else math.nan)
     gyro_bias = internal[4] + params.gyro_drift_density * math.sqrt(T_N) * noise[13]
     gyro = min(
         max(
