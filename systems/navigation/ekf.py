@@ -33,6 +33,9 @@ MEASUREMENT_MATRIX = np.array(
     [[0.0, 0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0]]
 )
 """C of S(4): the measurement prediction is linear, y_hat = [omega, a_t, a_n]."""
+IDENTITY_5 = np.eye(5)
+IDENTITY_3 = np.eye(3)
+"""The identities the filter's matrices start from (copied where written)."""
 
 
 @dc.dataclass
@@ -97,7 +100,7 @@ def ekf_predict(x, T_N: float) -> np.ndarray:
 def ekf_jacobian(x, T_N: float) -> np.ndarray:
     """S(5): G = d(S(2))/dx at x."""
     v_t, v_n, omega, _, _ = x
-    G = np.eye(5)
+    G = IDENTITY_5.copy()
     G[0, 1], G[0, 2], G[0, 3] = omega * T_N, v_n * T_N, T_N
     G[1, 0], G[1, 2], G[1, 4] = -omega * T_N, -v_t * T_N, T_N
     return G
@@ -126,7 +129,7 @@ def ekf_update(x_prior, L, y) -> np.ndarray:
 @jitable
 def ekf_joseph(P_prior, L, R) -> np.ndarray:
     """S(9): P = (I - L C) P_{k|k-1} (I - L C)^T + L R L^T (Joseph form, stays symmetric PSD)."""
-    A = np.eye(5)
+    A = IDENTITY_5.copy()
     A[:, 2:5] -= L  # I - L C, C = [0 | I_3]
     P = A @ P_prior @ A.T + L @ R @ L.T
     return 0.5 * (P + P.T)
@@ -139,7 +142,7 @@ def _velocity_split(P):
     the velocities' covariance given the measured states."""
     P_vm = P[0:2, 2:5].copy()  # contiguous, as numba's @ prefers
     # P_mm^-1 as numpy's inv computes it (LAPACK gesv on the identity; numba's inv rounds otherwise)
-    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], np.eye(3)) @ P_vm.T
+    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], IDENTITY_3) @ P_vm.T
     return explained, P[0:2, 0:2] - explained
 
 
