@@ -205,7 +205,7 @@ class NavigationLoop:
             self.checked_encoders,
             self.standstill_constants,
         )
-        inertial = ekf_inertial_estimate(self.x, self.L, measurement, T_N)
+        inertial = ekf_inertial_estimate(self.x, self.L, measurement, T_N).tolist()  # floats for the mixing
         P_prior = ekf_prior_covariance(self.P, self.x, self.Q, T_N)
         excluded = slip_detector_blind(codes, odometry_unusable(self.health, sample))
         det_next, _ = slip_detector_step(
@@ -213,7 +213,7 @@ class NavigationLoop:
         )
         c2, c3, residual, turn = self.mixing_weights(odo, inertial, acc)
         tyre_state = self.tyre_model_state
-        mixed = self.velocity_mix(odo, inertial, c2, c3, self.x, standing)
+        mixed = self.velocity_mix(odo, inertial, c2, c3, self.x.tolist(), standing)
         row = self.output_row(mixed, c2, c3, odo_raw, max(fault_imu, fault_enc), theta[0], standing, codes)
         self.update_estimate(mixed, P_prior, c2, standing, tyre_state)
         baselines_step(
@@ -315,10 +315,11 @@ class NavigationLoop:
         """Step 5's EKF state (the mixed estimate), its covariance (S(9) and the mixing's gain at the tyre
         peak believed before this sample, ``tyre_state``) and the pose S(21)."""
         self.x = mixed
+        values = mixed.tolist()
         tyre = believed_tyre(self.params.mixing, tyre_state[2])
-        gain = mixing_gain(mixed, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
+        gain = mixing_gain(values, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
         self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
-        self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], self.T_N)
+        self.pose = pose_step(self.pose, values[0], values[1], values[2], self.T_N)
 
     def update_calibrations(self, g: float, odo_raw, fault: bool, standing: bool, corrected, test) -> None:
         """Step 5's yaw-rate calibration (from the raw gyro and odometry and the C1 in force) and the
