@@ -129,9 +129,22 @@ def ekf_update(x_prior, L, y) -> np.ndarray:
 @jitable
 def ekf_joseph(P_prior, L, R) -> np.ndarray:
     """S(9): P = (I - L C) P_{k|k-1} (I - L C)^T + L R L^T (Joseph form, stays symmetric PSD)."""
+    A, noise = joseph_factors(L, R)
+    return joseph_form(P_prior, A, noise)
+
+
+@jitable
+def joseph_factors(L, R) -> tuple:
+    """(I - L C, L R L^T): S(9)'s factors of the gain L, which hold while L does (a T_C period)."""
     A = IDENTITY_5.copy()
     A[:, 2:5] -= L  # I - L C, C = [0 | I_3]
-    P = A @ P_prior @ A.T + L @ R @ L.T
+    return A, L @ R @ L.T
+
+
+@jitable
+def joseph_form(P_prior, A, noise) -> np.ndarray:
+    """S(9) from joseph_factors' (A, noise): A P_{k|k-1} A^T + noise, symmetrised."""
+    P = A @ P_prior @ A.T + noise
     return 0.5 * (P + P.T)
 
 
@@ -213,19 +226,30 @@ def ekf_bound_velocity_variance(P, limit: float) -> np.ndarray:
     return _with_velocity_block(P, explained, _bound(S, limit))
 
 
-def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters) -> np.ndarray:
+def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters, factors=None) -> np.ndarray:
     """P_k: S(9) (R: the 3 x 3 measurement covariance of ``params``), then the mixing S(15), S(17)
     (ekf_mixing_covariance), then the velocity limit (ekf_bound_velocity_variance). ``gain``: [C1, w_n]
-    of this sample's mixing (mixing.mixing_gain)."""
+    of this sample's mixing (mixing.mixing_gain); ``factors``: joseph_factors(L, R) when the caller
+    holds them (None: computed here)."""
     R_mixing = (float(params.R_mixing[0]), float(params.R_mixing[1]))
     gain = (float(gain[0]), float(gain[1]))
-    return _covariance_update(P_prior, L, R, gain, R_mixing, float(params.velocity_variance_limit))
+    limit = float(params.velocity_variance_limit)
+    if factors is None:
+        return _covariance_update(P_prior, L, R, gain, R_mixing, limit)
+    return _factored_covariance_update(P_prior, factors[0], factors[1], gain, R_mixing, limit)
 
 
 @compiled
 def _covariance_update(P_prior, L, R, gain, R_mixing, limit: float) -> np.ndarray:
     """ekf_covariance_update with the parameters it reads (compiled with numba when available)."""
-    P = ekf_joseph(P_prior, L, R)
+    A, noise = joseph_factors(L, R)
+    return _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit)
+
+
+@compiled
+def _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit: float) -> np.ndarray:
+    """_covariance_update with S(9)'s joseph_factors (A, noise) of the gain."""
+    P = joseph_form(P_prior, A, noise)
     explained, S = _velocity_split(P)
     S = _bound(_mixing_update(S, gain, R_mixing), limit)
     return _with_velocity_block(*_bound_cross_covariance(P, explained, S, limit))

@@ -43,6 +43,7 @@ from slipnav.systems.navigation.ekf import (
     ekf_inertial_estimate,
     ekf_measurement,
     ekf_prior_covariance,
+    joseph_factors,
 )
 from slipnav.systems.navigation.mixing.mixer import mix_checked, mixing_gain, push_taken
 from slipnav.systems.navigation.mixing.slide_onset import (
@@ -152,6 +153,17 @@ class NavigationLoop:
         self.pushed = False  # the perturbation monitor's sideways push as the mixer takes it (step)
         self.slide_onset_state, self.slide_onset, self.c1_mixed = SLIDE_ONSET_INITIAL, False, self.c1
         self.k = 0
+
+    @property
+    def L(self) -> np.ndarray:
+        """The Kalman gain S(7) in force (5 x 3); setting it also sets ``joseph``, S(9)'s
+        joseph_factors of it, which update_estimate reads."""
+        return self._L
+
+    @L.setter
+    def L(self, gain) -> None:
+        self._L = gain
+        self.joseph = joseph_factors(gain, self.R)
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous, standing: bool) -> np.ndarray:
         """S(15)-(17) at sample ``self.k`` with the C1 in force (``c1_mixed``: 0 during a slide onset) and
@@ -318,7 +330,7 @@ class NavigationLoop:
         values = mixed.tolist()
         tyre = believed_tyre(self.params.mixing, tyre_state[2])
         gain = mixing_gain(values, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
-        self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
+        self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf, self.joseph)
         self.pose = pose_step(self.pose, values[0], values[1], values[2], self.T_N)
 
     def update_calibrations(self, g: float, odo_raw, fault: bool, standing: bool, corrected, test) -> None:
