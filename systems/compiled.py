@@ -8,6 +8,12 @@ Python does (no reordering, no fused multiply-add): a run is the same with and w
 (tests/test_compiled.py). The compiled functions are cached on disk (numba's ``cache=True``, beside the
 source in ``__pycache__``), so a process pays numba's compile (some seconds) once per source change.
 
+``element_view(array)`` is what the compiled functions index a flat state through: the array itself
+when ENABLED, else a ``memoryview`` of it, whose elements read as Python floats and whose slices are
+views too (element access and arithmetic on numpy's scalars cost several times those on floats; the
+arithmetic rounds the same). Functions that take such a view index it element by element (no slice
+assignment of a scalar, no numpy functions).
+
 ``ENABLED`` tells whether the compiled versions are in use; ``pure(f)`` is the Python function behind
 ``f`` (itself without numba), for tests that compare the two.
 """
@@ -42,3 +48,10 @@ def jitable(function):
 def pure(function):
     """The Python function behind a ``compiled`` one (the function itself when it is not compiled)."""
     return getattr(function, "py_func", function)
+
+
+def _itself(array):
+    return array
+
+
+element_view = register_jitable(_itself) if ENABLED else memoryview

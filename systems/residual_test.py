@@ -19,6 +19,7 @@ its witnesses are healthy. Two tests judge z:
 """
 
 import dataclasses as dc
+import functools
 import math
 
 import numpy as np
@@ -52,10 +53,11 @@ def cusum_run_length(threshold: float, drift: float) -> float:
     return (math.expm1(x) - x) / (2.0 * drift * drift)
 
 
+@functools.lru_cache(maxsize=64)
 def cusum_threshold(run_length: float, drift: float) -> float:
     """The threshold h (sigma) at which the two-sided CUSUM of drift k raises a false alarm once in
     ``run_length`` healthy samples on average (each side once in 2 run_length; bisection of
-    cusum_run_length)."""
+    cusum_run_length, remembered per (run_length, drift): the calibration asks for it every batch)."""
     if not (math.isfinite(run_length) and run_length > 1.0):
         raise ValueError(f"run_length={run_length!r} is out of range: allowed (1, inf) samples")
     if not (math.isfinite(drift) and drift > 0.0):

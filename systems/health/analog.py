@@ -107,14 +107,16 @@ def clip_returns(ring, base: int, position: int, x: float, p) -> int:
     larger one, counting this one and a run of repeats once. A clipped channel returns to its rail again
     and again, the largest magnitude it reads; noise never repeats a value (within stuck_tolerance)."""
     tol = p.stuck_tolerance
+    magnitude = abs(x)
+    larger = magnitude + tol  # a reading beyond it ends the search
     runs, newer_at = 1, True  # this reading is at its own magnitude
     for j in range(1, p.clip_window):
-        y = ring[base + (position - j) % CLIP_WINDOW_MAX]
+        y = abs(ring[base + (position - j) % CLIP_WINDOW_MAX])
         if not math.isfinite(y):  # a gap does not split a run
             continue
-        if abs(y) > abs(x) + tol:
+        if y > larger:
             break
-        at = abs(abs(y) - abs(x)) <= tol
+        at = abs(y - magnitude) <= tol
         if at and not newer_at:
             runs += 1
         newer_at = at

@@ -21,7 +21,7 @@ carries b_g back, which the navigation removes.
 import math
 
 import numpy as np
-from slipnav.systems.compiled import compiled, jitable
+from slipnav.systems.compiled import compiled, element_view, jitable
 from slipnav.systems.health.accelerometer_pair import (
     force_reference,
     pair_check,
@@ -109,10 +109,11 @@ def health_check(
     (compiled with numba when available: systems/compiled.py)."""
     p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
     bias, radius_difference = yaw_calibration  # b_g, D: what the replacements add to the nominal figures
-    s = state.copy()
+    checked = state.copy()
+    s = element_view(checked)  # indexed element by element (systems/compiled.py)
     if not p.enabled:  # NaN/inf only: hold the last valid value
         out, codes = checks_off(s, raw)
-        return s, out, codes
+        return checked, out, codes
     codes = [0] * NUM_CHANNELS
     # 1. each analog channel alone; the excluded gyro's re-admission
     analog_checks(s, raw, bias, codes, p)
@@ -165,7 +166,7 @@ def health_check(
         replacement = s[ANALOG_REFERENCE][GYRO]
     rotation = (rot[0] + rot_dot[0], rot[1] + rot_dot[1])
     analog_outputs(s, raw, bias, codes, replacement, rotation, p.accelerometer_sets, out)
-    return s, out, codes
+    return checked, out, codes
 
 
 @jitable

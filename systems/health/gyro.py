@@ -50,12 +50,12 @@ from slipnav.systems.health.layout import (
 )
 from slipnav.systems.health.parameters import GYRO, INCONSISTENT, JUMP, RECOVERING, SATURATED, STUCK
 from slipnav.systems.health.yaw_witness import (
-    CUSUM,
     GRIP_STIFFNESS_RATIO,
     count_yaw_rate,
     gyro_yaw_test,
     tyre_grip,
     yaw_follow_step,
+    yaw_test_restart,
     yaw_witness_step,
 )
 
@@ -188,7 +188,7 @@ def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: f
             s[ANALOG_HOLD][GYRO], codes[GYRO] = 1.0, INCONSISTENT
             return True
     else:
-        test[CUSUM] = 0.0
+        yaw_test_restart(test)
     return False
 
 

@@ -197,9 +197,17 @@ def gyro_yaw_test(
         state[Z_VARIANCE] += (z * z - state[Z_VARIANCE]) / YAW_NOISE_SAMPLES
     if alarm == 0:
         return False
-    state[CUSUM] = 0.0
+    yaw_test_restart(state)
     if not math.isfinite(pair_squared):  # one witness against the other: no isolation
         return False
     pair = math.sqrt(max(pair_squared, 0.0))
     margin = PAIR_SIDE_SIGMAS * pair_yaw_rate_std(pair, speed, c)
     return not abs(pair - abs(gyro)) + margin < abs(pair - abs(witness))
+
+
+@jitable
+def yaw_test_restart(state) -> None:
+    """The yaw test's CUSUM sums at zero (``state``: YAW_TEST_LAYOUT's values, element by element)."""
+    sums = state[CUSUM]
+    for i in range(len(sums)):
+        sums[i] = 0.0

@@ -33,6 +33,9 @@ MEASUREMENT_MATRIX = np.array(
     [[0.0, 0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0, 1.0]]
 )
 """C of S(4): the measurement prediction is linear, y_hat = [omega, a_t, a_n]."""
+IDENTITY_5 = np.eye(5)
+IDENTITY_3 = np.eye(3)
+"""The identities the filter's matrices start from (copied where written)."""
 
 
 @dc.dataclass
@@ -97,7 +100,7 @@ def ekf_predict(x, T_N: float) -> np.ndarray:
 def ekf_jacobian(x, T_N: float) -> np.ndarray:
     """S(5): G = d(S(2))/dx at x."""
     v_t, v_n, omega, _, _ = x
-    G = np.eye(5)
+    G = IDENTITY_5.copy()
     G[0, 1], G[0, 2], G[0, 3] = omega * T_N, v_n * T_N, T_N
     G[1, 0], G[1, 2], G[1, 4] = -omega * T_N, -v_t * T_N, T_N
     return G
@@ -126,9 +129,22 @@ def ekf_update(x_prior, L, y) -> np.ndarray:
 @jitable
 def ekf_joseph(P_prior, L, R) -> np.ndarray:
     """S(9): P = (I - L C) P_{k|k-1} (I - L C)^T + L R L^T (Joseph form, stays symmetric PSD)."""
-    A = np.eye(5)
+    A, noise = joseph_factors(L, R)
+    return joseph_form(P_prior, A, noise)
+
+
+@jitable
+def joseph_factors(L, R) -> tuple:
+    """(I - L C, L R L^T): S(9)'s factors of the gain L, which hold while L does (a T_C period)."""
+    A = IDENTITY_5.copy()
     A[:, 2:5] -= L  # I - L C, C = [0 | I_3]
-    P = A @ P_prior @ A.T + L @ R @ L.T
+    return A, L @ R @ L.T
+
+
+@jitable
+def joseph_form(P_prior, A, noise) -> np.ndarray:
+    """S(9) from joseph_factors' (A, noise): A P_{k|k-1} A^T + noise, symmetrised."""
+    P = A @ P_prior @ A.T + noise
     return 0.5 * (P + P.T)
 
 
@@ -139,7 +155,7 @@ def _velocity_split(P):
     the velocities' covariance given the measured states."""
     P_vm = P[0:2, 2:5].copy()  # contiguous, as numba's @ prefers
     # P_mm^-1 as numpy's inv computes it (LAPACK gesv on the identity; numba's inv rounds otherwise)
-    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], np.eye(3)) @ P_vm.T
+    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], IDENTITY_3) @ P_vm.T
     return explained, P[0:2, 0:2] - explained
 
 
@@ -210,19 +226,30 @@ def ekf_bound_velocity_variance(P, limit: float) -> np.ndarray:
     return _with_velocity_block(P, explained, _bound(S, limit))
 
 
-def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters) -> np.ndarray:
+def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters, factors=None) -> np.ndarray:
     """P_k: S(9) (R: the 3 x 3 measurement covariance of ``params``), then the mixing S(15), S(17)
     (ekf_mixing_covariance), then the velocity limit (ekf_bound_velocity_variance). ``gain``: [C1, w_n]
-    of this sample's mixing (mixing.mixing_gain)."""
+    of this sample's mixing (mixing.mixing_gain); ``factors``: joseph_factors(L, R) when the caller
+    holds them (None: computed here)."""
     R_mixing = (float(params.R_mixing[0]), float(params.R_mixing[1]))
     gain = (float(gain[0]), float(gain[1]))
-    return _covariance_update(P_prior, L, R, gain, R_mixing, float(params.velocity_variance_limit))
+    limit = float(params.velocity_variance_limit)
+    if factors is None:
+        return _covariance_update(P_prior, L, R, gain, R_mixing, limit)
+    return _factored_covariance_update(P_prior, factors[0], factors[1], gain, R_mixing, limit)
 
 
 @compiled
 def _covariance_update(P_prior, L, R, gain, R_mixing, limit: float) -> np.ndarray:
     """ekf_covariance_update with the parameters it reads (compiled with numba when available)."""
-    P = ekf_joseph(P_prior, L, R)
+    A, noise = joseph_factors(L, R)
+    return _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit)
+
+
+@compiled
+def _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit: float) -> np.ndarray:
+    """_covariance_update with S(9)'s joseph_factors (A, noise) of the gain."""
+    P = joseph_form(P_prior, A, noise)
     explained, S = _velocity_split(P)
     S = _bound(_mixing_update(S, gain, R_mixing), limit)
     return _with_velocity_block(*_bound_cross_covariance(P, explained, S, limit))

@@ -43,6 +43,7 @@ from slipnav.systems.navigation.ekf import (
     ekf_inertial_estimate,
     ekf_measurement,
     ekf_prior_covariance,
+    joseph_factors,
 )
 from slipnav.systems.navigation.mixing.mixer import mix_checked, mixing_gain, push_taken
 from slipnav.systems.navigation.mixing.slide_onset import (
@@ -153,6 +154,17 @@ class NavigationLoop:
         self.slide_onset_state, self.slide_onset, self.c1_mixed = SLIDE_ONSET_INITIAL, False, self.c1
         self.k = 0
 
+    @property
+    def L(self) -> np.ndarray:
+        """The Kalman gain S(7) in force (5 x 3); setting it also sets ``joseph``, S(9)'s
+        joseph_factors of it, which update_estimate reads."""
+        return self._L
+
+    @L.setter
+    def L(self, gain) -> None:
+        self._L = gain
+        self.joseph = joseph_factors(gain, self.R)
+
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous, standing: bool) -> np.ndarray:
         """S(15)-(17) at sample ``self.k`` with the C1 in force (``c1_mixed``: 0 during a slide onset) and
         the tyre-model check (mix_checked,
@@ -206,7 +218,7 @@ class NavigationLoop:
             self.checked_encoders,
             self.standstill_constants,
         )
-        inertial = ekf_inertial_estimate(self.x, self.L, measurement, T_N)
+        inertial = ekf_inertial_estimate(self.x, self.L, measurement, T_N).tolist()  # floats for the mixing
         P_prior = ekf_prior_covariance(self.P, self.x, self.Q, T_N)
         excluded = blind > 0.5
         det_next, _ = slip_detector_step(
@@ -214,7 +226,7 @@ class NavigationLoop:
         )
         c2, c3, residual, turn = self.mixing_weights(odo, inertial, acc)
         tyre_state = self.tyre_model_state
-        mixed = self.velocity_mix(odo, inertial, c2, c3, self.x, standing)
+        mixed = self.velocity_mix(odo, inertial, c2, c3, self.x.tolist(), standing)
         row = self.output_row(mixed, c2, c3, odo_raw, max(fault_imu, fault_enc), theta[0], standing, codes)
         self.update_estimate(mixed, P_prior, c2, standing, tyre_state)
         baselines_step(
@@ -316,10 +328,11 @@ class NavigationLoop:
         """Step 5's EKF state (the mixed estimate), its covariance (S(9) and the mixing's gain at the tyre
         peak believed before this sample, ``tyre_state``) and the pose S(21)."""
         self.x = mixed
+        values = mixed.tolist()
         tyre = believed_tyre(self.params.mixing, tyre_state[2])
-        gain = mixing_gain(mixed, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
-        self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf)
-        self.pose = pose_step(self.pose, mixed[0], mixed[1], mixed[2], self.T_N)
+        gain = mixing_gain(values, self.c1_mixed, c2, tyre, self.tyre_model_weight, self.pushed, standing)
+        self.P = ekf_covariance_update(P_prior, self.L, self.R, gain, self.params.ekf, self.joseph)
+        self.pose = pose_step(self.pose, values[0], values[1], values[2], self.T_N)
 
     def update_calibrations(self, g: float, odo_raw, fault: bool, standing: bool, corrected, test) -> None:
         """Step 5's yaw-rate calibration (from the raw gyro and odometry and the C1 in force) and the

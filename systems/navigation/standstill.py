@@ -61,6 +61,9 @@ PT1 averages (rad/s, m/s^2), the accelerometer biases (m/s^2) and their variance
 _FIELD = StandstillState._fields.index
 _BIASES = slice(_FIELD("bias_t1"), _FIELD("bias_n2") + 1)
 _VARIANCES = slice(_FIELD("variance_t1"), _FIELD("variance_n2") + 1)
+_STILL, _THETA_R, _THETA_L = _FIELD("still_samples"), _FIELD("theta_R"), _FIELD("theta_L")
+_AVERAGES = slice(_FIELD("gyro_average"), _FIELD("a_n_average") + 1)
+"""The state's parts by index, for the per-sample functions (a namedview's attribute costs microseconds)."""
 
 
 @dc.dataclass
@@ -151,20 +154,21 @@ def standstill_test(state, free_accelerometers, gyro: float, encoders, c):
 
     ``free_accelerometers``: bias_free's readings; ``gyro``: the calibrated gyro (rad/s), averaged as
     the gyro's residual; ``encoders``: the checked angles (rad)."""
-    s = StandstillState(state)
-    unchanged = encoders[0] == s.theta_R and encoders[1] == s.theta_L
-    still = s.still_samples + 1.0 if unchanged else 0.0
+    s = np.asarray(state, float).tolist()
+    unchanged = encoders[0] == s[_THETA_R] and encoders[1] == s[_THETA_L]
+    still = s[_STILL] + 1.0 if unchanged else 0.0
     a = c.average_gain
     mean_t = 0.5 * (free_accelerometers[0] + free_accelerometers[2])
     mean_n = 0.5 * (free_accelerometers[1] + free_accelerometers[3])
+    gyro_average, a_t_average, a_n_average = s[_AVERAGES]
     averages = (
-        s.gyro_average + a * (gyro - s.gyro_average),
-        s.a_t_average + a * (mean_t - s.a_t_average),
-        s.a_n_average + a * (mean_n - s.a_n_average),
+        gyro_average + a * (gyro - gyro_average),
+        a_t_average + a * (mean_t - a_t_average),
+        a_n_average + a * (mean_n - a_n_average),
     )
     if not c.enabled or still < c.still_samples:
         return False, [still, *averages]
-    variances = state[_VARIANCES]
+    variances = s[_VARIANCES]
     statistic = (
         averages[1] ** 2 / (c.accel_mean_average_variance + 0.25 * (variances[0] + variances[2]))
         + averages[2] ** 2 / (c.accel_mean_average_variance + 0.25 * (variances[1] + variances[3]))
@@ -176,9 +180,9 @@ def standstill_step(state, accelerometers, encoders, standing: bool, test, c) ->
     """The state after this sample: ``test`` (standstill_test's second value), the encoders' angles and
     the biases' Kalman filter (predict; update from the raw ``accelerometers`` while ``standing``)."""
     next_state = np.array(state, dtype=float)
-    s = StandstillState(next_state)
-    s.still_samples, s.gyro_average, s.a_t_average, s.a_n_average = test
-    s.theta_R, s.theta_L = float(encoders[0]), float(encoders[1])
+    next_state[_STILL] = test[0]
+    next_state[_AVERAGES] = test[1:4]
+    next_state[_THETA_R], next_state[_THETA_L] = float(encoders[0]), float(encoders[1])
     # predict step: each bias a random walk of the data sheet's drift
     variances = next_state[_VARIANCES] + c.bias_drift_variance
     biases = next_state[_BIASES]

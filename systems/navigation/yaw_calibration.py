@@ -257,13 +257,18 @@ def yaw_calibration_step(
         state[_CHANGES] += 1.0
     v, omega_o = odo[0], odo[1]
     sample_ok = not fault and c1 >= p.trusted_c1 and all(map(math.isfinite, (gyro, v, omega_o)))
+    values = memoryview(state)  # the per-sample counts element by element, as Python floats
     if sample_ok:
-        state[_SUMS] += [gyro, omega_o, v, abs(v) + abs(omega_o)]
+        sums = values[_SUMS]
+        sums[0] += gyro
+        sums[1] += omega_o
+        sums[2] += v
+        sums[3] += abs(v) + abs(omega_o)
     else:
-        state[_OK] = 0.0
-    state[_COUNT] += 1.0
-    state[_STANDING] += 1.0 if standing is None or standing else 0.0
-    if state[_COUNT] < batch_length:
+        values[_OK] = 0.0
+    values[_COUNT] += 1.0
+    values[_STANDING] += 1.0 if standing is None or standing else 0.0
+    if values[_COUNT] < batch_length:
         return state
     n = state[_COUNT]
     gyro_mean, omega_mean, v_mean, moving = state[_SUMS] / n
