@@ -2,9 +2,11 @@
 
 Runs each scenario, then replays its logged sensor samples through the plain navigation loop
 (systems.navigation.loop.NavigationLoop, the diagram's own functions) with oracle inputs that remove one
-cause of error at a time, and prints for each variant the fused final position error (% of path length)
-and the RMS error of the side-slip angle S(19) where |true alpha| > 1 deg (the figures of
-``slipnav accuracy``):
+cause of error at a time, and prints for each variant the fused position error's final value, RMS and
+maximum along the run (% of path length, metrics.position_errors_in_percent) and the RMS error of the
+side-slip angle S(19) where |true alpha| > 1 deg (the figures of ``slipnav accuracy``). The final error
+alone flatters a closed path, whose errors in scale largely cancel at the end; the RMS and the maximum
+count the errors made along the way.
 
 - ``default``: the replay as is; it equals the diagram's estimate sample for sample (checked).
 - ``paper's S(15), S(17)``: no tyre curve (mixing.tyre_peak_acceleration = inf, q2_inertial = 1): v_n
@@ -43,8 +45,9 @@ import time
 import numpy as np
 from slipnav.scenarios.config import check_seed_count, load_scenario
 from slipnav.scenarios.metrics import (
-    final_position_error,
+    POSITION_ERROR_FIGURES,
     moving_alpha,
+    position_errors_in_percent,
     side_slip_rms_error,
     tangential_slip_speed,
 )
@@ -67,6 +70,12 @@ VARIANTS = (
     "true v_t, C2 = 0 from onset",
     "... and S(19) every T_N",
 )
+
+POSITION_FIGURES = tuple(f"{figure}_pct" for figure in POSITION_ERROR_FIGURES)
+"""A variant's fused position error in % of path length: ``final_pct``, ``rms_pct``, ``max_pct``."""
+
+FIGURES = (*POSITION_FIGURES, "alpha_deg")
+"""A variant's figures: POSITION_FIGURES and ``alpha_deg``, the side-slip RMS error (deg)."""
 
 
 class OracleNavigationLoop(NavigationLoop):
@@ -142,8 +151,10 @@ def alpha_every_sample(out: dict, scenario) -> np.ndarray:
 
 
 def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: float = 0.03) -> dict:
-    """{variant: (final position error in % of path length, side-slip RMS error in deg)} on one run
-    artifact ``a`` of ``scenario``, for each of VARIANTS.
+    """{variant: {figure: value}} on one run artifact ``a`` of ``scenario``, for each of VARIANTS and
+    FIGURES: the fused position error's final value, RMS and maximum along the run in % of path length
+    (metrics.position_errors_in_percent) and the side-slip RMS error in deg. ``... and S(19) every T_N``
+    changes the side-slip angle only: its position figures are NaN.
 
     Args:
         onset_deg: |true alpha| (deg) from which the C2 oracle holds C2 at 0 (> 0).
@@ -158,16 +169,16 @@ def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: f
         raise ValueError(f"slip_speed={slip_speed!r} is out of range: allowed (0, inf) m/s")
     side_slip = np.abs(np.nan_to_num(moving_alpha(a))) > math.radians(onset_deg)
     slipping = np.abs(tangential_slip_speed(a)) > slip_speed
-    length = float(a["path_length"])
 
     def figures(out, est_alpha=None):
         b = {**a, **out}
         if est_alpha is not None:
             b["est_alpha"] = est_alpha
-        return (
-            100.0 * final_position_error(b, "est") / length,
-            math.degrees(side_slip_rms_error(b)),
-        )
+        errors = position_errors_in_percent(b, "est")
+        return {
+            **{f"{figure}_pct": errors[figure] for figure in POSITION_ERROR_FIGURES},
+            "alpha_deg": math.degrees(side_slip_rms_error(b)),
+        }
 
     default = replay(a, scenario)
     for key in ("est_x", "est_y", "est_alpha"):
@@ -192,7 +203,10 @@ def error_budget_of_run(a: dict, scenario, onset_deg: float = 0.1, slip_speed: f
         "true v_t": figures(replay(a, scenario, true_v_t=a["true_v_t"])),
         "C2 = 0 from side-slip onset": figures(replay(a, scenario, side_slip=side_slip)),
         "true v_t, C2 = 0 from onset": figures(both),
-        "... and S(19) every T_N": (math.nan, figures(both, alpha_every_sample(both, scenario))[1]),
+        "... and S(19) every T_N": {
+            **dict.fromkeys(POSITION_FIGURES, math.nan),
+            "alpha_deg": figures(both, alpha_every_sample(both, scenario))["alpha_deg"],
+        },
     }
 
 
@@ -204,12 +218,12 @@ def _mean_worst(values) -> str:
 
 
 def run_seed(job: dict) -> dict:
-    """The budget of one run (job: scenario, seed, open_loop) as a row: ``pct[<variant>]`` and
-    ``alpha_deg[<variant>]``."""
+    """The budget of one run (job: scenario, seed, open_loop) as a row: ``<figure>[<variant>]`` for each
+    of FIGURES and VARIANTS."""
     scenario = load_scenario(job["scenario"])
     a = run_scenario(scenario, seed=job["seed"], open_loop=job["open_loop"]).arrays
     budget = error_budget_of_run(a, scenario)
-    return {f"{kind}[{v}]": budget[v][i] for v in VARIANTS for i, kind in enumerate(("pct", "alpha_deg"))}
+    return {f"{figure}[{v}]": budget[v][figure] for v in VARIANTS for figure in FIGURES}
 
 
 def error_budget(
@@ -223,9 +237,10 @@ def error_budget(
     out_dir=None,
     resume=False,
 ) -> dict:
-    """Print (to ``stream``, default stdout) and return, per scenario, the budget of each seed; the
-    printed figures are mean (worst) over seeds. Runs on the sweep engine (studies/engine.py: ``workers``,
-    ``scheduler``, results in ``out_dir``/error-budget.csv, ``resume``)."""
+    """Print (to ``stream``, default stdout) and return, per scenario, the budget of each seed (a list of
+    error_budget_of_run's dicts); the printed figures are mean (worst) over seeds. Runs on the sweep
+    engine (studies/engine.py: ``workers``, ``scheduler``, results in ``out_dir``/error-budget.csv with
+    the columns of run_seed, ``resume``)."""
     stream = stream or sys.stdout
     check_seed_count(seeds)
     results = {}
@@ -234,15 +249,15 @@ def error_budget(
             start = time.perf_counter()
             jobs = [{"scenario": name, "seed": seed, "open_loop": open_loop} for seed in range(seeds)]
             rows = engine.map(run_seed, jobs, file, label=name)
-            budgets = [{v: (r[f"pct[{v}]"], r[f"alpha_deg[{v}]"]) for v in VARIANTS} for r in rows]
+            budgets = [{v: {f: r[f"{f}[{v}]"] for f in FIGURES} for v in VARIANTS} for r in rows]
             results[name] = budgets
+            titles = ("final error %", "RMS error %", "max error %", "alpha RMS deg")
             lines = [
                 f"{name}: {seeds} seeds in {time.perf_counter() - start:.1f} s, mean (worst)",
-                f"  {'variant':<44} {'final error %':>15}  {'alpha RMS deg':>15}",
+                f"  {'variant':<44} " + "  ".join(f"{title:>15}" for title in titles),
             ]
             for variant in VARIANTS:
-                pct = [b[variant][0] for b in budgets]
-                alpha = [b[variant][1] for b in budgets]
-                lines.append(f"  {variant:<44} {_mean_worst(pct)}  {_mean_worst(alpha)}")
+                columns = (_mean_worst([b[variant][figure] for b in budgets]) for figure in FIGURES)
+                lines.append(f"  {variant:<44} " + "  ".join(columns))
             print("\n".join(lines), file=stream)
     return results

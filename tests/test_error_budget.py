@@ -1,5 +1,6 @@
 """The navigation error budget (studies/error_budget.py): the replay is the diagram, the oracles act."""
 
+import csv
 import dataclasses as dc
 import math
 import re
@@ -9,13 +10,15 @@ import pytest
 from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import (
+    POSE_DELAY_SAMPLES,
     final_position_error,
     navigation_figures,
+    position_errors,
     side_slip_rms_error,
     tangential_slip_speed,
 )
 from slipnav.scenarios.runner import run_scenario
-from slipnav.studies.error_budget import VARIANTS, error_budget_of_run, replay
+from slipnav.studies.error_budget import FIGURES, POSITION_FIGURES, VARIANTS, error_budget_of_run, replay
 
 from tests.shared import scenario_run
 
@@ -67,15 +70,38 @@ def test_budget_of_the_corner(corner_run, corner_budget):
     scenario, a = corner_run
     budget = corner_budget
     assert list(budget) == list(VARIANTS)
-    pct = 100.0 * final_position_error(a, "est") / float(a["path_length"])
-    assert budget["default"] == pytest.approx((pct, math.degrees(side_slip_rms_error(a))), rel=1e-9)
-    assert budget["default"][1] < 0.2 * budget["paper's S(15), S(17): no tyre curve"][1]
-    assert budget["default"][1] < 0.8 * budget["S(17) pulled to the steady-turn slip"][1]
-    assert budget["C2 = 0 from side-slip onset"][1] < 0.7 * budget["paper's S(15), S(17): no tyre curve"][1]
+    assert all(list(figures) == list(FIGURES) for figures in budget.values())
+    alpha = {variant: figures["alpha_deg"] for variant, figures in budget.items()}
+    assert alpha["default"] == pytest.approx(math.degrees(side_slip_rms_error(a)), rel=1e-9)
+    assert alpha["default"] < 0.2 * alpha["paper's S(15), S(17): no tyre curve"]
+    assert alpha["default"] < 0.8 * alpha["S(17) pulled to the steady-turn slip"]
+    assert alpha["C2 = 0 from side-slip onset"] < 0.7 * alpha["paper's S(15), S(17): no tyre curve"]
     with pytest.raises(ValueError, match="onset_deg"):
         error_budget_of_run(a, scenario, onset_deg=0.0)
     with pytest.raises(ValueError, match="slip_speed"):
         error_budget_of_run(a, scenario, slip_speed=-1.0)
+
+
+def test_budget_reports_final_rms_and_max_position_error(corner_run, corner_budget):
+    """Each variant's fused position error three ways, in % of the path: the default's are the run's own
+    (recomputed here from the arrays: each pose against the truth POSE_DELAY_SAMPLES rows back), a
+    replayed variant's are metrics.position_errors of its replay. RMS <= max and final <= max for every
+    variant (the corner ends at rest, so its final error is one of the errors along the run); the
+    side-slip-only variant has no position figures."""
+    scenario, a = corner_run
+    length, d = float(a["path_length"]), POSE_DELAY_SAMPLES
+    along = np.hypot(a["est_x"][d:] - a["true_x"][:-d], a["est_y"][d:] - a["true_y"][:-d])
+    final = math.hypot(a["est_x"][-1] - a["true_x"][-1], a["est_y"][-1] - a["true_y"][-1])
+    expected = [100.0 * e / length for e in (final, np.sqrt(np.mean(along**2)), along.max())]
+    assert [corner_budget["default"][f] for f in POSITION_FIGURES] == pytest.approx(expected, rel=1e-9)
+    true_v_t = position_errors({**a, **replay(a, scenario, true_v_t=a["true_v_t"])}, "est")
+    expected = [100.0 * true_v_t[f] / length for f in ("final", "rms", "max")]
+    assert [corner_budget["true v_t"][f] for f in POSITION_FIGURES] == pytest.approx(expected, rel=1e-9)
+    for variant in VARIANTS[:-1]:
+        final, rms, largest = (corner_budget[variant][f] for f in POSITION_FIGURES)
+        assert 0.0 < rms <= largest and final <= largest, variant
+    assert all(math.isnan(corner_budget[VARIANTS[-1]][f]) for f in POSITION_FIGURES)
+    assert corner_budget[VARIANTS[-1]]["alpha_deg"] > 0.0
 
 
 def test_c1_oracle_and_the_summed_dv_on_the_square():
@@ -112,7 +138,8 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
 
 
 def test_error_budget_command(corner_run, corner_budget, capsys, tmp_path, monkeypatch):
-    """The command's table holds each variant's final error and side-slip RMS of the seed's run. Its run
+    """The command's table holds each variant's final, RMS and maximum position error and side-slip RMS
+    of the seed's run, and so does the results file's row. Its run
     and budget are the tests' above (the corner's seed 0, the same arguments), so that this checks what the
     command adds: the jobs, the engine, the results file, the table."""
     from slipnav.studies import error_budget as study
@@ -129,9 +156,15 @@ def test_error_budget_command(corner_run, corner_budget, capsys, tmp_path, monke
     def shown(value):  # one seed: mean (worst) is the value twice; not estimated: "-"
         return re.escape(f"{value:6.2f} ({value:5.2f})" if math.isfinite(value) else "-")
 
+    assert re.search(r"variant\s+final error %\s+RMS error %\s+max error %\s+alpha RMS deg\n", out)
     for variant in VARIANTS:
-        pct, alpha = corner_budget[variant]
-        assert re.search(rf"{re.escape(variant)}\s+{shown(pct)}\s+{shown(alpha)}\n", out), variant
-    assert len((tmp_path / "error-budget.csv").read_text().splitlines()) == 2  # header, the seed's row
+        columns = r"\s+".join(shown(corner_budget[variant][figure]) for figure in FIGURES)
+        assert re.search(rf"{re.escape(variant)}\s+{columns}\n", out), variant
+    with open(tmp_path / "error-budget.csv", newline="") as file:
+        (row,) = csv.DictReader(file)  # the seed's row
+    for variant in VARIANTS:
+        for figure in FIGURES:
+            value = corner_budget[variant][figure]
+            assert float(row[f"{figure}[{variant}]"]) == pytest.approx(value, rel=1e-12, nan_ok=True)
     assert main(["error-budget", "corner", "--seeds", "0"]) == 2
     assert "--seeds=0 is out of range" in capsys.readouterr().err

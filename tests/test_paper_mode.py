@@ -3,6 +3,7 @@ papers' equation as printed (numbers by hand from Seyr & Jakubek S(n) and Indive
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -268,3 +269,37 @@ def test_paper_effects_variants():
     alone = scenario_of("corner", "only creep")
     assert not alone.navigation.mixing.odometry_slip_compensation and not alone.paper
     assert alone.navigation.mixing.dv_memory == 0.7  # the rest stays the default
+
+
+def test_paper_effects_reports_final_rms_and_max_position_error(monkeypatch, capsys):
+    """Per variant and loop, the study returns and prints the fused position error's final value, RMS
+    and maximum in % of the path: those metrics.position_errors_in_percent computes on the runs' own
+    arrays (kept here as the study runs them), with RMS <= max and final <= max (the corner ends at rest).
+    The default and paper mode, corner, seed 0, closed and open loop."""
+    from slipnav.scenarios.metrics import position_errors_in_percent
+    from slipnav.studies import paper_effects as study
+
+    real_run, arrays = study.run_scenario, {}
+
+    def run(scenario, **kwargs):
+        result = real_run(scenario, **kwargs)
+        arrays[(kwargs["open_loop"], scenario.paper)] = result.arrays
+        return result
+
+    monkeypatch.setattr(study, "run_scenario", run)
+    monkeypatch.setattr(study, "variants", lambda open_loop: ["default", "paper"])
+    out = study.paper_effects(["corner"], 1, workers=0)
+    table = capsys.readouterr().out
+    assert set(out) == {("corner", loop, v) for loop in (False, True) for v in ("default", "paper")}
+    for (_, open_loop, variant), figures in out.items():
+        assert list(figures) == list(study.FIGURES) and all(len(v) == 1 for v in figures.values())
+        final, rms, largest = (float(figures[f][0]) for f in ("final_pct", "rms_pct", "max_pct"))
+        expected = position_errors_in_percent(arrays[(open_loop, variant == "paper")], "est")
+        assert (final, rms, largest) == pytest.approx((expected["final"], expected["rms"], expected["max"]))
+        assert 0.0 < rms <= largest and final <= largest
+        loop = "open" if open_loop else "closed"
+        shown = rf"final\s+{final:5.2f} \({final:4.2f}\)\s+RMS\s+{rms:5.2f} \({rms:4.2f}\)\s+"
+        shown += rf"max\s+{largest:5.2f} \({largest:4.2f}\)\s+alpha "
+        assert re.search(rf"corner\s+{loop}\s+{variant}\s+{shown}", table), (loop, variant)
+    # paper mode's fused estimate is further off along the run than the default's, closed loop
+    assert out[("corner", False, "paper")]["rms_pct"][0] > out[("corner", False, "default")]["rms_pct"][0]
