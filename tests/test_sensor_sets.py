@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.health import JUMP, NONFINITE, health_flags
+from slipnav.systems.health import JUMP, NONFINITE, STUCK, health_flags
 from slipnav.systems.robot.sensors import SensorParameters, sensor_update
 
 from tests.test_faults import GEOMETRY, check, stream
@@ -113,5 +113,26 @@ def test_an_interpolated_encoder_stream_steps_its_speed_within_its_hold_time():
     rows[:, 5] = rows[:, 6] = theta
     _, codes = check(rows)
     assert codes[segment, 5] == codes[segment, 6] == JUMP
+    _, codes = check(rows, geometry=dc.replace(GEOMETRY, encoder_hold_time=0.2))
+    assert not codes.any()
+
+
+def test_an_encoder_reading_repeated_within_its_hold_time_is_not_stuck():
+    """An interpolated stream whose right wheel's reading repeats once (the wheel lags its reading by
+    0.1 s, then catches up at twice the speed): still for 50 samples while the left wheel and the gyro
+    say it turns at 1 m/s. With a fresh count every sample the stop is a jump (1 m/s in one sample); with
+    a 10 ms hold the stop is within the jump test's allowance but the stillness outlasts stuck_samples
+    beyond the hold (stuck from sample 409); with the stream's 0.2 s hold nothing is flagged."""
+    rows = stream(1000, 1.0, 0.0)
+    theta = rows[:, 5].copy()
+    step = theta[1] - theta[0]
+    lagged = theta.copy()
+    lagged[400:450] = theta[399]  # the reading at 0.8 s repeated to 0.9 s
+    lagged[450:500] = theta[399] + 2 * step * np.arange(1, 51)  # caught up by 1.0 s
+    rows[:, 5] = lagged
+    _, codes = check(rows)
+    assert codes[400, 5] == JUMP
+    _, codes = check(rows, geometry=dc.replace(GEOMETRY, encoder_hold_time=0.01))
+    assert codes[409, 5] == STUCK and not codes[:409].any()
     _, codes = check(rows, geometry=dc.replace(GEOMETRY, encoder_hold_time=0.2))
     assert not codes.any()

@@ -6,7 +6,8 @@ increments.
   beyond max_wheel_acceleration max(T_N, encoder_hold_time) plus two counts against the last used
   increment (a log that holds or interpolates its angles between readings changes its speed at once by
   what the wheel gained over the interval).
-- ``stuck``: a count standing still for stuck_samples while the other wheel and the gyro say it turns
+- ``stuck``: a count standing still for stuck_samples beyond the stream's encoder_hold_time (a log
+  that holds its angles between readings) while the other wheel and the gyro say it turns
   faster than stuck_min_speed + stuck_speed_fraction |v_other| (v_pred = v_other +- b omega: a wheel
   held by hand, about which the robot pivots on rolling tyres, is not flagged), counted only while the
   body does not brake against that wheel's motion harder than stuck_braking_deceleration (a hard braking
@@ -177,7 +178,7 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
             v_other = abs(inc[1 - w]) * radii[1 - w] / g.T_N
             mean_predicted = still_predicted_abs[w] * radii[w] / (still[w] * g.T_N)
             if (
-                still[w] >= p.stuck_samples
+                still[w] >= p.stuck_samples + math.ceil(g.encoder_hold_time / g.T_N - 1e-9)
                 and mean_predicted > p.stuck_min_speed + p.stuck_speed_fraction * v_other
             ):
                 codes[FIRST_ENCODER + w], suspect[w] = STUCK, 1.0
