@@ -55,15 +55,27 @@ SMOOTHING = 0.2
 """Window (s) of the Savitzky-Golay derivatives of the truth and of the streams compared with it."""
 ACCEL_SMOOTHING = 0.5
 """Window (s) of the accelerations the accelerometer's mapping is fitted on (second derivatives)."""
+NAVX_GYRO_COUNT = math.radians(4000.0 / 65536)
+"""rad/s: one count of the navX-MXP's gyro (data sheet: +-2000 deg/s in 16 bits)."""
+NAVX_ACCEL_COUNT = 4.0 * al.GRAVITY / 65536
+"""m/s^2: one count of its accelerometer (+-2 g in 16 bits)."""
+
+
 def default_model() -> RobotModel:
     """The TurtleBot 2 as a model: Tinyphoon's sensor set and tuning with the Kobuki's data-sheet wheel
-    radius, track and encoder resolution in thirds of a tick (7735 counts per revolution)."""
+    radius, track and encoder resolution in thirds of a tick (7735 counts per revolution), and the navX's
+    one accelerometer set and converter counts."""
     return RobotModel(
         robot="tinyphoon",
         description="TurtleBot 2 (Kobuki), data sheet: wheel radius 0.035 m, track 0.230 m, 2578.33 ticks "
         "per revolution (7735 counts of a third of a tick); navX IMU: one accelerometer set",
         robot_overrides={"wheel_radius": KOBUKI_WHEEL_RADIUS, "track_width": KOBUKI_TRACK},
-        sensor_overrides={"encoder_counts_per_revolution": 7735, "accelerometer_sets": 1},
+        sensor_overrides={
+            "encoder_counts_per_revolution": 7735,
+            "accelerometer_sets": 1,
+            "gyro_resolution": NAVX_GYRO_COUNT,
+            "accel_resolution": NAVX_ACCEL_COUNT,
+        },
     ).validate()
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.runner import run_scenario
-from slipnav.systems.health import JUMP, NONFINITE, STUCK, health_flags
+from slipnav.systems.health import JUMP, NONFINITE, SATURATED, STUCK, health_flags
 from slipnav.systems.robot.sensors import SensorParameters, sensor_update
 
 from tests.test_faults import GEOMETRY, check, stream
@@ -136,3 +136,29 @@ def test_an_encoder_reading_repeated_within_its_hold_time_is_not_stuck():
     assert codes[409, 5] == STUCK and not codes[:409].any()
     _, codes = check(rows, geometry=dc.replace(GEOMETRY, encoder_hold_time=0.2))
     assert not codes.any()
+
+
+def test_a_quantised_gyro_at_rest_is_no_rail_but_a_quantised_clip_is():
+    """A gyro of one count q = 0.061 deg/s at rest, read as a stream interpolated between 50 Hz readings
+    that alternate between -q and +q: its magnitude returns to q again and again with none larger
+    between, which the clip test reads as a rail for a continuous sensor; with the count stated
+    (gyro_resolution) the readings span one count below q, fewer than CLIP_MIN_COUNTS, and nothing is
+    flagged. The same gyro on a 0.5 rad/s turn with noise of 10 counts clipped 5 counts above the turn's
+    rate still is a rail: its readings span 20 counts and more below it."""
+    q = math.radians(4000.0 / 65536)
+    n = 1000
+    levels = np.where(np.arange(n // 10 + 1) % 2 == 0, -q, q)  # a reading every 10 samples
+    gyro = np.interp(np.arange(n), 10 * np.arange(len(levels)), levels)
+    rows = stream(n, 0.0, 0.0)
+    rows[:, 4] = gyro
+    _, codes = check(rows, v0=0.0)
+    assert np.any(codes[:, 4] == SATURATED)
+    counted = dc.replace(GEOMETRY, gyro_resolution=q)
+    _, codes = check(rows, v0=0.0, geometry=counted)
+    assert not codes.any()
+    rows = stream(n, 1.0, 0.5)
+    noisy = 0.5 + 10 * q * np.random.default_rng(1).standard_normal(n)
+    rows[:, 4] = np.minimum(np.round(noisy / q) * q, 0.5 + 5 * q)
+    _, codes = check(rows, geometry=counted)
+    assert np.any(codes[:, 4] == SATURATED)
+    assert not codes[:, [0, 1, 2, 3, 5, 6]].any()

@@ -46,6 +46,10 @@ from slipnav.systems.health.parameters import (
     STUCK,
 )
 
+CLIP_MIN_COUNTS = 4.0
+"""A quantised channel's rail lies at least this many counts above the lowest magnitude read since the
+last larger one: noise of a count or two around a level returns to its largest one by itself."""
+
 
 @jitable
 def checks_off(s, raw) -> tuple:
@@ -74,6 +78,8 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
     position = int(s[CLIP_POSITION])
     ranges = (p.accel_range, p.accel_range, p.accel_range, p.accel_range, p.gyro_range)
     steps = (p.accel_max_step, p.accel_max_step, p.accel_max_step, p.accel_max_step, p.gyro_max_step)
+    a_count = p.accel_resolution
+    quanta = (a_count, a_count, a_count, a_count, p.gyro_resolution)
     for c in range(NUM_ANALOG):
         x = raw[c]
         if not channel_present(c, p.accelerometer_sets):  # not judged: analog_outputs replaces it
@@ -86,7 +92,8 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
         last[c] = x
         # at the data-sheet range, or at a rail below it (clip_returns: read only when needed)
         if abs(x) >= p.saturation_fraction * ranges[c] or (
-            p.clip_samples > 0 and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, p) >= p.clip_samples
+            p.clip_samples > 0
+            and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, quanta[c], p) >= p.clip_samples
         ):
             codes[c] = SATURATED
         elif repeats[c] >= stuck_repeats:
@@ -101,11 +108,16 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
 
 
 @jitable
-def clip_returns(ring, base: int, position: int, x: float, p) -> int:
+def clip_returns(ring, base: int, position: int, x: float, quantum: float, p) -> int:
     """How many times reading ``x`` returned to its magnitude within the last clip_window readings (the
     channel's ring ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since the last
     larger one, counting this one and a run of repeats once. A clipped channel returns to its rail again
-    and again, the largest magnitude it reads; noise never repeats a value (within stuck_tolerance)."""
+    and again, the largest magnitude it reads; noise never repeats a value (within stuck_tolerance).
+    A quantised channel (one count ``quantum`` > 0) returns to its largest level by its own noise while
+    its readings span few counts: 0 unless the magnitudes read since the last larger one reach
+    CLIP_MIN_COUNTS counts below |x|."""
+    if quantum > 0.0:
+        return clip_returns_quantised(ring, base, position, x, quantum, p)
     tol = p.stuck_tolerance
     magnitude = abs(x)
     larger = magnitude + tol  # a reading beyond it ends the search
@@ -121,6 +133,29 @@ def clip_returns(ring, base: int, position: int, x: float, p) -> int:
             runs += 1
         newer_at = at
     return runs
+
+
+@jitable
+def clip_returns_quantised(ring, base: int, position: int, x: float, quantum: float, p) -> int:
+    """clip_returns of a channel with one count ``quantum`` > 0: its returns to |x| count only once the
+    readings since the last larger one reach CLIP_MIN_COUNTS counts below |x|."""
+    tol = p.stuck_tolerance
+    magnitude = abs(x)
+    larger = magnitude + tol
+    lowest = magnitude
+    runs, newer_at = 1, True
+    for j in range(1, p.clip_window):
+        y = abs(ring[base + (position - j) % CLIP_WINDOW_MAX])
+        if not math.isfinite(y):
+            continue
+        if y > larger:
+            break
+        lowest = min(lowest, y)
+        at = abs(y - magnitude) <= tol
+        if at and not newer_at:
+            runs += 1
+        newer_at = at
+    return runs if magnitude - lowest >= CLIP_MIN_COUNTS * quantum else 0
 
 
 @jitable

@@ -281,6 +281,8 @@ class HealthGeometry:
             walk (data sheet): the pair offset's prior and drift (pair_offset_update).
         inertial_hold_time: the longest time the inertial stream repeats a reading while healthy (s,
             data sheet or the import's measurement; SensorParameters): the stuck test allows it.
+        gyro_resolution, accel_resolution: one converter count (rad/s, m/s^2; 0: continuous;
+            SensorParameters): the clip test's allowance for quantisation (analog.clip_returns).
         encoder_hold_time: the longest time between fresh wheel-angle readings while healthy (s;
             SensorParameters): the jump test allows max_wheel_acceleration over it.
         accelerometer_sets: the two-axis accelerometers the robot carries (0, 1 or 2; SensorParameters):
@@ -310,6 +312,8 @@ class HealthGeometry:
     accel_initial_bias_std: float = 0.05
     accel_drift_density: float = 0.0065
     inertial_hold_time: float = 0.0
+    gyro_resolution: float = 0.0
+    accel_resolution: float = 0.0
     encoder_hold_time: float = 0.0
     accelerometer_sets: int = 2
     tyre_peak_acceleration: float = math.inf
@@ -343,7 +347,8 @@ HealthConstants = collections.namedtuple(
     "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
     "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
     "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant accel_initial_bias_std "
-    "accel_drift_density inertial_hold_time encoder_hold_time accelerometer_sets tyre_peak_acceleration "
+    "accel_drift_density inertial_hold_time gyro_resolution accel_resolution encoder_hold_time "
+    "accelerometer_sets tyre_peak_acceleration "
     "mass wheel_inertia motor_constant motor_current_limit "
     "bearing_drag shoe_offset "
     "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "

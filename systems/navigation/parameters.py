@@ -125,6 +125,8 @@ def health_geometry(
         accel_initial_bias_std=sensors.accel_initial_bias_std,
         accel_drift_density=sensors.accel_drift_density,
         inertial_hold_time=sensors.inertial_hold_time,
+        gyro_resolution=sensors.gyro_resolution,
+        accel_resolution=sensors.accel_resolution,
         encoder_hold_time=sensors.encoder_hold_time,
         accelerometer_sets=int(sensors.accelerometer_sets),
         tyre_peak_acceleration=robot.traction_limit_acceleration if robot is not None else math.inf,

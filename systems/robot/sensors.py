@@ -72,6 +72,10 @@ class SensorParameters:
             while healthy (s, in [0, 1]): a driver that republishes its last message when the device has
             no new one. 0: every sample fresh (the simulated sensors). The stuck test allows it on top
             of its repeats (systems/health/analog.py).
+        gyro_resolution, accel_resolution: one count of the gyro's and the accelerometers' converter
+            (rad/s, m/s^2; 0: continuous readings, the simulated sensors): the clip test does not read a
+            quantised reading's return to its largest level within a few counts of the rest as a rail
+            (systems/health/analog.py).
         encoder_hold_time: the longest time between fresh wheel-angle readings while healthy (s, in
             [0, 10]): a log that holds or interpolates its angles between readings. 0: a fresh count every
             sample (the simulated encoders). The jump test lets the wheel speed change by
@@ -102,13 +106,16 @@ class SensorParameters:
     current_noise_std: float = 0.012
     current_scale_error: float = 0.0
     inertial_hold_time: float = 0.0
+    gyro_resolution: float = 0.0
+    accel_resolution: float = 0.0
     encoder_hold_time: float = 0.0
     accelerometer_sets: int = 2
 
     def __post_init__(self):
         nonneg = (
             "accel_noise_std accel_initial_bias_std accel_drift_density accel_vibration_per_speed "
-            "gyro_noise_std gyro_initial_bias_std gyro_drift_density current_noise_std"
+            "gyro_noise_std gyro_initial_bias_std gyro_drift_density current_noise_std gyro_resolution "
+            "accel_resolution"
         ).split()
         for name in nonneg:
             value = getattr(self, name)
