@@ -52,6 +52,7 @@ from slipnav.systems.robot.sensors import (
     current_noise,
     current_sense,
     default_sensor_parameters,
+    initial_accelerometers,
     initial_biases,
     sensor_noise,
     sensor_update,
@@ -245,7 +246,7 @@ class PlainSensors:
         bias0 = initial_biases(params, np.random.default_rng(seed))
         self.internal = np.concatenate([bias0, np.zeros(4)])
         step = params.encoder_step
-        self.acc, self.gyro = bias0[0:4].copy(), float(bias0[4])
+        self.acc, self.gyro = initial_accelerometers(bias0, params), float(bias0[4])
         self.encoders = np.floor(-np.array(wheel_speeds) * T_N / step) * step
         self.current, self.current_draws = [math.nan, math.nan], current_noise(seed)
         self.held = self.previous = None

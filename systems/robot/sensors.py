@@ -253,6 +253,14 @@ def accelerometer_truth(body_acceleration, omega: float, position) -> list:
     return [a_t + dt, a_n + dn, a_t - dt, a_n - dn]
 
 
+def initial_accelerometers(bias0, params: SensorParameters) -> np.ndarray:
+    """The accelerometers' reading before the first sample: their initial biases [t1, n1, t2, n2] (m/s^2),
+    NaN on an absent set (SensorParameters.accelerometer_sets)."""
+    reading = np.array(bias0[0:4], float)
+    reading[2 * int(params.accelerometer_sets) :] = np.nan
+    return reading
+
+
 def sensor_frame(truth, params: SensorParameters) -> list:
     """The two accelerometers' true readings [t1, n1, t2, n2] as their own axes see them: turned by the
     misalignment gamma (t' = t cos g + n sin g, n' = -t sin g + n cos g) and scaled by 1 + scale error."""
@@ -387,7 +395,7 @@ class ProprioceptiveSensors(LeafSystem):
         self._internal = self.DeclareDiscreteState(internal0)
         step = params.encoder_step
         theta_before = -np.asarray(initial_wheel_rates, float) * T_N
-        self._accel = self.DeclareDiscreteState(internal0[0:4].copy())
+        self._accel = self.DeclareDiscreteState(initial_accelerometers(internal0, params))
         self._gyro = self.DeclareDiscreteState(internal0[4:5].copy())
         self._enc = self.DeclareDiscreteState(np.floor(theta_before / step) * step)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
