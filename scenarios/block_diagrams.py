@@ -8,6 +8,7 @@ from pathlib import Path as FilePath
 from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram, build_control_diagram
 from slipnav.diagrams.navigation import build_navigation_diagram
 from slipnav.scenarios.config import ScenarioError, load_scenario
+from slipnav.scenarios.diagram_labels import readable_dot
 from slipnav.scenarios.run_plan import follower_path, reference_for
 
 DIAGRAM_NAMES = ("navigation", "control", "closed_loop")
@@ -47,7 +48,8 @@ def named_diagram(name: str, scenario_name: str = "corner"):
 
 
 def export_diagram(name: str, out, scenario_name: str = "corner") -> FilePath:
-    """Write the block diagram to ``out``: .dot always; .svg/.png through graphviz's ``dot`` program."""
+    """Write the block diagram to ``out`` (its slices named and its blocks framed by rate:
+    diagram_labels.readable_dot): .dot always; .svg/.png through graphviz's ``dot`` program."""
     out = FilePath(out)
     if out.suffix not in FORMATS:
         raise ScenarioError(f"--out {out}: the format {out.suffix or '(none)'} is unknown: allowed {FORMATS}")
@@ -62,7 +64,8 @@ def export_diagram(name: str, out, scenario_name: str = "corner") -> FilePath:
             f"writing {out.suffix} needs graphviz's 'dot' program, which is not installed "
             "(Debian: apt-get install graphviz); a .dot file needs nothing"
         )
-    dot_source = named_diagram(name, scenario_name).GetGraphvizString(max_depth=2)
+    diagram = named_diagram(name, scenario_name)
+    dot_source = readable_dot(diagram, diagram.GetGraphvizString(max_depth=2))
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         if out.suffix == ".dot":

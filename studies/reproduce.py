@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import html
 import json
+import shutil
 import sys
 import time
 from pathlib import Path as FilePath
 
 from slipnav.scenarios.animation import write_animation
+from slipnav.scenarios.block_diagrams import export_diagram
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.plots import save_figure_atomically
@@ -203,10 +205,17 @@ def _cell(text) -> str:
 
 
 def write_page(
-    out: FilePath, figures: dict, table: list[dict], wall: float, quick: bool, animations=None
+    out: FilePath,
+    figures: dict,
+    table: list[dict],
+    wall: float,
+    quick: bool,
+    animations=None,
+    diagram=None,
 ) -> FilePath:
     """index.html: the links to the animations ({mode: {run: file}}), the claims table, then per figure
-    the PNGs of each mode beside caption, claim, measurement and command (written to a temporary file and
+    the PNGs of each mode beside caption, claim, measurement and command, and the navigation's block
+    diagram (Seyr Fig. 3; ``diagram``: its file in ``out``, None: none) (written to a temporary file and
     renamed)."""
     modes = list(figures)
     parts = [
@@ -247,12 +256,29 @@ def write_page(
                 f"<br><b>Command:</b> <code>{_cell(f.command)}</code>"
             )
         parts.append("</td></tr></table>")
+    parts.append(_diagram_section(diagram))
     parts.append("</body></html>")
     path = out / "index.html"
     tmp = out / "index.html.tmp"
     tmp.write_text("\n".join(parts))
     tmp.replace(path)
     return path
+
+
+def _diagram_section(diagram) -> str:
+    """Seyr Fig. 3 as the navigation's Drake diagram: the image (an SVG) or a link to its Graphviz text."""
+    if diagram is None:
+        return ""
+    name = _cell(FilePath(diagram).name)
+    link = f"<a href='{name}'>{name}</a>"
+    shown = f"<img src='{name}' alt='navigation diagram'>" if name.endswith(".svg") else link
+    return (
+        "<h2 id='seyr_fig3'>Seyr Fig. 3: the navigation as a Drake diagram</h2>"
+        "<p class='cap'>Every block of the navigation (<code>slipnav diagram navigation</code>), the "
+        "slices of each block's output named after what they feed, the blocks framed by their period "
+        "(T_N, T_C).</p>"
+        f"{shown}"
+    )
 
 
 def _animation_links(animations: dict) -> str:
@@ -305,7 +331,8 @@ def reproduce(out_dir="runs", quick: bool = False, modes=MODES, stream=None) -> 
         runs_by_mode[mode] = runs
     table = claims(runs_by_mode)
     wall = time.perf_counter() - start
-    index = write_page(out, figures, table, wall, quick, animations)
+    diagram = export_diagram("navigation", out / f"navigation.{'svg' if shutil.which('dot') else 'dot'}")
+    index = write_page(out, figures, table, wall, quick, animations, diagram)
     record = {
         "quick": quick,
         "wall_s": wall,

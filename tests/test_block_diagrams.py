@@ -1,5 +1,6 @@
 """Block diagrams from Drake's GetGraphvizString (slipnav diagram)."""
 
+import re
 import shutil
 
 import pytest
@@ -58,3 +59,33 @@ def test_missing_dot_and_bad_names(tmp_path, monkeypatch, capsys):
     assert main(["diagram", "plant"]) == 2
     assert main(["diagram", "control", "--out", str(tmp_path / "c.pdf")]) == 2
     assert "format .pdf is unknown" in capsys.readouterr().err
+
+
+def test_the_navigation_diagram_names_its_signals_and_frames_its_rates(tmp_path):
+    """No slice of a block's output reads y0, y1, ...: each is named after the input it feeds (the sensor
+    checks' health codes feed the exported output 'health', their flags the calibration's inputs), or
+    '(not read)'; the blocks with a periodic update sit in one dashed frame per period, the EKF and the
+    sensor checks every T_N = 2 ms, the Kalman gain, C1 and the side-slip angle every T_C = 20 ms."""
+    from slipnav.scenarios.block_diagrams import named_diagram
+    from slipnav.scenarios.diagram_labels import UNREAD, drawn_blocks, rate_groups, signal_names
+
+    diagram = named_diagram("navigation")
+    raw = diagram.GetGraphvizString(max_depth=2)
+    assert re.search(r">y\d+</TD>", raw)  # Drake's own text
+    text = export_diagram("navigation", tmp_path / "navigation.dot").read_text()
+    assert not re.search(r">y\d+</TD>", text)
+    names = set(signal_names(raw).values())
+    assert {"health", "inertial_fault", "encoder_fault", "sensor_fault", "C2_C3"} <= names
+    assert UNREAD in text
+    nodes = {name: node for node, (_, name, _) in drawn_blocks(raw).items()}
+    groups = rate_groups(diagram, raw)
+    assert set(groups) == {0.002, 0.02}
+    assert {nodes[n] for n in ("EKF", "Sensor checks", "Odometry")} <= set(groups[0.002])
+    assert {nodes[n] for n in ("Kalman gain", "Mixer C1", "Side-slip angle")} == set(groups[0.02])
+    exported = {node: name for node, (_, name, _) in drawn_blocks(text).items()}  # another build's ids
+    raw_names = {node: name for name, node in nodes.items()}
+    for label, members in (("every T_N = 2 ms", groups[0.002]), ("every T_C = 20 ms", groups[0.02])):
+        frame = re.search(rf'label="{label}"\nstyle=dashed\ncolor=gray40\n([^;]*(?:; [^;]*)*);', text)
+        framed = {exported[node] for node in frame.group(1).split("; ")}
+        assert framed == {raw_names[node] for node in members}, label
+

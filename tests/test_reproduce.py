@@ -6,6 +6,7 @@ import io
 import json
 import math
 import re
+import shutil
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -195,6 +196,10 @@ def test_reproduce_writes_a_page_referencing_every_figure(quick):
         assert (out / entry["png"]).stat().st_size > 10_000
         assert f"src='{key}-default.png'" in page and f"id='{key}'" in page
         assert entry["command"].startswith("slipnav")
+    # Seyr Fig. 3: the navigation's block diagram, its signals named (an SVG with graphviz, else the text)
+    diagram = out / ("navigation.svg" if shutil.which("dot") else "navigation.dot")
+    assert "id='seyr_fig3'" in page and f"'{diagram.name}'" in page
+    assert "every T_C = 20 ms" in diagram.read_text() and "Sensor checks" in diagram.read_text()
     # The claims: position error, slip control, speed law, saturation; the page carries the numbers.
     claims = record["claims"]
     assert [c["figure"] for c in claims] == ["seyr-fig8", "seyr-fig6", "indiveri-fig9", "indiveri-fig8"]
