@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 from slipnav.scenarios.artifact_arrays import SCALAR_KEYS, SERIES_KEYS
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import builtin_scenarios
+from slipnav.studies.cli import main
 
 SUMMARY_KEYS = {
     "scenario",

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import sys
 
-from slipnav.scenarios.cli_parser import build_parser
 from slipnav.scenarios.config import (
     ScenarioError,
     builtin_scenarios,
@@ -47,6 +46,7 @@ from slipnav.scenarios.config import (
 )
 from slipnav.scenarios.model import ModelError
 from slipnav.scenarios.sensor_log import SensorLogError
+from slipnav.studies.cli_parser import build_parser
 
 USER_MISTAKES = (ScenarioError, ModelError, SensorLogError)
 """A scenario, a model file or a sensor log that cannot be used: each message names the key and the
