@@ -35,8 +35,13 @@ interrupted`` and exits with status 130, leaving no half-written artifact.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
+from pathlib import Path as FilePath
 
+from slipnav.scenarios.animation import animate_file, write_run_animation
+from slipnav.scenarios.artifacts import check_output_directory
+from slipnav.scenarios.block_diagrams import export_diagram
 from slipnav.scenarios.config import (
     ScenarioError,
     builtin_scenarios,
@@ -44,9 +49,28 @@ from slipnav.scenarios.config import (
     check_seed_count,
     load_scenario,
 )
+from slipnav.scenarios.evaluate import evaluate_command
+from slipnav.scenarios.importers import import_command
 from slipnav.scenarios.model import ModelError
+from slipnav.scenarios.paper import paper_mode
+from slipnav.scenarios.replay import replay_file, sensor_columns_without_samples, write_replay_artifacts
+from slipnav.scenarios.run_plan import check_run_options
+from slipnav.scenarios.runner import run_scenario, write_artifacts
 from slipnav.scenarios.sensor_log import SensorLogError
+from slipnav.studies.accuracy import accuracy
+from slipnav.studies.bench import bench
+from slipnav.studies.calibration_commands import calibrate_command, calibrate_session_command
 from slipnav.studies.cli_parser import build_parser
+from slipnav.studies.engine import check_engine_options
+from slipnav.studies.error_budget import error_budget
+from slipnav.studies.faults import faults, select_cases
+from slipnav.studies.random_faults import random_faults
+from slipnav.studies.reproduce import reproduce
+from slipnav.studies.robustness import robustness, robustness_calibrated
+from slipnav.studies.sweep import parse_set_options, sweep
+from slipnav.studies.truth_calibration import calibrate_truth_command
+from slipnav.systems.checks import require_seed
+from slipnav.systems.robot.parameters import ROBOTS
 
 USER_MISTAKES = (ScenarioError, ModelError, SensorLogError)
 """A scenario, a model file or a sensor log that cannot be used: each message names the key and the
@@ -67,9 +91,6 @@ def main(argv=None) -> int:
 
 def _engine(args) -> dict:
     """The sweep engine's options (studies/sweep.py), checked before any run."""
-    from slipnav.scenarios.artifacts import check_output_directory
-    from slipnav.studies.engine import check_engine_options
-
     check_engine_options(args.workers, args.scheduler)
     check_output_directory(args.out)
     return dict(workers=args.workers, scheduler=args.scheduler, out_dir=args.out, resume=args.resume)
@@ -81,29 +102,19 @@ def _command(args) -> int:
             print(name)
         return 0
     if args.command == "diagram":
-        from slipnav.scenarios.block_diagrams import export_diagram
-
         print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
         return 0
     if args.command == "bench":
-        from slipnav.studies.bench import bench
-
         bench(args.scenario, args.repeat)
         return 0
     if args.command == "error-budget":
-        from slipnav.studies.error_budget import error_budget
-
         _check_study(args)
         error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None, **_engine(args))
         return 0
     if args.command == "robustness":
-        from slipnav.studies.robustness import robustness
-
         _check_study(args)
         engine = _engine(args)
         if args.calibrated:
-            from slipnav.studies.robustness import robustness_calibrated
-
             robustness_calibrated(
                 args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine
             )
@@ -111,8 +122,6 @@ def _command(args) -> int:
             robustness(args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine)
         return 0
     if args.command == "sweep":
-        from slipnav.studies.sweep import parse_set_options, sweep
-
         sets = parse_set_options(args.set)
         sweep(
             args.scenario,
@@ -128,24 +137,15 @@ def _command(args) -> int:
     if args.command == "replay":
         return _replay(args)
     if args.command == "import":
-        from slipnav.scenarios.importers import import_command
-
         import_command(args.adapter, args.trial, args.out, args.model, args.resample)
         return 0
     if args.command == "evaluate":
-        from slipnav.scenarios.evaluate import evaluate_command
-
         evaluate_command(args.log, args.truth, args.out, args.model)
         return 0
     if args.command == "animate":
-        from slipnav.scenarios.animation import animate_file
-
         print(animate_file(args.run, args.out, args.fps))
         return 0
     if args.command == "reproduce":
-        from slipnav.scenarios.artifacts import check_output_directory
-        from slipnav.studies.reproduce import reproduce
-
         check_output_directory(args.out)
         reproduce(args.out, quick=args.quick, modes=("default",) if args.quick else ("default", "paper"))
         return 0
@@ -154,8 +154,6 @@ def _command(args) -> int:
     if args.command == "faults":
         return _faults(args)
     if args.command == "accuracy":
-        from slipnav.studies.accuracy import accuracy
-
         _check_study(args, args.duration)
         accuracy(
             args.scenarios,
@@ -171,19 +169,10 @@ def _command(args) -> int:
 
 def _run(args) -> int:
     """slipnav run: simulate, write the artifact (and the animation), report; 3 if the run stopped early."""
-    from slipnav.scenarios.animation import write_run_animation
-    from slipnav.scenarios.artifacts import check_output_directory
-    from slipnav.scenarios.run_plan import check_run_options
-    from slipnav.scenarios.runner import run_scenario, write_artifacts
-
     scenario = load_scenario(args.scenario)
     if args.paper:
-        from slipnav.scenarios.paper import paper_mode
-
         scenario = paper_mode(scenario)
     if args.model is not None:
-        import dataclasses
-
         scenario = dataclasses.replace(scenario, model=args.model).validate()
     options = dict(
         seed=args.seed,
@@ -242,8 +231,6 @@ def _position_error_text(s: dict, label: str) -> str:
 
 def _faults(args) -> int:
     """slipnav faults over the fixed list of cases (studies/faults.py)."""
-    from slipnav.studies.faults import faults, select_cases
-
     args.seeds = 1 if args.seeds is None else args.seeds
     _check_study(args)
     channels, kinds = (
@@ -270,18 +257,11 @@ def _faults(args) -> int:
 def _calibrate(args) -> int:
     """slipnav calibrate: a session file, or a simulated session of a built-in robot or of a scenario's
     plant (studies/)."""
-    from slipnav.scenarios.artifacts import check_output_directory
-    from slipnav.studies.calibration_commands import calibrate_command
-    from slipnav.systems.checks import require_seed
-    from slipnav.systems.robot.parameters import ROBOTS
-
     if args.truth is not None or args.model is not None:
         return _calibrate_against_truth(args)
     if (args.session is None) == (args.simulate is None):
         raise ScenarioError("give a calibration session SESSION.yaml or --simulate ROBOT (one of them)")
     if args.session is not None:
-        from slipnav.studies.calibration_commands import calibrate_session_command
-
         flags = (("--seed", args.seed), ("--seeds", args.seeds))
         given = [flag for flag, value in flags if value is not None]
         given += ["--logs"] if args.logs else []
@@ -295,8 +275,6 @@ def _calibrate(args) -> int:
         return 0
     scenario = None
     if args.simulate not in ROBOTS:
-        from pathlib import Path as FilePath
-
         if FilePath(args.simulate).suffix not in (".yaml", ".yml") and not FilePath(args.simulate).is_file():
             raise ScenarioError(
                 f"--simulate={args.simulate!r} is unknown: allowed {', '.join(sorted(ROBOTS))} or a scenario "
@@ -328,8 +306,6 @@ MAX_CALIBRATION_SEEDS = 1000
 
 def _calibrate_against_truth(args) -> int:
     """slipnav calibrate LOG --truth TRUTH: a real robot's log fitted to its ground truth (studies/)."""
-    from slipnav.studies.truth_calibration import calibrate_truth_command
-
     if args.truth is None or args.session is None:
         raise ScenarioError("--model applies with a sensor log LOG.csv and --truth TRUTH.csv: allowed both")
     flags = (("--simulate", args.simulate), ("--seed", args.seed), ("--seeds", args.seeds))
@@ -360,8 +336,6 @@ MAX_RANDOM_FAULTS = 10000
 
 def _random_faults(args) -> int:
     """``slipnav faults --random N`` (studies/random_faults.py); the fixed list's options are mistakes."""
-    from slipnav.studies.random_faults import random_faults
-
     if not 1 <= args.random <= MAX_RANDOM_FAULTS:
         raise ScenarioError(f"--random={args.random} is out of range: allowed 1 .. {MAX_RANDOM_FAULTS}")
     given = [
@@ -397,9 +371,6 @@ def _check_study(args, duration=None) -> None:
 
 
 def _replay(args) -> int:
-    from slipnav.scenarios.artifacts import check_output_directory
-    from slipnav.scenarios.replay import replay_file, sensor_columns_without_samples, write_replay_artifacts
-
     check_output_directory(args.out)
     result = replay_file(args.log, args.model)  # every log or model mistake before the simulation
     if not _write(write_replay_artifacts, result, args):
