@@ -76,17 +76,11 @@ USER_MISTAKES = (ScenarioError, ModelError, SensorLogError)
 """A scenario, a model file or a sensor log that cannot be used: each message names the key and the
 allowed range; the command line prints it as one line and exits with status 2."""
 
+MAX_CALIBRATION_SEEDS = 1000
+"""Most seeds of ``slipnav calibrate --simulate --seeds`` (about 15 s each)."""
 
-def main(argv=None) -> int:
-    try:
-        args = build_parser(__doc__.splitlines()[0]).parse_args(argv)
-        return _command(args)
-    except USER_MISTAKES as e:
-        print(f"slipnav: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("slipnav: interrupted", file=sys.stderr)
-        return 130
+MAX_RANDOM_FAULTS = 10000
+"""Most seeds of ``slipnav faults --random N`` (one random fault each)."""
 
 
 def _engine(args) -> dict:
@@ -96,75 +90,44 @@ def _engine(args) -> dict:
     return dict(workers=args.workers, scheduler=args.scheduler, out_dir=args.out, resume=args.resume)
 
 
-def _command(args) -> int:
-    if args.command == "list":
-        for name in builtin_scenarios():
-            print(name)
-        return 0
-    if args.command == "diagram":
-        print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
-        return 0
-    if args.command == "bench":
-        bench(args.scenario, args.repeat)
-        return 0
-    if args.command == "error-budget":
-        _check_study(args)
-        error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None, **_engine(args))
-        return 0
-    if args.command == "robustness":
-        _check_study(args)
-        engine = _engine(args)
-        if args.calibrated:
-            robustness_calibrated(
-                args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine
-            )
-        else:
-            robustness(args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine)
-        return 0
-    if args.command == "sweep":
-        sets = parse_set_options(args.set)
-        sweep(
-            args.scenario,
-            args.seeds,
-            sets,
-            duration=args.duration,
-            open_loop=args.open_loop or None,
-            **_engine(args),
-        )
-        return 0
-    if args.command == "calibrate":
-        return _calibrate(args)
-    if args.command == "replay":
-        return _replay(args)
-    if args.command == "import":
-        import_command(args.adapter, args.trial, args.out, args.model, args.resample)
-        return 0
-    if args.command == "evaluate":
-        evaluate_command(args.log, args.truth, args.out, args.model)
-        return 0
-    if args.command == "animate":
-        print(animate_file(args.run, args.out, args.fps))
-        return 0
-    if args.command == "reproduce":
-        check_output_directory(args.out)
-        reproduce(args.out, quick=args.quick, modes=("default",) if args.quick else ("default", "paper"))
-        return 0
-    if args.command == "faults" and args.random is not None:
-        return _random_faults(args)
-    if args.command == "faults":
-        return _faults(args)
-    if args.command == "accuracy":
-        _check_study(args, args.duration)
-        accuracy(
-            args.scenarios,
-            args.seeds,
-            args.duration,
-            open_loop=args.open_loop or None,
-            paper=args.paper,
-            **_engine(args),
-        )
-        return 0
-    return _run(args)
+def _check_study(args, duration=None) -> None:
+    """A study's --seeds and scenarios (and --duration against each), before any run starts."""
+    check_seed_count(args.seeds)
+    for name in args.scenarios:
+        scenario = load_scenario(name)
+        if duration is not None:
+            check_duration(scenario, duration)
+
+
+def _write(write, result, args) -> bool:
+    """``write(result, --out, figures=...)`` and print the files; False (the error printed) when the
+    directory cannot take them."""
+    try:
+        written = write(result, args.out, figures=not args.no_figures)
+    except OSError as e:
+        print(f"slipnav: error: cannot write the artifacts into --out={args.out!r}: {e}", file=sys.stderr)
+        return False
+    for path in written:
+        print(path)
+    return True
+
+
+def _position_error_text(s: dict, label: str) -> str:
+    """An estimate's final, RMS and maximum position error of a summary, e.g. "final 0.0086 m, RMS 0.0363
+    m, max 0.0594 m at 5.63 s along the run" (the final one may be null: the last row's truth missing)."""
+    final = s["final_position_error_m"][label]
+    return (
+        f"final {'-' if final is None else f'{final:.4f}'} m, RMS {s['rms_position_error_m'][label]:.4f} m, "
+        f"max {s['max_position_error_m'][label]:.4f} m at {s['max_position_error_time_s'][label]:.2f} s "
+        "along the run"
+    )
+
+
+def _list(args) -> int:
+    """slipnav list: the built-in scenarios, one per line."""
+    for name in builtin_scenarios():
+        print(name)
+    return 0
 
 
 def _run(args) -> int:
@@ -218,19 +181,58 @@ def _run(args) -> int:
     return 0
 
 
-def _position_error_text(s: dict, label: str) -> str:
-    """An estimate's final, RMS and maximum position error of a summary, e.g. "final 0.0086 m, RMS 0.0363
-    m, max 0.0594 m at 5.63 s along the run" (the final one may be null: the last row's truth missing)."""
-    final = s["final_position_error_m"][label]
-    return (
-        f"final {'-' if final is None else f'{final:.4f}'} m, RMS {s['rms_position_error_m'][label]:.4f} m, "
-        f"max {s['max_position_error_m'][label]:.4f} m at {s['max_position_error_time_s'][label]:.2f} s "
-        "along the run"
+def _animate(args) -> int:
+    """slipnav animate: a run's npz as one HTML animation (scenarios/animation.py); prints the file."""
+    print(animate_file(args.run, args.out, args.fps))
+    return 0
+
+
+def _diagram(args) -> int:
+    """slipnav diagram: a block diagram as graphviz (scenarios/block_diagrams.py); prints the file."""
+    print(export_diagram(args.name, args.out or f"{args.name}.dot", args.scenario))
+    return 0
+
+
+def _bench(args) -> int:
+    """slipnav bench: the closed-loop diagram against the plain loop (studies/bench.py)."""
+    bench(args.scenario, args.repeat)
+    return 0
+
+
+def _accuracy(args) -> int:
+    """slipnav accuracy: navigation accuracy over seeds (studies/accuracy.py)."""
+    _check_study(args, args.duration)
+    accuracy(
+        args.scenarios,
+        args.seeds,
+        args.duration,
+        open_loop=args.open_loop or None,
+        paper=args.paper,
+        **_engine(args),
     )
+    return 0
+
+
+def _error_budget(args) -> int:
+    """slipnav error-budget: navigation errors with oracle inputs (studies/error_budget.py)."""
+    _check_study(args)
+    error_budget(args.scenarios, args.seeds, open_loop=args.open_loop or None, **_engine(args))
+    return 0
+
+
+def _robustness(args) -> int:
+    """slipnav robustness [--calibrated]: toleranced robots against the baselines (studies/robustness.py)."""
+    _check_study(args)
+    engine = _engine(args)
+    study = robustness_calibrated if args.calibrated else robustness
+    study(args.scenarios, args.seeds, engine.pop("workers"), engine.pop("out_dir"), **engine)
+    return 0
 
 
 def _faults(args) -> int:
-    """slipnav faults over the fixed list of cases (studies/faults.py)."""
+    """slipnav faults over the fixed list of cases (studies/faults.py); with --random N, _random_faults."""
+    if args.random is not None:
+        return _random_faults(args)
     args.seeds = 1 if args.seeds is None else args.seeds
     _check_study(args)
     channels, kinds = (
@@ -251,6 +253,94 @@ def _faults(args) -> int:
         kinds=kinds,
         **_engine(args),
     )
+    return 0
+
+
+def _random_faults(args) -> int:
+    """``slipnav faults --random N`` (studies/random_faults.py); the fixed list's options are mistakes."""
+    if not 1 <= args.random <= MAX_RANDOM_FAULTS:
+        raise ScenarioError(f"--random={args.random} is out of range: allowed 1 .. {MAX_RANDOM_FAULTS}")
+    given = [
+        option
+        for option, value in (
+            ("--seeds", args.seeds),
+            ("--perturbations", args.perturbations or None),
+            ("--channels", args.channels),
+            ("--kinds", args.kinds),
+        )
+        if value is not None
+    ]
+    if given:
+        raise ScenarioError(
+            f"--random with {', '.join(given)}: allowed --open-loop, --tolerances and the engine's options "
+            "(--random N draws the seeds' faults: classes and channels all)"
+        )
+    args.seeds = args.random
+    _check_study(args)
+    random_faults(
+        args.scenarios, args.random, open_loop=args.open_loop, tolerances=args.tolerances, **_engine(args)
+    )
+    return 0
+
+
+def _sweep(args) -> int:
+    """slipnav sweep: a scenario over seeds and --set values (studies/sweep.py)."""
+    sets = parse_set_options(args.set)
+    sweep(
+        args.scenario,
+        args.seeds,
+        sets,
+        duration=args.duration,
+        open_loop=args.open_loop or None,
+        **_engine(args),
+    )
+    return 0
+
+
+def _reproduce(args) -> int:
+    """slipnav reproduce: the papers' figures on one page (studies/reproduce.py)."""
+    check_output_directory(args.out)
+    reproduce(args.out, quick=args.quick, modes=("default",) if args.quick else ("default", "paper"))
+    return 0
+
+
+def _replay(args) -> int:
+    """slipnav replay: the navigation alone on a sensor log (scenarios/replay.py); 1 if --out cannot take
+    the artifacts."""
+    check_output_directory(args.out)
+    result = replay_file(args.log, args.model)  # every log or model mistake before the simulation
+    if not _write(write_replay_artifacts, result, args):
+        return 1
+    s = result.summary
+    errors = s["final_position_error_m"]
+    if not s["has_truth"]:
+        truth = " (no truth columns: no error figures)"
+    elif errors["fused"] is None or errors["odometry"] is None:
+        truth = " (the last row's truth is missing: no final error)"
+    else:
+        truth = f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
+    print(f"{s['scenario']}: {s['rows']} rows replayed with model {s['model']}{truth}")
+    if s["rms_position_error_m"]["fused"] is not None:
+        print(f"  fused position error {_position_error_text(s, 'fused')}")
+    empty = sensor_columns_without_samples(result.arrays)
+    if empty:
+        print(
+            f"slipnav: warning: sensor log {args.log!r}: the columns {', '.join(empty)} hold no valid sample "
+            "(every cell nan or empty): the estimates rest on no sample of them",
+            file=sys.stderr,
+        )
+    return 0
+
+
+def _import(args) -> int:
+    """slipnav import: a real robot's logs as sensor log, ground truth and model (scenarios/importers.py)."""
+    import_command(args.adapter, args.trial, args.out, args.model, args.resample)
+    return 0
+
+
+def _evaluate(args) -> int:
+    """slipnav evaluate: the estimates against a ground truth (scenarios/evaluate.py)."""
+    evaluate_command(args.log, args.truth, args.out, args.model)
     return 0
 
 
@@ -300,10 +390,6 @@ def _calibrate(args) -> int:
     return 0
 
 
-MAX_CALIBRATION_SEEDS = 1000
-"""Most seeds of ``slipnav calibrate --simulate --seeds`` (about 15 s each)."""
-
-
 def _calibrate_against_truth(args) -> int:
     """slipnav calibrate LOG --truth TRUTH: a real robot's log fitted to its ground truth (studies/)."""
     if args.truth is None or args.session is None:
@@ -318,82 +404,38 @@ def _calibrate_against_truth(args) -> int:
     return 0
 
 
-def _write(write, result, args) -> bool:
-    """``write(result, --out, figures=...)`` and print the files; False (the error printed) when the
-    directory cannot take them."""
+COMMANDS = {
+    "list": _list,
+    "run": _run,
+    "animate": _animate,
+    "diagram": _diagram,
+    "bench": _bench,
+    "accuracy": _accuracy,
+    "error-budget": _error_budget,
+    "robustness": _robustness,
+    "faults": _faults,
+    "sweep": _sweep,
+    "reproduce": _reproduce,
+    "replay": _replay,
+    "import": _import,
+    "evaluate": _evaluate,
+    "calibrate": _calibrate,
+}
+"""Each subcommand's handler (studies/cli_parser.py defines its options): the parsed arguments in, the
+exit status out."""
+
+
+def main(argv=None) -> int:
+    """Parse ``argv`` (default: sys.argv) and run the command's handler; its exit status."""
     try:
-        written = write(result, args.out, figures=not args.no_figures)
-    except OSError as e:
-        print(f"slipnav: error: cannot write the artifacts into --out={args.out!r}: {e}", file=sys.stderr)
-        return False
-    for path in written:
-        print(path)
-    return True
-
-
-MAX_RANDOM_FAULTS = 10000
-
-
-def _random_faults(args) -> int:
-    """``slipnav faults --random N`` (studies/random_faults.py); the fixed list's options are mistakes."""
-    if not 1 <= args.random <= MAX_RANDOM_FAULTS:
-        raise ScenarioError(f"--random={args.random} is out of range: allowed 1 .. {MAX_RANDOM_FAULTS}")
-    given = [
-        option
-        for option, value in (
-            ("--seeds", args.seeds),
-            ("--perturbations", args.perturbations or None),
-            ("--channels", args.channels),
-            ("--kinds", args.kinds),
-        )
-        if value is not None
-    ]
-    if given:
-        raise ScenarioError(
-            f"--random with {', '.join(given)}: allowed --open-loop, --tolerances and the engine's options "
-            "(--random N draws the seeds' faults: classes and channels all)"
-        )
-    args.seeds = args.random
-    _check_study(args)
-    random_faults(
-        args.scenarios, args.random, open_loop=args.open_loop, tolerances=args.tolerances, **_engine(args)
-    )
-    return 0
-
-
-def _check_study(args, duration=None) -> None:
-    """A study's --seeds and scenarios (and --duration against each), before any run starts."""
-    check_seed_count(args.seeds)
-    for name in args.scenarios:
-        scenario = load_scenario(name)
-        if duration is not None:
-            check_duration(scenario, duration)
-
-
-def _replay(args) -> int:
-    check_output_directory(args.out)
-    result = replay_file(args.log, args.model)  # every log or model mistake before the simulation
-    if not _write(write_replay_artifacts, result, args):
-        return 1
-    s = result.summary
-    errors = s["final_position_error_m"]
-    if not s["has_truth"]:
-        truth = " (no truth columns: no error figures)"
-    elif errors["fused"] is None or errors["odometry"] is None:
-        truth = " (the last row's truth is missing: no final error)"
-    else:
-        truth = f"; final position error fused {errors['fused']:.4f} m, odometry {errors['odometry']:.4f} m"
-    print(f"{s['scenario']}: {s['rows']} rows replayed with model {s['model']}{truth}")
-    if s["rms_position_error_m"]["fused"] is not None:
-        print(f"  fused position error {_position_error_text(s, 'fused')}")
-    empty = sensor_columns_without_samples(result.arrays)
-    if empty:
-        print(
-            f"slipnav: warning: sensor log {args.log!r}: the columns {', '.join(empty)} hold no valid sample "
-            "(every cell nan or empty): the estimates rest on no sample of them",
-            file=sys.stderr,
-        )
-    return 0
+        args = build_parser(__doc__.splitlines()[0]).parse_args(argv)
+        return COMMANDS[args.command](args)
+    except USER_MISTAKES as e:
+        print(f"slipnav: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("slipnav: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
