@@ -39,6 +39,7 @@ import dataclasses
 import sys
 from pathlib import Path as FilePath
 
+from slipnav.scenarios import import_rosbag, import_turtlebot, import_warthog
 from slipnav.scenarios.animation import animate_file, write_run_animation
 from slipnav.scenarios.artifacts import check_output_directory
 from slipnav.scenarios.block_diagrams import export_diagram
@@ -50,7 +51,7 @@ from slipnav.scenarios.config import (
     load_scenario,
 )
 from slipnav.scenarios.evaluate import evaluate_command
-from slipnav.scenarios.importers import import_command
+from slipnav.scenarios.importers import LogImportError, write_import
 from slipnav.scenarios.model import ModelError
 from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.replay import replay_file, sensor_columns_without_samples, write_replay_artifacts
@@ -81,6 +82,10 @@ MAX_CALIBRATION_SEEDS = 1000
 
 MAX_RANDOM_FAULTS = 10000
 """Most seeds of ``slipnav faults --random N`` (one random fault each)."""
+
+ADAPTERS = {"phil-turtlebot": import_turtlebot, "norlab-warthog": import_warthog, "ros-bag": import_rosbag}
+"""``slipnav import``'s adapters: each module's ``import_trial`` reads one recording into an ImportResult,
+its ``summary`` is the line of estimates."""
 
 
 def _engine(args) -> dict:
@@ -333,8 +338,16 @@ def _replay(args) -> int:
 
 
 def _import(args) -> int:
-    """slipnav import: a real robot's logs as sensor log, ground truth and model (scenarios/importers.py)."""
-    import_command(args.adapter, args.trial, args.out, args.model, args.resample)
+    """slipnav import: a real robot's logs as sensor log, ground truth and model (scenarios/importers.py);
+    prints the files and one line of estimates."""
+    if args.adapter not in ADAPTERS:
+        raise LogImportError(f"ADAPTER={args.adapter!r} is unknown: allowed {', '.join(ADAPTERS)}")
+    check_output_directory(args.out)
+    adapter = ADAPTERS[args.adapter]
+    result = adapter.import_trial(args.trial, args.model, args.resample)
+    for path in write_import(result, args.out):
+        print(path)
+    print(adapter.summary(result.report))
     return 0
 
 
