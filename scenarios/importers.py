@@ -9,7 +9,8 @@ axes, the truth's frame; scenarios/alignment.py) and returns an ImportResult: th
 ``<name>.import.json`` (what was estimated).
 
 Adapters: ``phil-turtlebot`` (scenarios/import_turtlebot.py), ``norlab-warthog``
-(scenarios/import_warthog.py).
+(scenarios/import_warthog.py), ``ros-bag`` (scenarios/import_rosbag.py); the command line
+(studies/cli.py, ADAPTERS) picks one by name.
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.model import ModelError, RobotModel, load_model, model_text
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, write_text_atomically
 
-ADAPTERS = ("phil-turtlebot", "norlab-warthog", "ros-bag")
 RESAMPLING = ("interpolate", "hold")
 HOLD_MARGIN = 2.0
 """A model that states no hold time of a stream (SensorParameters.inertial_hold_time, encoder_hold_time)
@@ -140,23 +140,3 @@ def write_import(result: ImportResult, out_dir) -> list[FilePath]:
             stem.with_name(f"{result.name}.import.json"), [json.dumps(result.report, indent=2) + "\n"]
         ),
     ]
-
-
-def import_command(adapter: str, trial_dir, out_dir, model_path=None, resample="interpolate") -> ImportResult:
-    """``slipnav import``: import, write, print the files and one line of estimates."""
-    if adapter not in ADAPTERS:
-        raise LogImportError(f"ADAPTER={adapter!r} is unknown: allowed {', '.join(ADAPTERS)}")
-    from slipnav.scenarios.artifacts import check_output_directory
-
-    check_output_directory(out_dir)
-    if adapter == "phil-turtlebot":
-        from slipnav.scenarios import import_turtlebot as module
-    elif adapter == "norlab-warthog":
-        from slipnav.scenarios import import_warthog as module
-    else:
-        from slipnav.scenarios import import_rosbag as module
-    result = module.import_trial(trial_dir, model_path, resample)
-    for path in write_import(result, out_dir):
-        print(path)
-    print(module.summary(result.report))
-    return result

@@ -36,7 +36,7 @@ def run_child(scenario: str, duration: float, out: Path) -> dict:
     """``slipnav run`` in a child process; returns its summary with ``peak_rss_MB``, ``exit_status`` and
     ``total_wall_s`` (simulation, collection and writing)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    command = [sys.executable, "-m", "slipnav.scenarios.cli", "run", scenario, "--duration", str(duration)]
+    command = [sys.executable, "-m", "slipnav.studies.cli", "run", scenario, "--duration", str(duration)]
     start = time.perf_counter()
     done = subprocess.run([*command, "--out", str(out)], capture_output=True, text=True)
     wall = time.perf_counter() - start

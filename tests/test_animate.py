@@ -26,7 +26,7 @@ from slipnav.scenarios.animation import (
     load_run,
     wheel_slip_speeds,
 )
-from slipnav.scenarios.cli import main
+from slipnav.studies.cli import main
 
 DURATION = 3.0
 """s of the corner: 1 s standstill, then 2 s driving into the corner."""

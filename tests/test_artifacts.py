@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 from slipnav.scenarios import artifacts, plots, runner
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.completion import judge_completion, path_projection
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.trajectories import Arc, PathConfig, build_path
+from slipnav.studies.cli import main
 
 from tests.shared import scenario_run
 

@@ -18,8 +18,8 @@ from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diag
 from slipnav.diagrams.open_loop import build_open_loop_diagram
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios import runner
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml
+from slipnav.studies.cli import main
 from slipnav.systems.navigation.parameters import NavigationParameters
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.parameters import tinyphoon
@@ -300,7 +300,7 @@ def test_installed_command_reports_a_mistake_without_traceback(tmp_path):
     scenario = tmp_path / "bad.yaml"
     scenario.write_text(STRAIGHT + "robot_overrides: {tyre_friction: 0.01}\n")
     done = subprocess.run(
-        [sys.executable, "-m", "slipnav.scenarios.cli", "run", str(scenario), "--out", str(tmp_path)],
+        [sys.executable, "-m", "slipnav.studies.cli", "run", str(scenario), "--out", str(tmp_path)],
         capture_output=True,
         text=True,
         timeout=120,
@@ -313,7 +313,7 @@ def test_installed_command_reports_a_mistake_without_traceback(tmp_path):
 def test_ctrl_c_during_a_run_exits_130_with_one_line_and_no_files(tmp_path):
     """SIGINT while simulating: ``slipnav: interrupted``, status 130, nothing written."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "slipnav.scenarios.cli", "run", "long_path", "--out", str(tmp_path / "out")],
+        [sys.executable, "-m", "slipnav.studies.cli", "run", "long_path", "--out", str(tmp_path / "out")],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

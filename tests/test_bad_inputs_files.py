@@ -9,9 +9,9 @@ import threading
 import numpy as np
 import pytest
 from slipnav.scenarios import progress, runner
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.sensor_log import SensorLog, read_sensor_log, write_sensor_log
 from slipnav.studies import engine, sweep
+from slipnav.studies.cli import main
 
 
 @pytest.fixture(autouse=True)

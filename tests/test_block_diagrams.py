@@ -5,8 +5,8 @@ import shutil
 
 import pytest
 from slipnav.scenarios.block_diagrams import export_diagram
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import ScenarioError
+from slipnav.studies.cli import main
 
 PAPER_NAMES = {
     "navigation": [

@@ -7,13 +7,13 @@ import stat
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.model import load_model
 from slipnav.scenarios.sensor_log import SensorLog
 from slipnav.studies.calibration import compare, simulated_calibration
 from slipnav.studies.calibration_identify import identify_drag
 from slipnav.studies.calibration_manoeuvres import Manoeuvre
 from slipnav.studies.calibration_signals import allan_deviation, correct_accelerometers
+from slipnav.studies.cli import main
 from slipnav.systems.robot.parameters import tinyphoon
 from slipnav.systems.robot.sensors import SensorParameters, sensor_frame
 

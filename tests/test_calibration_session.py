@@ -9,12 +9,12 @@ import stat
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import Scenario, ScenarioError
 from slipnav.scenarios.model import RobotModel, load_model
 from slipnav.scenarios.sensor_log import SensorLog, write_sensor_log
 from slipnav.studies.calibration import calibrate, compare
 from slipnav.studies.calibration_session import read_session, write_session
+from slipnav.studies.cli import main
 
 from tests.shared import calibration_manoeuvres
 

@@ -5,8 +5,9 @@ import json
 import numpy as np
 import pytest
 from slipnav.scenarios.artifact_arrays import SCALAR_KEYS, SERIES_KEYS
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import builtin_scenarios
+from slipnav.studies.cli import COMMANDS, main
+from slipnav.studies.cli_parser import build_parser
 
 SUMMARY_KEYS = {
     "scenario",
@@ -21,6 +22,11 @@ SUMMARY_KEYS = {
     "wall_time_s",
     "realtime_factor",
 }
+
+
+def test_every_subcommand_has_a_handler_and_every_handler_a_subcommand():
+    subcommands = next(a for a in build_parser("")._actions if a.dest == "command").choices
+    assert set(COMMANDS) == set(subcommands)
 
 
 def test_list(capsys):

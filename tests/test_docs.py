@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 from slipnav.scenarios import schema
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import scenario_from_yaml
 from slipnav.scenarios.runner import run_scenario
+from slipnav.studies.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 README = (ROOT / "README.md").read_text()

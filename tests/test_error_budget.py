@@ -7,7 +7,6 @@ import re
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import (
     POSE_DELAY_SAMPLES,
@@ -18,6 +17,7 @@ from slipnav.scenarios.metrics import (
     tangential_slip_speed,
 )
 from slipnav.scenarios.runner import run_scenario
+from slipnav.studies.cli import main
 from slipnav.studies.error_budget import FIGURES, POSITION_FIGURES, VARIANTS, error_budget_of_run, replay
 
 from tests.shared import scenario_run

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from slipnav.scenarios import evaluate as ev
-from slipnav.scenarios.cli import main
+from slipnav.studies.cli import main
 
 
 def _straight(t):

@@ -981,7 +981,7 @@ def test_selected_faults_and_the_over_seeds_ratio(capsys):
     """``slipnav faults --channels --kinds`` runs only those faults (an unknown name is an error naming the
     allowed ones, before any run); over two or more seeds the report adds the faulted runs' mean fused
     error over the fault-free runs' mean per channel and class (by hand: (4 + 10) / (1 + 6) = 2)."""
-    from slipnav.scenarios.cli import main
+    from slipnav.studies.cli import main
 
     cases = fault_cases(run_scenario(load_scenario("corner"), duration=2.0).arrays)
     chosen = select_cases(cases, ["gyro"], ["nan", "bias"])
@@ -1026,7 +1026,7 @@ def test_a_lost_gyro_on_a_toleranced_robot_costs_little(capsys, tmp_path):
     replacement reads the learned D; with the nominal wheels it cost 72 mm, 13.8 x the fault-free 5.2
     mm, and 3.3 deg of heading. Now within 3 x, better than Gyrodometry and odometry-only on the same
     run, and the fault-free run raises no flag (the lateral test's bound once gave a false body flag)."""
-    from slipnav.scenarios.cli import main
+    from slipnav.studies.cli import main
 
     options = ["--open-loop", "--tolerances", "--channels", "gyro", "--kinds", "nan", "--workers", "0"]
     assert main(["faults", "corner", *options, "--out", str(tmp_path)]) == 0

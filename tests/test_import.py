@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from slipnav.scenarios import alignment as al
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.importers import write_import
 from slipnav.scenarios.model import load_model
 from slipnav.scenarios.replay import replay_log
 from slipnav.scenarios.sensor_log import SensorLog, read_sensor_log
+from slipnav.studies.cli import main
 from slipnav.systems.health import STUCK
 from slipnav.systems.robot.faults import SENSOR_CHANNELS
 

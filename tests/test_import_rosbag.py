@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.import_rosbag import import_trial
 from slipnav.scenarios.importers import LogImportError
 from slipnav.scenarios.model import RobotModel, model_text
 from slipnav.scenarios.replay import replay_log
+from slipnav.studies.cli import main
 
 R, TRACK = 0.03, 0.2
 IMU_RATE, JOINT_RATE, TRUTH_RATE = 100.0, 50.0, 20.0

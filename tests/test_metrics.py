@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.metrics import (
     POSE_DELAY_SAMPLES,
     along_run_figures,
@@ -20,6 +19,7 @@ from slipnav.scenarios.metrics import (
     slip_episodes,
 )
 from slipnav.studies.accuracy import along_run_lines, side_slip_lines
+from slipnav.studies.cli import main
 from slipnav.studies.long_run import position_error_lines
 
 from tests.shared import scenario_run

@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import ScenarioError, load_scenario, scenario_from_yaml
 from slipnav.scenarios.model import RobotModel, SensorCalibration, write_model
 from slipnav.scenarios.runner import run_scenario
+from slipnav.studies.cli import main
 from slipnav.systems.navigation.sensor_correction import (
     SensorCorrection,
     corrected_accelerometers,

@@ -7,10 +7,10 @@ import re
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml, with_keys
 from slipnav.scenarios.paper import DEVIATIONS, paper_mode
 from slipnav.scenarios.trajectories import PathConfig, Straight, build_path
+from slipnav.studies.cli import main
 from slipnav.systems.control.path_follower import PathFollowerParameters, follower_step
 from slipnav.systems.control.slip_control import StepSizeController, StepSizeParameters
 from slipnav.systems.health import health_initial_state, health_step

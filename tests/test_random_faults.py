@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
+from slipnav.studies.cli import main
 from slipnav.studies.fault_cases import MEASURED_KEYS
 from slipnav.studies.random_faults import (
     BIAS_SIGMA,

@@ -11,12 +11,12 @@ import shutil
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.run_plan import follower_path
 from slipnav.studies import reproduce as rp
 from slipnav.studies import reproduce_measures as measures
+from slipnav.studies.cli import main
 from slipnav.systems.navigation.mixing.parameters import MixingParameters
 from slipnav.systems.navigation.mixing.weights import logsig
 

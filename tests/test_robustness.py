@@ -4,9 +4,9 @@ are the runs' own, and the last line carries the worst figures."""
 import io
 
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import ScenarioError
 from slipnav.studies import robustness as study
+from slipnav.studies.cli import main
 
 
 def test_cases_change_the_plant_only_and_the_last_line_summarises(monkeypatch, tmp_path):

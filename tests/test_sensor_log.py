@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.model import ModelError, load_model
 from slipnav.scenarios.replay import replay_file
@@ -19,6 +18,7 @@ from slipnav.scenarios.sensor_log import (
     sensor_log_text,
     write_sensor_log,
 )
+from slipnav.studies.cli import main
 from slipnav.systems.health import INCONSISTENT
 from slipnav.systems.robot.faults import FaultEvent
 

@@ -4,10 +4,10 @@ resumed sweep skips the finished runs and prints the same table, bad --set value
 import io
 
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.studies import engine, results_file
 from slipnav.studies import sweep as sweep_study
 from slipnav.studies.accuracy import accuracy
+from slipnav.studies.cli import main
 
 SETS = {"navigation.mixing.b1": ["0.03", "0.05"]}
 """Two combinations whose figures differ (corner, 1 s: fused 0.18 against 0.22 % of path)."""

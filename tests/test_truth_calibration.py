@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 import pytest
-from slipnav.scenarios.cli import main
 from slipnav.scenarios.importers import truth_text
 from slipnav.scenarios.model import RobotModel, load_model, model_text
 from slipnav.scenarios.sensor_log import SensorLog, write_sensor_log
+from slipnav.studies.cli import main
 from slipnav.studies.truth_calibration import TruthCalibrationError, calibrate_from_truth
 
 T_N = 0.002

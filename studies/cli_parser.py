@@ -1,4 +1,4 @@
-"""The ``slipnav`` command line's argument parser (scenarios/cli.py runs the commands)."""
+"""The ``slipnav`` command line's argument parser (studies/cli.py runs the commands)."""
 
 from __future__ import annotations
 
