@@ -10,7 +10,9 @@ from pathlib import Path as FilePath
 import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.model import load_model
 from slipnav.scenarios.runner import run_scenario
+from slipnav.studies.cli import main
 from slipnav.systems.health import JUMP, NONFINITE, SATURATED, STUCK, health_flags
 from slipnav.systems.robot.sensors import SensorParameters, sensor_update
 
@@ -170,9 +172,6 @@ def test_a_log_with_fewer_sets_replays_bit_for_bit_without_flags(tmp_path, sets)
     """A corner run whose robot carries one accelerometer set or none writes a sensor log with NaN in the
     absent columns and a model that states the set count; ``slipnav replay`` of that log raises no flag
     and reproduces the run's estimate bit for bit."""
-    from slipnav.scenarios.cli import main
-    from slipnav.scenarios.model import load_model
-
     text = (FilePath(__file__).parents[1] / "scenarios" / "builtin" / "corner.yaml").read_text()
     scenario = tmp_path / "corner_sets.yaml"
     scenario.write_text(text + f"sensor_overrides: {{accelerometer_sets: {sets}}}\n")
