@@ -13,7 +13,7 @@ EPILOG = (
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
         """One line on stderr and exit status 2 (argparse's usage block left out)."""
-        self.exit(2, f"slipnav: error: {message} (see slipnav {self.prog.split()[-1]} --help)\n")
+        self.exit(2, f"slipnav: error: {message} (see {self.prog} --help)\n")
 
 
 def _engine_options(parser, study: str) -> None:
