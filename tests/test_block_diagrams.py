@@ -89,3 +89,21 @@ def test_the_navigation_diagram_names_its_signals_and_frames_its_rates(tmp_path)
         framed = {exported[node] for node in frame.group(1).split("; ")}
         assert framed == {raw_names[node] for node in members}, label
 
+
+
+def test_the_closed_loop_figure_in_the_docs_is_the_current_diagram():
+    """docs/images/closed_loop.svg (made by `slipnav diagram closed_loop --out docs/images/closed_loop.svg`)
+    draws every block and every named slice of the closed loop as the code builds it today."""
+    import html
+    from pathlib import Path
+
+    from slipnav.scenarios.block_diagrams import named_diagram
+    from slipnav.scenarios.diagram_labels import drawn_blocks, readable_dot
+
+    diagram = named_diagram("closed_loop")
+    text = readable_dot(diagram, diagram.GetGraphvizString(max_depth=2))
+    figure = html.unescape((Path(__file__).parents[1] / "docs" / "images" / "closed_loop.svg").read_text())
+    for kind, name, ports in drawn_blocks(text).values():
+        assert f"name={name}" in figure, (kind, name)
+        for label in filter(None, ports.values()):
+            assert f">{label}<" in figure, (name, label)
