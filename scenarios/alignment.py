@@ -36,6 +36,18 @@ def uniform_grid(t0: float, t1: float, step: float) -> np.ndarray:
     return t0 + step * np.arange(max(n, 0))
 
 
+def centred_mean(x, samples: int) -> np.ndarray:
+    """The mean of ``x`` (N,) or (N, k) over ``samples`` (odd) consecutive samples centred on each one,
+    the end values held beyond the ends."""
+    x = np.asarray(x, float)
+    half = samples // 2
+    if half == 0:
+        return x.copy()
+    padded = np.concatenate([np.repeat(x[:1], half, axis=0), x, np.repeat(x[-1:], half, axis=0)])
+    sums = np.cumsum(np.concatenate([np.zeros((1, *x.shape[1:])), padded]), axis=0)
+    return (sums[2 * half + 1 :] - sums[: -2 * half - 1]) / (2 * half + 1)
+
+
 def smooth(x, step: float, window: float, deriv: int = 0) -> np.ndarray:
     """Savitzky-Golay (order 2) value or derivative of a uniformly sampled signal over ``window`` s."""
     x = np.asarray(x, float)

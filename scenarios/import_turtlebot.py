@@ -18,7 +18,8 @@ What the import estimates from the data (scenarios/alignment.py) and reports (``
 
 The log (scenarios/sensor_log.py) holds every stream on the T_N grid of the model over the interval all
 three cover, ``interpolate``d (linear between samples; the wheel ticks between the messages that carry a
-new count, alignment.fresh_counts) or ``hold``. The one IMU fills both accelerometer pairs (acc1 = acc2:
+new count, alignment.fresh_counts, their common travel averaged over ANGLE_AVERAGE_INTERVALS of them)
+or ``hold``. The one IMU fills both accelerometer pairs (acc1 = acc2:
 the log requires two); the default model states one set (SensorParameters.accelerometer_sets), so the
 second is not read. Encoder counts are whole counts of the model's resolution: the Kobuki's 2578.33 ticks
 per revolution are 7735/3, so the default model counts thirds of a tick (7735 per revolution) and the log
@@ -55,6 +56,13 @@ SMOOTHING = 0.2
 """Window (s) of the Savitzky-Golay derivatives of the truth and of the streams compared with it."""
 ACCEL_SMOOTHING = 0.5
 """Window (s) of the accelerations the accelerometer's mapping is fitted on (second derivatives)."""
+ANGLE_AVERAGE_INTERVALS = 4
+"""``interpolate`` averages the wheels' common travel (theta_R + theta_L)/2 over this many median intervals
+between fresh counts (alignment.centred_mean, average_common_travel): the logger stamps a fresh count when
+it polls, up to a message interval after the Kobuki counted it, so the speed between two fresh counts is
+off by a fraction of itself that the average over four intervals cuts to a quarter (offline: the average
+reads two intervals ahead). Their difference, the yaw, stays as interpolated: a spot turn starts and
+stops faster than the average, and the gyro's witness would lag it."""
 NAVX_GYRO_COUNT = math.radians(4000.0 / 65536)
 """rad/s: one count of the navX-MXP's gyro (data sheet: +-2000 deg/s in 16 bits)."""
 NAVX_ACCEL_COUNT = 4.0 * al.GRAVITY / 65536
@@ -228,6 +236,20 @@ def wheel_kinematics(t, ticks, model: RobotModel, step: float) -> dict:
     }
 
 
+def angle_average_samples(interval: float, T_N: float) -> int:
+    """The odd number of T_N samples the wheel angles are averaged over: ANGLE_AVERAGE_INTERVALS median
+    intervals between fresh counts."""
+    return int(round(ANGLE_AVERAGE_INTERVALS * interval / T_N)) | 1
+
+
+def average_common_travel(ticks, samples: int) -> np.ndarray:
+    """[theta_R, theta_L] (N, 2) with their mean averaged over ``samples`` (alignment.centred_mean) and
+    their half difference kept."""
+    mean = al.centred_mean(0.5 * (ticks[:, 0] + ticks[:, 1]), samples)
+    half = 0.5 * (ticks[:, 0] - ticks[:, 1])
+    return np.column_stack([mean + half, mean - half])
+
+
 def fit_frames(truth: dict, wheels: dict, wheel_lag: float, t_imu, accel, imu_lag: float) -> dict:
     """The truth's rigid offset (alignment.fit_truth_offset), the robot's pose, body velocities and
     accelerations from it, and the accelerometer's mapping (alignment.vertical_axis,
@@ -356,6 +378,7 @@ def build_log(est: dict, model: RobotModel, resample: str, name: str) -> tuple[S
     scale = model.sensor_parameters().encoder_counts_per_revolution / KOBUKI_TICKS_PER_REVOLUTION
     if resample == "interpolate":
         ticks = al.on_grid(grid, wheels["knots_t"] - wheel_lag, wheels["knots"], "interpolate")
+        ticks = average_common_travel(ticks, angle_average_samples(wheels["interval"], T_N))
     else:
         ticks = al.on_grid(grid, est["t_enc"] - wheel_lag, est["ticks"], "hold")
     columns["enc_R"], columns["enc_L"] = np.round(scale * ticks[:, 0]), np.round(scale * ticks[:, 1])
@@ -458,6 +481,11 @@ def import_trial(trial_dir, model_path=None, resample: str = "interpolate") -> I
         "encoders": {
             "fresh_message_share": est["wheels"]["fresh_share"],
             "fresh_interval_median_s": est["wheels"]["interval"],
+            "angle_average_s": (
+                angle_average_samples(est["wheels"]["interval"], model.T_N) * model.T_N
+                if resample == "interpolate"
+                else 0.0
+            ),
             "ticks_per_revolution": KOBUKI_TICKS_PER_REVOLUTION,
             "model_counts_per_revolution": model.sensor_parameters().encoder_counts_per_revolution,
             "counts_per_tick": grid["count_scale"],
