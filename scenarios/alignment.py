@@ -48,6 +48,14 @@ def centred_mean(x, samples: int) -> np.ndarray:
     return (sums[2 * half + 1 :] - sums[: -2 * half - 1]) / (2 * half + 1)
 
 
+def average_common_travel(ticks, samples: int) -> np.ndarray:
+    """[theta_R, theta_L] (N, 2) with their mean averaged over ``samples`` (centred_mean) and
+    their half difference kept."""
+    mean = centred_mean(0.5 * (ticks[:, 0] + ticks[:, 1]), samples)
+    half = 0.5 * (ticks[:, 0] - ticks[:, 1])
+    return np.column_stack([mean + half, mean - half])
+
+
 def smooth(x, step: float, window: float, deriv: int = 0) -> np.ndarray:
     """Savitzky-Golay (order 2) value or derivative of a uniformly sampled signal over ``window`` s."""
     x = np.asarray(x, float)

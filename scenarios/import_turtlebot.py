@@ -58,7 +58,7 @@ ACCEL_SMOOTHING = 0.5
 """Window (s) of the accelerations the accelerometer's mapping is fitted on (second derivatives)."""
 ANGLE_AVERAGE_INTERVALS = 4
 """``interpolate`` averages the wheels' common travel (theta_R + theta_L)/2 over this many median intervals
-between fresh counts (alignment.centred_mean, average_common_travel): the logger stamps a fresh count when
+between fresh counts (alignment.average_common_travel): the logger stamps a fresh count when
 it polls, up to a message interval after the Kobuki counted it, so the speed between two fresh counts is
 off by a fraction of itself that the average over four intervals cuts to a quarter (offline: the average
 reads two intervals ahead). Their difference, the yaw, stays as interpolated: a spot turn starts and
@@ -242,14 +242,6 @@ def angle_average_samples(interval: float, T_N: float) -> int:
     return int(round(ANGLE_AVERAGE_INTERVALS * interval / T_N)) | 1
 
 
-def average_common_travel(ticks, samples: int) -> np.ndarray:
-    """[theta_R, theta_L] (N, 2) with their mean averaged over ``samples`` (alignment.centred_mean) and
-    their half difference kept."""
-    mean = al.centred_mean(0.5 * (ticks[:, 0] + ticks[:, 1]), samples)
-    half = 0.5 * (ticks[:, 0] - ticks[:, 1])
-    return np.column_stack([mean + half, mean - half])
-
-
 def fit_frames(truth: dict, wheels: dict, wheel_lag: float, t_imu, accel, imu_lag: float) -> dict:
     """The truth's rigid offset (alignment.fit_truth_offset), the robot's pose, body velocities and
     accelerations from it, and the accelerometer's mapping (alignment.vertical_axis,
@@ -378,7 +370,7 @@ def build_log(est: dict, model: RobotModel, resample: str, name: str) -> tuple[S
     scale = model.sensor_parameters().encoder_counts_per_revolution / KOBUKI_TICKS_PER_REVOLUTION
     if resample == "interpolate":
         ticks = al.on_grid(grid, wheels["knots_t"] - wheel_lag, wheels["knots"], "interpolate")
-        ticks = average_common_travel(ticks, angle_average_samples(wheels["interval"], T_N))
+        ticks = al.average_common_travel(ticks, angle_average_samples(wheels["interval"], T_N))
     else:
         ticks = al.on_grid(grid, est["t_enc"] - wheel_lag, est["ticks"], "hold")
     columns["enc_R"], columns["enc_L"] = np.round(scale * ticks[:, 0]), np.round(scale * ticks[:, 1])
