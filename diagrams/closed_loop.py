@@ -8,7 +8,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import MatrixGain
 from slipnav.diagrams.loggers import LoggedDiagram, add_loggers, robot_ports
 from slipnav.diagrams.onboard import add_command_monitor, add_robot_and_navigation
-from slipnav.diagrams.robot import check_robot_inputs
+from slipnav.diagrams.records import Belief, Truth
+from slipnav.diagrams.robot import check_records
 from slipnav.systems.checks import check_follower_gains, check_start_time, require_instance
 from slipnav.systems.control.path_follower import (
     LyapunovPathFollower,
@@ -20,13 +21,9 @@ from slipnav.systems.control.slip_control import (
     StepSizeParameters,
     TrajectoryInterpolator,
 )
-from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.navigation.parameters import NavigationParameters
-from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.parameters import RobotParameters
-from slipnav.systems.robot.plant import DEFAULT_TIME_STEP
-from slipnav.systems.robot.sensors import SensorParameters
 
 
 @dc.dataclass
@@ -188,53 +185,20 @@ def localisation_ports(builder, source: str, nav, plant):
 
 
 def build_closed_loop_diagram(
-    robot: RobotParameters,
-    sensor_params: SensorParameters,
-    rates: SampleRates,
-    navigation: NavigationParameters,
-    control: ControlSettings,
-    seed: int,
-    initial_pose=(0.0, 0.0, 0.0),
-    initial_speed: float = 0.0,
-    log: bool = True,
-    plant_time_step: float = DEFAULT_TIME_STEP,
-    plant: RobotParameters | None = None,
-    faults=(),
-    nominal_sensors: SensorParameters | None = None,
-    calibration: SensorCalibration | None = None,
-    perturbation_monitor: PerturbationParameters | None = None,
+    truth: Truth, belief: Belief, control: ControlSettings, log: bool = True
 ) -> LoggedDiagram:
     """Robot and sensors -> navigation -> control -> robot, with every artifact signal logged every T_N
-    (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). ``plant_time_step``: see
-    DifferentialDrivePlant (0: continuous). Raises ValueError naming the parameter for an input that
-    cannot be simulated.
+    (``log=False`` leaves the loggers out, e.g. for a block-diagram picture). Raises ValueError naming
+    the field for an input that cannot be simulated.
 
-    Truth and belief: ``robot`` is the nominal model that navigation and control read; ``plant`` the
-    simulated robot as it really is (default ``robot``), and ``sensor_params`` the real sensors;
-    ``nominal_sensors`` their data sheet, which the navigation knows (default the robot's);
-    ``calibration`` the sensors' systematic errors a calibrated model states (SensorCalibration).
-    ``perturbation_monitor``: PerturbationParameters of the PerturbationMonitor on the wheel commands,
-    the encoders and the navigation (default PerturbationParameters()).
-    ``faults``: sensor FaultEvents between the sensors and the navigation (systems/robot/faults.py)."""
-    check_closed_loop_inputs(
-        robot, sensor_params, rates, navigation, control, seed, initial_pose, initial_speed, plant_time_step
-    )
+    ``truth`` is the simulated robot, its sensors and their faults (Truth; ``plant_time_step``: see
+    DifferentialDrivePlant, 0: continuous); the navigation, the PerturbationMonitor on the wheel commands
+    and the ``control`` read the ``belief`` only (Belief: the nominal robot, the sensors' data sheet, the
+    calibration, the tunings and the rates)."""
+    check_closed_loop_inputs(truth, belief, control)
+    rates, robot = belief.rates, belief.robot
     builder = DiagramBuilder()
-    handles, nav, nav_ports = add_robot_and_navigation(
-        builder,
-        robot,
-        sensor_params,
-        rates,
-        seed,
-        initial_pose,
-        initial_speed,
-        plant_time_step,
-        plant,
-        faults,
-        navigation,
-        nominal_sensors,
-        calibration,
-    )
+    handles, nav, nav_ports = add_robot_and_navigation(builder, truth, belief)
     ctrl = builder.AddSystem(build_control_diagram(control, rates, robot))
     pose, speed = localisation_ports(builder, control.localisation, nav, handles.plant)
     builder.Connect(pose, ctrl.GetInputPort("estimated_pose"))
@@ -244,9 +208,7 @@ def build_closed_loop_diagram(
         builder.Connect(nav.GetOutputPort("side_slip_angle"), ctrl.GetInputPort("side_slip_angle"))
     command = ctrl.GetOutputPort("wheel_speed_command")
     builder.Connect(command, handles.plant.GetInputPort("wheel_speed_command"))
-    monitor = add_command_monitor(
-        builder, perturbation_monitor, command, nav, robot, rates, handles, nominal_sensors
-    )
+    monitor = add_command_monitor(builder, belief, command, nav, handles)
     loggers = {}
     if log:
         ports = robot_ports(handles)
@@ -262,21 +224,12 @@ def build_closed_loop_diagram(
     return LoggedDiagram(diagram=diagram, robot=handles, loggers=loggers)
 
 
-def check_closed_loop_inputs(
-    robot: RobotParameters,
-    sensor_params: SensorParameters,
-    rates: SampleRates,
-    navigation: NavigationParameters,
-    control: ControlSettings,
-    seed: int,
-    initial_pose,
-    initial_speed: float,
-    plant_time_step: float,
-) -> None:
-    """build_closed_loop_diagram's inputs (Python API): ValueError naming the parameter."""
-    check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step)
-    require_instance("navigation", navigation, NavigationParameters)
-    navigation.validate()
+def check_closed_loop_inputs(truth: Truth, belief: Belief, control: ControlSettings) -> None:
+    """build_closed_loop_diagram's inputs (Python API): ValueError naming the field."""
+    check_records(truth, belief)
+    require_instance("belief.navigation", belief.navigation, NavigationParameters)
+    belief.navigation.validate()
+    rates = belief.rates
     require_instance("control", control, ControlSettings)
     for name, kind in (("follower", PathFollowerParameters), ("step_size", StepSizeParameters)):
         require_instance(f"control.{name}", getattr(control, name), kind)
@@ -292,8 +245,8 @@ def check_closed_loop_inputs(
         raise ValueError(
             f"control.localisation={control.localisation!r} is unknown: allowed {list(LOCALISATION_SOURCES)}"
         )
-    if control.start_time > 0.0 and initial_speed != 0.0:
+    if control.start_time > 0.0 and truth.initial_speed != 0.0:
         raise ValueError(
-            f"control.start_time={control.start_time!r} needs a robot at rest: initial_speed="
-            f"{initial_speed!r}, allowed 0 (or start_time 0)"
+            f"control.start_time={control.start_time!r} needs a robot at rest: truth.initial_speed="
+            f"{truth.initial_speed!r}, allowed 0 (or start_time 0)"
         )

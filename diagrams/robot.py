@@ -8,6 +8,7 @@ import numpy as np
 from pydrake.common import RandomGenerator
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.systems.checks import (
     check_robot_physics,
     require_finite,
@@ -105,13 +106,16 @@ def make_simulator(diagram, seed: int, max_step: float) -> Simulator:
     return simulator
 
 
-def check_robot_inputs(robot, sensor_params, rates, seed, initial_pose, initial_speed, plant_time_step):
-    """The builders' common inputs (Python API): ValueError naming the parameter."""
-    require_instance("robot", robot, RobotParameters)
-    check_robot_physics(robot, "robot.")
-    require_instance("sensor_params", sensor_params, SensorParameters)
-    require_instance("rates", rates, SampleRates)
-    require_seed(seed)
-    require_pose("initial_pose", initial_pose)
-    require_finite("initial_speed", initial_speed, 0.0, robot.wheel_speed_limit)
-    require_finite("plant_time_step", plant_time_step, 0.0, 0.01)
+def check_records(truth: Truth, belief: Belief) -> None:
+    """The builders' common inputs (Python API), a Truth and a Belief: ValueError naming the field."""
+    require_instance("truth", truth, Truth)
+    require_instance("belief", belief, Belief)
+    robot = belief.robot
+    require_instance("belief.robot", robot, RobotParameters)
+    check_robot_physics(robot, "belief.robot.")
+    require_instance("truth.sensors", truth.sensors, SensorParameters)
+    require_instance("belief.rates", belief.rates, SampleRates)
+    require_seed(truth.seed, "truth.seed")
+    require_pose("truth.initial_pose", truth.initial_pose)
+    require_finite("truth.initial_speed", truth.initial_speed, 0.0, robot.wheel_speed_limit)
+    require_finite("truth.plant_time_step", truth.plant_time_step, 0.0, 0.01)

@@ -7,6 +7,7 @@ from pathlib import Path as FilePath
 
 from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram, build_control_diagram
 from slipnav.diagrams.navigation import build_navigation_diagram
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.scenarios.config import ScenarioError, load_scenario
 from slipnav.scenarios.diagram_labels import readable_dot
 from slipnav.scenarios.run_plan import follower_path, reference_for
@@ -35,16 +36,9 @@ def named_diagram(name: str, scenario_name: str = "corner"):
     )
     if name == "control":
         return build_control_diagram(control, rates, robot)
-    return build_closed_loop_diagram(
-        robot,
-        scenario.sensor_parameters(),
-        rates,
-        scenario.navigation,
-        control,
-        scenario.seed,
-        initial_speed=initial_speed,
-        log=False,
-    ).diagram
+    truth = Truth(sensors=scenario.sensor_parameters(), seed=scenario.seed, initial_speed=initial_speed)
+    belief = Belief(robot=robot, rates=rates, navigation=scenario.navigation)
+    return build_closed_loop_diagram(truth, belief, control, log=False).diagram
 
 
 def export_diagram(name: str, out, scenario_name: str = "corner") -> FilePath:

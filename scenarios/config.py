@@ -10,6 +10,7 @@ from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_load_typed
 from slipnav.diagrams.closed_loop import LOCALISATION_SOURCES
+from slipnav.diagrams.records import Belief
 from slipnav.scenarios.model import ModelError, load_model
 from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.tolerances import (
@@ -49,26 +50,6 @@ BUILTIN_DIR = FilePath(__file__).resolve().parent / "builtin"
 MODES = ("trajectory", "max_speed")
 CONTROLLERS = ("closed_loop", "feedforward")
 SPEED_LAWS = ("bounded", "constant")
-
-
-@dc.dataclass
-class Belief:
-    """What navigation and control read (Scenario.belief): never the plant.
-
-    Args:
-        robot: the nominal robot, refined by the model's ``robot_overrides``.
-        sensors: the nominal sensors' data sheet, refined by the model's ``sensor_overrides``.
-        navigation: the scenario's navigation tuning with the model's navigation keys over it (paper
-            mode applied last).
-        calibration: the sensors' systematic errors the navigation removes (the model's; none without).
-        model: the RobotModel read (None: the nominal belief).
-    """
-
-    robot: RobotParameters
-    sensors: SensorParameters
-    navigation: NavigationParameters
-    calibration: SensorCalibration
-    model: object = None
 
 
 @dc.dataclass
@@ -193,7 +174,9 @@ class Scenario:
         return model
 
     def belief(self) -> Belief:
-        """What navigation and control read: the nominal robot refined by the ``model`` (Belief)."""
+        """What navigation and control read (diagrams.records.Belief): the nominal robot, its sensors' data
+        sheet and the navigation tuning, each refined by the ``model`` (paper mode applied last), the
+        model's calibration (none without), the periods and the perturbation monitor's tuning."""
         model = self.robot_model()
         robot, sensors, navigation = self.robot_parameters(), self.sensor_parameters(), self.navigation
         calibration = SensorCalibration()
@@ -204,7 +187,15 @@ class Scenario:
             calibration = model.calibration
             if self.paper:
                 navigation = paper_mode(dc.replace(self, navigation=navigation, model=None)).navigation
-        return Belief(robot, sensors, navigation, calibration, model)
+        return Belief(
+            robot=robot,
+            rates=self.rates(),
+            navigation=navigation,
+            sensors=sensors,
+            calibration=calibration,
+            perturbation_monitor=self.perturbation_monitor,
+            model=model,
+        )
 
     def plant_parameters(self, seed: int | None = None, tolerances: bool = False):
         """The simulated robot as it really is: (RobotParameters, SensorParameters, drawn deviations).

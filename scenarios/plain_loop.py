@@ -1,7 +1,8 @@
 """The whole closed loop as a plain sequential Python loop over the same pure functions as the diagram.
 
-``run_plain_loop`` takes exactly what ``diagrams.closed_loop.build_closed_loop_diagram`` takes and steps,
-every T_N, the discrete plant (plant_advance), the sensors (sensor_update), the navigation
+``run_plain_loop`` takes the Truth, Belief and ControlSettings that
+``diagrams.closed_loop.build_closed_loop_diagram`` takes and steps, every T_N, the discrete plant
+(plant_advance), the sensors (sensor_update), the navigation
 (systems.navigation.loop.NavigationLoop) and, every T_C, the control blocks (follower_step, the speed law,
 step_size, interpolate), in the order Drake's pre-update semantics imply: every block that updates at
 t_k reads the values all blocks held at t_k. With the seed's sensor noise (systems.robot.sensors.sensor_noise,
@@ -14,6 +15,7 @@ import time
 
 import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, control_offset
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.systems.control.path_follower import (
     bounded_speed,
     check_path_curvature,
@@ -32,8 +34,7 @@ from slipnav.systems.health.perturbation import (
     sideways_push,
 )
 from slipnav.systems.navigation.loop import LOOP_KEYS, NavigationLoop
-from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
-from slipnav.systems.navigation.sensor_correction import SensorCalibration
+from slipnav.systems.navigation.parameters import NavigationInitialState
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.contact import NO_DISTURBANCE
 from slipnav.systems.robot.dynamics import plant_advance, plant_derivatives, substeps_per
@@ -51,7 +52,6 @@ from slipnav.systems.robot.sensors import (
     SensorParameters,
     current_noise,
     current_sense,
-    default_sensor_parameters,
     initial_accelerometers,
     initial_biases,
     sensor_noise,
@@ -76,66 +76,51 @@ MIXED_ESTIMATE_COLUMNS = [
 
 
 def run_plain_loop(
-    robot: RobotParameters,
-    sensor_params: SensorParameters,
-    rates: SampleRates,
-    navigation: NavigationParameters,
+    truth: Truth,
+    belief: Belief,
     control: ControlSettings,
-    seed: int,
     num_steps: int,
-    initial_pose=(0.0, 0.0, 0.0),
-    initial_speed: float = 0.0,
-    plant_time_step: float = 5e-4,
     noise=None,
     timings: dict | None = None,
-    plant: RobotParameters | None = None,
-    faults=(),
-    nominal_sensors: SensorParameters | None = None,
-    calibration: SensorCalibration | None = None,
-    perturbation_monitor: PerturbationParameters | None = None,
 ) -> dict:
     """Simulate ``num_steps`` samples t_0 ... t_{num_steps-1} of the closed loop.
 
     Args:
-        as build_closed_loop_diagram, plus:
+        truth, belief, control: as build_closed_loop_diagram (``truth.plant_time_step`` > 0: the
+            continuous plant has no plain-loop twin).
         num_steps: number of T_N samples.
-        plant_time_step: the discrete plant's step (> 0; the continuous plant has no plain-loop twin).
         noise: (num_steps, NOISE_CHANNELS) standard-normal draws that the sensors read at t_k; None: the
-            seed's, ``sensor_noise(seed, num_steps)``, which the diagram's sensors read too.
+            seed's, ``sensor_noise(truth.seed, num_steps)``, which the diagram's sensors read too.
         timings: if given, receives the wall time (s) spent in ``plant``, ``sensors``, ``navigation``
             and ``control``.
-        plant: the simulated robot as it really is (default ``robot``); navigation and control read
-            ``robot``, the nominal model.
-        faults: sensor FaultEvents between the sensors and the navigation (apply_sensor_faults).
-        nominal_sensors: the sensors' data sheet the navigation knows (default the robot's).
-        calibration: the model's SensorCalibration, which the navigation removes (SensorCorrection).
-        perturbation_monitor: PerturbationParameters (PerturbationMonitor; default the defaults).
 
     Returns:
         dict of (num_steps,) arrays keyed by PLAIN_LOOP_KEYS.
     """
-    if not plant_time_step > 0.0:
-        raise ValueError(f"plant_time_step={plant_time_step!r} is out of range: allowed (0, 0.01] s")
-    plant_steps = substeps_per(rates.T_N, plant_time_step, "T_N")
-    noise = checked_noise(noise, seed, num_steps)
-    world = PlainPlant(plant or robot, initial_pose, initial_speed, rates.T_N, plant_steps, plant_time_step)
-    sensors = PlainSensors(sensor_params, seed, world.initial_wheel_speeds, rates.T_N)
+    rates, robot, time_step = belief.rates, belief.robot, truth.plant_time_step
+    if not time_step > 0.0:
+        raise ValueError(f"truth.plant_time_step={time_step!r} is out of range: allowed (0, 0.01] s")
+    plant_steps = substeps_per(rates.T_N, time_step, "T_N")
+    noise = checked_noise(noise, truth.seed, num_steps)
+    initial_pose, initial_speed = truth.initial_pose, truth.initial_speed
+    world = PlainPlant(truth.robot(belief), initial_pose, initial_speed, rates.T_N, plant_steps, time_step)
+    sensors = PlainSensors(truth.sensors, truth.seed, world.initial_wheel_speeds, rates.T_N)
     nav = NavigationLoop(
-        navigation,
+        belief.navigation,
         (robot.radius_R, robot.radius_L),
         robot.track_width,
         rates.T_N,
         rates.T_C,
         NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
-        nominal_sensors or default_sensor_parameters(robot.name),
+        belief.data_sheet,
         robot.no_load_speed,
-        calibration,
+        belief.calibration,
         robot,
     )
     # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
     ctrl = PlainControl(control, robot, rates.T_C)
-    faults = check_fault_events(faults)
-    monitor = PlainMonitor(perturbation_monitor, robot, rates.T_N, nav.geometry.accelerometer_sets > 0)
+    faults = check_fault_events(truth.faults)
+    monitor = PlainMonitor(belief.monitor, robot, rates.T_N, nav.geometry.accelerometer_sets > 0)
     spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
     out = _step_plain_loop(world, sensors, nav, ctrl, monitor, faults, rates, noise, spent)
     if timings is not None:
@@ -275,13 +260,9 @@ class PlainMonitor:
     """The PerturbationMonitor as plain state (``state``: perturbation_initial_state's layout)."""
 
     def __init__(
-        self,
-        parameters: PerturbationParameters | None,
-        robot: RobotParameters,
-        T_N: float,
-        accelerations: bool,
+        self, parameters: PerturbationParameters, robot: RobotParameters, T_N: float, accelerations: bool
     ):
-        self.params = (parameters or PerturbationParameters()).validate()
+        self.params = parameters.validate()
         self.state, self.radii, self.force = (
             perturbation_initial_state(),
             (robot.radius_R, robot.radius_L),
@@ -386,23 +367,13 @@ def run_scenario_plain_loop(
     plant, sensor_params, _ = scenario.plant_parameters(seed)
     speed_law = scenario.speed_law if speed_law is None else speed_law
     control, initial_speed, _ = closed_loop_settings(scenario, slip_control, speed_law)
-    belief = scenario.belief()
-    return run_plain_loop(
-        belief.robot,
-        sensor_params,
-        scenario.rates(),
-        belief.navigation,
-        control,
-        seed,
-        num_steps,
-        tuple(scenario.initial_pose),
-        initial_speed,
-        scenario.plant_time_step,
-        noise=noise,
-        timings=timings,
+    truth = Truth(
+        sensors=sensor_params,
+        seed=seed,
         plant=plant,
+        initial_pose=tuple(scenario.initial_pose),
+        initial_speed=initial_speed,
+        plant_time_step=scenario.plant_time_step,
         faults=scenario.faults,
-        nominal_sensors=belief.sensors,
-        calibration=belief.calibration,
-        perturbation_monitor=scenario.perturbation_monitor,
     )
+    return run_plain_loop(truth, scenario.belief(), control, num_steps, noise=noise, timings=timings)

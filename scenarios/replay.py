@@ -196,8 +196,8 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
 def check_log_metadata(log: SensorLog, model: RobotModel, path) -> None:
     """The log's metadata against the model, by the checks a run's inputs pass: the encoder resolution
     (check_counts), the control period (the model's), the initial speed within the wheel-speed limit V_m
-    as the builders' check_robot_inputs has it (either way: a real robot's log may start reversing);
-    SensorLogError naming the metadata key."""
+    as the builders' check_records has truth.initial_speed (either way: a real robot's log may start
+    reversing); SensorLogError naming the metadata key."""
     check_counts(log, model)
     where = f"sensor log {str(path)!r}: metadata"
     logged = log.metadata.get("T_C")

@@ -6,9 +6,9 @@ from __future__ import annotations
 import dataclasses as dc
 
 from slipnav.diagrams.closed_loop import ControlSettings
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.scenarios.config import (
     MAX_DURATION,
-    Belief,
     Scenario,
     ScenarioError,
     check_duration,
@@ -167,9 +167,10 @@ class RunPlan:
         scenario: the scenario as run (in paper mode if asked, with the --localisation override).
         seed, duration (--duration; None: the scenario's end), speed_law, slip_control, open_loop,
         tolerances, faults: the run's settings, the scenario's where not overridden.
-        rates: the sample periods. belief: what navigation and control read (the nominal robot refined
-        by a model). plant, sensor_params: the real robot and sensors; deviations: their drawn
-        deviations from the nominal values. reference, initial_speed: reference_for's.
+        rates: the sample periods. belief: what navigation and control read (Scenario.belief: the
+        nominal robot refined by a model). plant, sensor_params: the real robot and sensors (with the
+        seed, faults and initial state: ``truth``); deviations: their drawn deviations from the nominal
+        values. reference, initial_speed: reference_for's.
         initial_pose: the scenario's initial pose as a tuple.
     """
 
@@ -189,6 +190,19 @@ class RunPlan:
     reference: Trajectory
     initial_speed: float
     initial_pose: tuple
+
+    def truth(self, initial_speed: float) -> Truth:
+        """The simulated robot of this run (diagrams.records.Truth), starting at ``initial_speed`` (m/s):
+        the real robot and sensors, the seed, the faults, the scenario's plant time step and initial pose."""
+        return Truth(
+            sensors=self.sensor_params,
+            seed=self.seed,
+            plant=self.plant,
+            initial_pose=self.initial_pose,
+            initial_speed=initial_speed,
+            plant_time_step=self.scenario.plant_time_step,
+            faults=self.faults,
+        )
 
 
 def plan_run(

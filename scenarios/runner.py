@@ -118,44 +118,16 @@ def build_run(plan: RunPlan) -> BuiltRun:
         v_R, v_L = plan.reference.wheel_speeds(belief.robot.track_width)
         built = as_scenario_error(
             lambda: build_open_loop_diagram(
-                belief.robot,
-                plan.sensor_params,
-                plan.rates,
+                plan.truth(plan.initial_speed),
+                belief,
                 np.column_stack([v_R, v_L]),
                 np.column_stack([plan.reference.x, plan.reference.y, plan.reference.phi]),
-                plan.seed,
-                initial_pose=plan.initial_pose,
-                initial_speed=plan.initial_speed,
-                navigation=belief.navigation,
-                plant_time_step=scenario.plant_time_step,
-                plant=plan.plant,
                 start_time=start,
-                faults=plan.faults,
-                nominal_sensors=belief.sensors,
-                calibration=belief.calibration,
-                perturbation_monitor=scenario.perturbation_monitor,
             )
         )
         return BuiltRun(built, None, start, plan.reference.duration + start, plan.initial_speed)
     control, initial_speed, nominal = closed_loop_settings(scenario, plan.slip_control, plan.speed_law)
-    built = as_scenario_error(
-        lambda: build_closed_loop_diagram(
-            belief.robot,
-            plan.sensor_params,
-            plan.rates,
-            belief.navigation,
-            control,
-            plan.seed,
-            initial_pose=plan.initial_pose,
-            initial_speed=initial_speed,
-            plant_time_step=scenario.plant_time_step,
-            plant=plan.plant,
-            faults=plan.faults,
-            nominal_sensors=belief.sensors,
-            calibration=belief.calibration,
-            perturbation_monitor=scenario.perturbation_monitor,
-        )
-    )
+    built = as_scenario_error(lambda: build_closed_loop_diagram(plan.truth(initial_speed), belief, control))
     return BuiltRun(built, control.path, control.start_time, nominal, initial_speed)
 
 

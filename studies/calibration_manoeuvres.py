@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 from slipnav.diagrams.open_loop import build_open_loop_diagram
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios.artifact_arrays import collect_arrays
 from slipnav.scenarios.config import Scenario
@@ -252,17 +253,10 @@ def simulate_manoeuvres(
         if kind != "standstill":
             rows = np.vstack([prefix, rows, _still(0.5, rates.T_C)])
         run_seed = (int(seed) * 64 + i) % 2**31
-        built = build_open_loop_diagram(
-            robot,
-            sensors,
-            rates,
-            rows,
-            np.zeros((len(rows), 3)),
-            run_seed,
-            plant_time_step=time_step,
-            plant=plant,
-            motor_enable=enable,
-        )
+        simulated = Truth(sensors=sensors, seed=run_seed, plant=plant, plant_time_step=time_step)
+        believed = Belief(robot=robot, rates=rates)  # no navigation: the lab logs the raw sensors
+        poses = np.zeros((len(rows), 3))
+        built = build_open_loop_diagram(simulated, believed, rows, poses, motor_enable=enable)
         simulator = make_simulator(built.diagram, run_seed, robot.speed_loop_period)
         simulator.AdvanceTo((len(rows) - 1) * rates.T_C)
         arrays = collect_arrays(built.loggers, simulator.get_context(), plant)

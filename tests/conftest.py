@@ -5,6 +5,7 @@ import pytest
 matplotlib.use("Agg")
 
 from slipnav.diagrams.open_loop import build_open_loop_diagram  # noqa: E402
+from slipnav.diagrams.records import Belief, Truth  # noqa: E402
 from slipnav.diagrams.robot import make_simulator  # noqa: E402
 from slipnav.scenarios.artifact_arrays import collect_arrays  # noqa: E402
 from slipnav.systems.navigation.mixing.parameters import MixingParameters  # noqa: E402
@@ -28,16 +29,13 @@ def run_open_loop(
     rates = SampleRates()
     wheel_speeds = np.asarray(wheel_speeds, float)
     poses = np.zeros((len(wheel_speeds), 3))
-    built = build_open_loop_diagram(
-        robot,
-        sensors or SensorParameters(),
-        rates,
-        wheel_speeds,
-        poses,
-        seed,
+    truth = Truth(
+        sensors=sensors or SensorParameters(),
+        seed=seed,
         initial_speed=initial_speed,
         plant_time_step=plant_time_step,
     )
+    built = build_open_loop_diagram(truth, Belief(robot=robot, rates=rates), wheel_speeds, poses)
     simulator = make_simulator(built.diagram, seed, robot.speed_loop_period)
     simulator.AdvanceTo(duration)
     return collect_arrays(built.loggers, simulator.get_context(), robot)

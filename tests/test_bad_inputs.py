@@ -5,6 +5,7 @@ ValueError naming the parameter (Python API), before any simulation starts: the 
 starting a simulation fail the test.
 """
 
+import dataclasses as dc
 import math
 import os
 import signal
@@ -16,6 +17,7 @@ import numpy as np
 import pytest
 from slipnav.diagrams.closed_loop import ControlSettings, build_closed_loop_diagram
 from slipnav.diagrams.open_loop import build_open_loop_diagram
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios import runner
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml
@@ -203,12 +205,10 @@ def test_command_line_mistake_exits_2_with_one_line_naming_the_flag(index, tmp_p
 
 def _open_loop_inputs():
     return dict(
-        robot=tinyphoon(),
-        sensor_params=SensorParameters(),
-        rates=SampleRates(),
+        truth=Truth(sensors=SensorParameters(), seed=0),
+        belief=Belief(robot=tinyphoon(), rates=SampleRates()),
         wheel_speeds=np.zeros((10, 2)),
         reference_poses=np.zeros((10, 3)),
-        seed=0,
     )
 
 
@@ -216,43 +216,47 @@ def _closed_loop_inputs():
     scenario = load_scenario("corner")
     control, _, _ = runner.closed_loop_settings(scenario, True, "bounded")
     return dict(
-        robot=tinyphoon(),
-        sensor_params=SensorParameters(),
-        rates=SampleRates(),
-        navigation=NavigationParameters(),
+        truth=Truth(sensors=SensorParameters(), seed=0),
+        belief=Belief(robot=tinyphoon(), rates=SampleRates(), navigation=NavigationParameters()),
         control=control,
-        seed=0,
     )
 
 
+SLIPPERY, NO_KI = tinyphoon().replace(tyre_friction=0.01), tinyphoon().replace(speed_loop_ki=0.0)
 API_CASES = [
-    ("open", dict(robot=None), "robot"),
-    ("open", dict(robot=tinyphoon().replace(tyre_friction=0.01)), "robot.tyre_friction=0.01"),
-    ("open", dict(robot=tinyphoon().replace(speed_loop_ki=0.0)), "robot.speed_loop_ki=0.0"),
-    ("open", dict(sensor_params=None), "sensor_params"),
-    ("open", dict(rates=None), "rates"),
-    ("open", dict(seed=None), "seed=None"),
-    ("open", dict(seed=-3), "seed=-3"),
-    ("open", dict(initial_speed=math.nan), "initial_speed=nan"),
-    ("open", dict(initial_speed=50.0), "initial_speed=50.0"),
-    ("open", dict(initial_pose=(0.0, math.nan, 0.0)), "initial_pose"),
-    ("open", dict(wheel_speeds=np.full((10, 2), math.nan)), "wheel_speeds"),
-    ("open", dict(wheel_speeds=np.zeros((10, 3))), "wheel_speeds"),
-    ("open", dict(wheel_speeds=np.full((10, 2), 99.0)), "wheel_speeds"),
-    ("open", dict(reference_poses=np.zeros((9, 3))), "reference_poses"),
-    ("open", dict(navigation="ekf"), "navigation"),
-    ("open", dict(plant_time_step=math.nan), "plant_time_step=nan"),
-    ("closed", dict(navigation=None), "navigation"),
-    ("closed", dict(control=None), "control"),
-    ("closed", dict(seed=None), "seed=None"),
-    ("closed", dict(robot=None), "robot"),
+    ("open", "belief", dict(robot=None), "belief.robot"),
+    ("open", "belief", dict(robot=SLIPPERY), "belief.robot.tyre_friction=0.01"),
+    ("open", "belief", dict(robot=NO_KI), "belief.robot.speed_loop_ki=0.0"),
+    ("open", "truth", dict(sensors=None), "truth.sensors"),
+    ("open", "belief", dict(rates=None), "belief.rates"),
+    ("open", "truth", dict(seed=None), "truth.seed=None"),
+    ("open", "truth", dict(seed=-3), "truth.seed=-3"),
+    ("open", "truth", dict(initial_speed=math.nan), "truth.initial_speed=nan"),
+    ("open", "truth", dict(initial_speed=50.0), "truth.initial_speed=50.0"),
+    ("open", "truth", dict(initial_pose=(0.0, math.nan, 0.0)), "truth.initial_pose"),
+    ("open", None, dict(wheel_speeds=np.full((10, 2), math.nan)), "wheel_speeds"),
+    ("open", None, dict(wheel_speeds=np.zeros((10, 3))), "wheel_speeds"),
+    ("open", None, dict(wheel_speeds=np.full((10, 2), 99.0)), "wheel_speeds"),
+    ("open", None, dict(reference_poses=np.zeros((9, 3))), "reference_poses"),
+    ("open", "belief", dict(navigation="ekf"), "belief.navigation"),
+    ("open", "truth", dict(plant_time_step=math.nan), "truth.plant_time_step=nan"),
+    ("open", None, dict(truth=None), "truth must be a Truth"),
+    ("closed", None, dict(belief=None), "belief must be a Belief"),
+    ("closed", "belief", dict(navigation=None), "belief.navigation"),
+    ("closed", None, dict(control=None), "control"),
+    ("closed", "truth", dict(seed=None), "truth.seed=None"),
+    ("closed", "belief", dict(robot=None), "belief.robot"),
 ]
 
 
-@pytest.mark.parametrize("builder, change, message", API_CASES)
-def test_builder_mistake_raises_value_error_naming_the_parameter(builder, change, message):
+@pytest.mark.parametrize("builder, record, change, message", API_CASES)
+def test_builder_mistake_raises_value_error_naming_the_parameter(builder, record, change, message):
+    """A wrong field of the Truth or Belief (``record``) or a wrong argument (None) names itself."""
     inputs = _open_loop_inputs() if builder == "open" else _closed_loop_inputs()
-    inputs.update(change)
+    if record is None:
+        inputs.update(change)
+    else:
+        inputs[record] = dc.replace(inputs[record], **change)
     build = build_open_loop_diagram if builder == "open" else build_closed_loop_diagram
     with pytest.raises(ValueError) as e:
         build(**inputs)

@@ -19,9 +19,9 @@ def _blocks(text: str, language: str) -> list[str]:
     return re.findall(rf"```{language}\n(.*?)```", text, re.S)
 
 
-PYTHON_DOCUMENTS = {"README.md": 1, "docs/python-api.md": 1}
+PYTHON_DOCUMENTS = {"README.md": 1, "docs/python-api.md": 1, "docs/truth-and-belief.md": 1}
 """The documents with Python examples and how many each has: README's three-line example, the worked
-script of docs/python-api.md."""
+scripts of docs/python-api.md and docs/truth-and-belief.md (a Truth and a Belief)."""
 PYTHON_BLOCKS = [
     (document, index)
     for document in PYTHON_DOCUMENTS

@@ -4,6 +4,7 @@ import dataclasses as dc
 
 import numpy as np
 import pytest
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.plain_loop import (
     PLAIN_LOOP_KEYS,
@@ -159,18 +160,11 @@ def assert_diagram_equals_plain_loop(scenario, duration, overrides, changes, see
 def test_plain_loop_rejects_bad_inputs():
     scenario = load_scenario("corner")
     control, v0, _ = closed_loop_settings(scenario, True, "bounded")
-    args = (
-        scenario.robot_parameters(),
-        scenario.sensor_parameters(),
-        scenario.rates(),
-        scenario.navigation,
-        control,
-        0,
-        10,
-    )
-    with pytest.raises(ValueError, match="plant_time_step"):
-        run_plain_loop(*args, plant_time_step=0.0)
+    truth = Truth(sensors=scenario.sensor_parameters(), seed=0)
+    belief = Belief(robot=scenario.robot_parameters(), rates=scenario.rates(), navigation=scenario.navigation)
+    with pytest.raises(ValueError, match="truth.plant_time_step"):
+        run_plain_loop(dc.replace(truth, plant_time_step=0.0), belief, control, 10)
     with pytest.raises(ValueError, match="time_step=0.0003 must divide T_N"):
-        run_plain_loop(*args, plant_time_step=0.0003)
+        run_plain_loop(dc.replace(truth, plant_time_step=0.0003), belief, control, 10)
     with pytest.raises(ValueError, match="noise must have shape"):
-        run_plain_loop(*args, noise=np.zeros((3, 14)))
+        run_plain_loop(truth, belief, control, 10, noise=np.zeros((3, 14)))

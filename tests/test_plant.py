@@ -409,20 +409,19 @@ def test_launch_slip_follows_the_navigations_tyre_model(shoes, acceleration, nav
 def _coast(p, enable, plant_time_step=DEFAULT_TIME_STEP, duration=2.0):
     """Open loop: 1 m/s reached in 0.5 s, held, the table's enable rows (None: the input unconnected)."""
     from slipnav.diagrams.open_loop import build_open_loop_diagram
+    from slipnav.diagrams.records import Belief, Truth
     from slipnav.diagrams.robot import make_simulator
     from slipnav.scenarios.artifact_arrays import collect_arrays
     from slipnav.systems.robot.sensors import SensorParameters
 
     rates = SampleRates()
     table = ramp(1.0, 0.5, duration)
+    truth = Truth(sensors=SensorParameters(), seed=4, plant_time_step=plant_time_step)
     built = build_open_loop_diagram(
-        p,
-        SensorParameters(),
-        rates,
+        truth,
+        Belief(robot=p, rates=rates),
         table,
         np.zeros((len(table), 3)),
-        4,
-        plant_time_step=plant_time_step,
         motor_enable=None if enable is None else enable(len(table)),
     )
     simulator = make_simulator(built.diagram, 4, p.speed_loop_period)

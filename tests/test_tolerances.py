@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 from slipnav.diagrams.closed_loop import build_closed_loop_diagram
+from slipnav.diagrams.records import Belief, Truth
 from slipnav.scenarios.config import BUILTIN_DIR, ScenarioError, load_scenario, scenario_from_yaml
 from slipnav.scenarios.run_plan import closed_loop_settings
 from slipnav.scenarios.runner import run_scenario
@@ -28,17 +29,9 @@ def test_navigation_and_control_read_the_nominal_robot():
     nominal = scenario.robot_parameters()
     plant, sensors, _ = scenario.plant_parameters()
     control, speed, _ = closed_loop_settings(scenario, True, "bounded")
-    built = build_closed_loop_diagram(
-        nominal,
-        sensors,
-        scenario.rates(),
-        scenario.navigation,
-        control,
-        0,
-        initial_speed=speed,
-        plant=plant,
-        log=False,
-    )
+    truth = Truth(sensors=sensors, seed=0, plant=plant, initial_speed=speed)
+    belief = Belief(robot=nominal, rates=scenario.rates(), navigation=scenario.navigation)
+    built = build_closed_loop_diagram(truth, belief, control, log=False)
     assert built.robot.plant.params == plant
     assert plant.radius_R == pytest.approx(1.01 * nominal.wheel_radius)
     assert plant.radius_L == pytest.approx(0.99 * nominal.wheel_radius)
