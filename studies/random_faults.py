@@ -45,6 +45,7 @@ from slipnav.scenarios.metrics import position_error_columns
 from slipnav.studies.engine import Engine
 from slipnav.studies.fault_cases import MEASURED_KEYS
 from slipnav.studies.faults import run_job
+from slipnav.studies.random_faults_report import TARGETS, print_rows, print_summary, write_outputs
 from slipnav.studies.results_file import ResultsFile
 from slipnav.systems.robot.faults import (
     ENCODER_CHANNELS,
@@ -100,14 +101,6 @@ SATURATION_FRACTION = (0.2, 0.9)
 SIGNIFICANT_SIGMAS = 5.0
 SIGNIFICANT_TIME = 0.1
 """A fault is significant when it moves the reading by > 5 noise sigmas for >= 0.1 s."""
-TARGETS = {
-    "detection_s": 0.2,  # every significant fault flagged within 0.2 s of its significant onset
-    "isolation": 0.95,  # share of flagged runs whose first flagged channel is the faulted one alone
-    "false_alarms_per_h": 1.0,  # flag onsets per hour of fault-free driving
-    "better_baseline": 0.95,  # share of runs with fused final error <= the better baseline's
-    "class_ratio": 3.0,  # per class, the mean fused final error / the reference run's
-}
-"""The issue's targets (printed PASS/FAIL; no exit status)."""
 
 
 def _log_uniform(rng, bounds) -> float:
@@ -470,8 +463,6 @@ def random_faults(names, runs: int, stream=None, *, out_dir=None, resume=False, 
                 file.close()
     result = {"rows": rows, "references": references, "summary": summarise(rows, references)}
     wall = time.perf_counter() - start
-    from slipnav.studies.random_faults_report import print_rows, print_summary, write_outputs
-
     print_rows(rows, stream)
     if out_dir is not None:
         write_outputs(out_dir, {"wall_s": wall, "distributions": distributions(), **result}, stream)
