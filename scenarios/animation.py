@@ -35,6 +35,9 @@ import zipfile
 from pathlib import Path as FilePath
 
 import numpy as np
+from pydrake.geometry import Box, Cylinder, Meshcat, MeshcatParams, Rgba, Sphere
+from pydrake.math import RigidTransform, RotationMatrix
+from slipnav.scenarios.artifacts import artifact_stem, check_output_directory
 from slipnav.scenarios.config import ScenarioError
 
 FRAMES_PER_SECOND = 30.0
@@ -137,7 +140,6 @@ def check_fps(fps: float) -> float:
 def check_animation_output(out) -> FilePath:
     """``out`` as a Path when it names an .html file in a writable directory (created if missing); else
     ScenarioError naming --out."""
-    from slipnav.scenarios.artifacts import check_output_directory
 
     out = FilePath(out)
     if out.suffix.lower() not in (".html", ".htm"):
@@ -180,7 +182,6 @@ def wheel_slip_speeds(a: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _rgba(name: str):
-    from pydrake.geometry import Rgba
 
     return Rgba(*COLOURS[name])
 
@@ -188,8 +189,6 @@ def _rgba(name: str):
 def _add_arrow(meshcat, path: str, axis: int, thickness: float, colour: str, X_parent) -> None:
     """An arrow of unit length along ``axis`` (0: x, 1: y) from the origin of ``path``, placed at
     ``X_parent``; its length follows the scale of ``path`` along that axis."""
-    from pydrake.geometry import Box
-    from pydrake.math import RigidTransform
 
     size = [thickness] * 3
     size[axis] = 1.0
@@ -203,8 +202,6 @@ def _add_arrow(meshcat, path: str, axis: int, thickness: float, colour: str, X_p
 def _add_robot(meshcat, path: str, colour: str, b: float, r: float, wheel_arrows: bool) -> None:
     """A robot of track width ``b`` and wheel radius ``r`` (m) at ``path``: body box, white nose, two
     wheels, the side-slip arrow and (``wheel_arrows``) a slip arrow above each wheel."""
-    from pydrake.geometry import Box, Cylinder, Rgba
-    from pydrake.math import RigidTransform, RotationMatrix
 
     height, clearance = 0.4 * b, 0.1 * r
     body_z = clearance + height / 2
@@ -250,7 +247,6 @@ def _record_robot(meshcat, path: str, a: dict, prefix: str, frames, times, gain:
     """The robot at ``path`` in every frame: pose from ``<prefix>_x, _y, _phi``, side-slip arrow from
     ``<prefix>_v_n``, the wheel slip arrows (truth) from wheel_slip_speeds; hidden where the pose is not
     finite."""
-    from pydrake.math import RigidTransform, RotationMatrix
 
     x, y, phi = (a[f"{prefix}_{q}"][frames] for q in ("x", "y", "phi"))
     finite = np.isfinite(x) & np.isfinite(y) & np.isfinite(phi)
@@ -287,7 +283,6 @@ def _camera(meshcat, a: dict) -> None:
 def _loopback_meshcat():
     """A Meshcat server on localhost at a port the operating system picks (its start-up line not logged);
     the server stops when the object is freed."""
-    from pydrake.geometry import Meshcat, MeshcatParams
 
     logger = logging.getLogger("drake")
     level = logger.level
@@ -300,7 +295,6 @@ def _loopback_meshcat():
 
 def _scene(meshcat, a: dict) -> list[str]:
     """The static objects (robots, lines, reference point) into ``meshcat``; returns the robots drawn."""
-    from pydrake.geometry import Sphere
 
     b = float(a["track_width"])
     r = float(a.get("plant_wheel_radius_R", 0.22 * b))
@@ -319,7 +313,6 @@ def _scene(meshcat, a: dict) -> list[str]:
 def animation_html(a: dict, title: str, fps: float = FRAMES_PER_SECOND) -> tuple[str, int, float]:
     """(the HTML page, frames, frames per second) of the run's arrays ``a`` (docs/artifacts.md keys) as a
     Meshcat animation (module docstring), titled ``title``."""
-    from pydrake.math import RigidTransform
 
     frames, fps = frame_samples(a["t"], fps)
     times = (np.arange(len(frames)) + 0.5) / fps  # mid-frame: Meshcat floors time * fps to frame k
@@ -398,7 +391,6 @@ def animate_file(run, out=None, fps: float = FRAMES_PER_SECOND) -> FilePath:
 def write_run_animation(result, out_dir) -> FilePath:
     """``slipnav run --animate``: the run's animation as ``out_dir/<stem>.html`` beside its artifact
     (stem: artifacts.artifact_stem), at FRAMES_PER_SECOND."""
-    from slipnav.scenarios.artifacts import artifact_stem
 
     stem = artifact_stem(result)
     return write_animation(result.arrays, FilePath(out_dir) / f"{stem}.html", stem)

@@ -32,8 +32,10 @@ import math
 from pathlib import Path as FilePath
 
 import numpy as np
+from slipnav.scenarios.artifacts import check_output_directory
 from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.metrics import ESTIMATES
+from slipnav.scenarios.replay import replay_file, write_replay_artifacts
 from slipnav.scenarios.sensor_log import write_text_atomically
 
 TRUTH_COLUMNS = ("t", "x", "y", "yaw", "quality")
@@ -308,7 +310,6 @@ def load_estimates(log, truth_path, model=None, out_dir="runs") -> tuple[str, di
         return path.stem, a, []
     if path.suffix != ".csv":
         raise EvaluationError(f"LOG={str(path)!r}: allowed a sensor log (.csv) or a run or replay npz (.npz)")
-    from slipnav.scenarios.replay import replay_file, write_replay_artifacts
 
     result = replay_file(path, model)
     written = write_replay_artifacts(result, out_dir, figures=False)
@@ -318,7 +319,6 @@ def load_estimates(log, truth_path, model=None, out_dir="runs") -> tuple[str, di
 def evaluate_command(log, truth_path, out_dir="runs", model=None) -> dict:
     """``slipnav evaluate``: check the inputs, replay where needed, evaluate, write, print one line per
     estimate."""
-    from slipnav.scenarios.artifacts import check_output_directory
 
     truth = read_truth(truth_path)
     out = check_output_directory(out_dir)

@@ -22,6 +22,7 @@ import math
 from pathlib import Path as FilePath
 
 import numpy as np
+from slipnav.scenarios.artifacts import check_output_directory
 from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.model import ModelError, RobotModel, load_model, model_text
 from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, write_text_atomically
@@ -125,7 +126,6 @@ def truth_text(table: dict, source: str = "") -> str:
 def write_import(result: ImportResult, out_dir) -> list[FilePath]:
     """``<name>.sensors.csv``, ``<name>.model.yaml`` (slipnav replay's companion), ``<name>.truth.csv`` and
     ``<name>.import.json`` in ``out_dir``, each written atomically."""
-    from slipnav.scenarios.artifacts import check_output_directory
 
     out = check_output_directory(out_dir)
     stem = out / result.name

@@ -16,6 +16,8 @@ import time
 import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, control_offset
 from slipnav.diagrams.records import Belief, Truth
+from slipnav.scenarios.config import with_paper_mode
+from slipnav.scenarios.run_plan import closed_loop_settings
 from slipnav.systems.control.path_follower import (
     bounded_speed,
     check_path_curvature,
@@ -359,8 +361,6 @@ def run_scenario_plain_loop(
     scenario, seed: int, num_steps: int, slip_control=None, speed_law=None, noise=None, timings=None
 ) -> dict:
     """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (same overrides)."""
-    from slipnav.scenarios.config import with_paper_mode
-    from slipnav.scenarios.run_plan import closed_loop_settings
 
     scenario = with_paper_mode(scenario)
     slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
