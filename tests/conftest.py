@@ -1,3 +1,7 @@
+import os
+import shutil
+import tempfile
+
 import matplotlib
 import numpy as np
 import pytest
@@ -48,6 +52,29 @@ SHARED_PROCESS = {
     "tests/test_calibration_session.py": "calibration",
 }
 """Modules that run in one process together: the simulations they share (tests/shared.py)."""
+
+_SHARED_DIR = None
+
+
+def pytest_configure(config):
+    """The session's folder of shared simulations (tests/shared.py), made by the process that starts the
+    session; pytest-xdist's workers inherit its name through the environment."""
+    global _SHARED_DIR
+    from tests.shared import SHARED_DIR_VARIABLE
+
+    if not hasattr(config, "workerinput") and SHARED_DIR_VARIABLE not in os.environ:
+        _SHARED_DIR = tempfile.mkdtemp(prefix="slipnav-tests-")
+        os.environ[SHARED_DIR_VARIABLE] = _SHARED_DIR
+
+
+def pytest_unconfigure(config):
+    global _SHARED_DIR
+    if _SHARED_DIR is not None:
+        from tests.shared import SHARED_DIR_VARIABLE
+
+        os.environ.pop(SHARED_DIR_VARIABLE, None)
+        shutil.rmtree(_SHARED_DIR, ignore_errors=True)
+        _SHARED_DIR = None
 
 
 @pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: without xdist the suite runs in one process
