@@ -16,7 +16,7 @@ from html.parser import HTMLParser
 import msgpack
 import numpy as np
 import pytest
-from slipnav.scenarios import animation
+from slipnav.scenarios import animation, runner
 from slipnav.scenarios.animation import (
     FRAMES_PER_SECOND,
     MAX_FRAMES,
@@ -28,6 +28,8 @@ from slipnav.scenarios.animation import (
 )
 from slipnav.scenarios.cli import main
 
+from tests.shared import shared_runs
+
 DURATION = 3.0
 """s of the corner: 1 s standstill, then 2 s driving into the corner."""
 FRAMES = math.ceil(DURATION * FRAMES_PER_SECOND) + 1
@@ -38,7 +40,8 @@ def corner(tmp_path_factory):
     """A short corner run written with --animate: (npz path, html path)."""
     out = tmp_path_factory.mktemp("animate")
     argv = ["run", "corner", "--duration", str(DURATION), "--no-figures", "--animate", "--out", str(out)]
-    assert main(argv) == 0
+    with shared_runs(runner):  # test_paper_mode's 3 s default corner (tests/shared.py)
+        assert main(argv) == 0
     return out / "corner-seed0.npz", out / "corner-seed0.html"
 
 
