@@ -53,6 +53,28 @@ SHARED_PROCESS = {
 }
 """Modules that run in one process together: the simulations they share (tests/shared.py)."""
 
+SLOW_UNITS = {
+    "tests/test_faults.py": 86,
+    "calibration": 55,
+    "tests/test_reproduce.py": 31,
+    "tests/test_robustness.py": 27,
+    "tests/test_navigation.py": 24,
+    "tests/test_cli.py": 23,
+    "tests/test_error_budget.py": 22,
+    "tests/test_plain_loop.py": 22,
+    "tests/test_control.py": 19,
+    "tests/test_yaw_calibration.py": 17,
+    "tests/test_tyre_peak.py": 15,
+    "tests/test_standstill.py": 13,
+    "tests/test_perturbation_monitor.py": 13,
+    "tests/test_sensor_log.py": 11,
+    "tests/test_plots.py": 10,
+    "tests/test_artifacts.py": 10,
+}
+"""The units of work that take longest (seconds on the 2-core machine, measured; an order, not a
+budget). They go out first, largest first, so that the last units to run are short and the two
+processes finish together; the others follow by their number of tests (xdist's loadscope)."""
+
 _SHARED_DIR = None
 
 
@@ -81,14 +103,26 @@ def pytest_unconfigure(config):
 def pytest_xdist_make_scheduler(config, log):
     """pytest-xdist (README's ``-n 2``): each module is a unit of work that one process runs, so that its
     module-scoped fixtures run once, and the modules of SHARED_PROCESS are one unit. (xdist's loadgroup
-    would do this with marks, but pytest 9.2's node ids break it: pytest-xdist issue 1386.) The units go
-    out the ones with the most tests first (xdist's loadscope)."""
+    would do this with marks, but pytest 9.2's node ids break it: pytest-xdist issue 1386.) The units of
+    SLOW_UNITS go out first, the longest first; then the others, the ones with the most tests first
+    (xdist's loadscope)."""
+    from collections import OrderedDict
+
     from xdist.scheduler import LoadScopeScheduling
 
     class ModuleScheduling(LoadScopeScheduling):
+        _ordered = False
+
         def _split_scope(self, nodeid: str) -> str:
             module = nodeid.split("::", 1)[0]
             return SHARED_PROCESS.get(module, module)
+
+        def _assign_work_unit(self, node) -> None:
+            if not self._ordered:  # the queue is complete before the first unit goes out
+                units = sorted(self.workqueue.items(), key=lambda unit: -SLOW_UNITS.get(unit[0], 0))
+                self.workqueue = OrderedDict(units)  # stable: the others keep loadscope's order
+                self._ordered = True
+            super()._assign_work_unit(node)
 
     return ModuleScheduling(config, log)
 
