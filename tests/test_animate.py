@@ -26,7 +26,10 @@ from slipnav.scenarios.animation import (
     load_run,
     wheel_slip_speeds,
 )
+from slipnav.studies import cli
 from slipnav.studies.cli import main
+
+from tests.shared import shared_runs
 
 DURATION = 3.0
 """s of the corner: 1 s standstill, then 2 s driving into the corner."""
@@ -38,7 +41,8 @@ def corner(tmp_path_factory):
     """A short corner run written with --animate: (npz path, html path)."""
     out = tmp_path_factory.mktemp("animate")
     argv = ["run", "corner", "--duration", str(DURATION), "--no-figures", "--animate", "--out", str(out)]
-    assert main(argv) == 0
+    with shared_runs(cli):  # test_paper_mode's 3 s default corner (tests/shared.py)
+        assert main(argv) == 0
     return out / "corner-seed0.npz", out / "corner-seed0.html"
 
 

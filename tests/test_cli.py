@@ -6,8 +6,11 @@ import numpy as np
 import pytest
 from slipnav.scenarios.artifact_arrays import SCALAR_KEYS, SERIES_KEYS
 from slipnav.scenarios.config import builtin_scenarios
+from slipnav.studies import cli
 from slipnav.studies.cli import COMMANDS, main
 from slipnav.studies.cli_parser import build_parser
+
+from tests.shared import shared_runs
 
 SUMMARY_KEYS = {
     "scenario",
@@ -79,7 +82,8 @@ def test_every_scenario_runs_and_honours_the_artifact_contract(name, tmp_path, c
 
 def test_corner_slides_sideways_and_square_spins_wheels_open_loop(tmp_path):
     """Issue 2's done-criterion: visible side-slip in the corner, tangential slip in the square."""
-    assert main(["run", "corner", "--out", str(tmp_path), "--no-figures", "--open-loop"]) == 0
+    with shared_runs(cli):  # the open corner, shared (tests/shared.py)
+        assert main(["run", "corner", "--out", str(tmp_path), "--no-figures", "--open-loop"]) == 0
     corner = json.loads((tmp_path / "corner-seed0-open-loop.summary.json").read_text())
     assert corner["peak_abs_true_alpha_deg"] > 5.0
     assert corner["completion_time_s"] is not None

@@ -34,7 +34,7 @@ from slipnav.systems.control.slip_control import (
     step_size,
 )
 
-from tests.shared import scenario_frenet_errors, scenario_run
+from tests.shared import scenario_frenet_errors, scenario_result, scenario_run
 
 # --- Indiveri I(11)-(24) -------------------------------------------------------------------------------
 
@@ -410,7 +410,7 @@ def test_corner_slip_control_reduces_side_slip_and_catches_up():
     scenario = load_scenario("corner")
     assert scenario.slip_control_enabled  # the default run is the one with slip control (tests/shared.py)
     on = scenario_run("corner")
-    off = run_scenario(scenario, slip_control=False)
+    off = scenario_result(scenario, slip_control=False)  # reproduce's corner_no_sc as well (shared)
     assert on.summary["peak_abs_true_alpha_deg"] <= 0.7 * off.summary["peak_abs_true_alpha_deg"]
     assert on.summary["path_error_rms_m"] < off.summary["path_error_rms_m"]
     a = on.arrays
@@ -426,7 +426,7 @@ def test_corner_slip_control_reduces_side_slip_and_catches_up():
 
 
 def test_square_tangential_slip_reduces_step_size():
-    result = run_scenario(load_scenario("square"), duration=2.5)
+    result = scenario_run("square", duration=2.5)  # test_slide_onset's too (tests/shared.py)
     a = result.arrays
     slipping = np.abs(0.5 * (a["true_wheel_R"] + a["true_wheel_L"]) - a["true_v_t"]) > 0.15
     assert slipping.any()
@@ -468,7 +468,6 @@ def test_the_follower_localises_by_the_selected_source():
     own lag (~1.2 cm); by odometry-only it ends where the odometry believes the end is, so the true
     miss is the odometry's final error (6.7 cm) within that lag."""
     from slipnav.scenarios.config import load_scenario
-    from slipnav.scenarios.runner import run_scenario
 
     scenario = load_scenario("corner")
     truth = run_scenario(scenario, localisation="truth").summary

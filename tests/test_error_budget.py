@@ -20,7 +20,7 @@ from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.cli import main
 from slipnav.studies.error_budget import FIGURES, POSITION_FIGURES, VARIANTS, error_budget_of_run, replay
 
-from tests.shared import scenario_run
+from tests.shared import scenario_result, scenario_run
 
 
 @pytest.fixture(scope="module")
@@ -123,7 +123,7 @@ def test_c1_oracle_and_the_summed_dv_on_the_square():
     length = float(a["path_length"])
     paper = navigation_figures(a)
     scenario.navigation = summed_dv
-    b = run_scenario(scenario, seed=0).arrays
+    b = scenario_result(scenario, seed=0).arrays  # the default square, shared (tests/shared.py)
     summed = navigation_figures(b)
     assert summed["slip_detected"] == summed["slip_episodes"] >= 5
     assert summed["max_latency_T_C"] < 0.5

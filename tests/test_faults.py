@@ -14,6 +14,7 @@ from slipnav.scenarios.metrics import (
     rms_position_error,
 )
 from slipnav.scenarios.runner import run_scenario
+from slipnav.studies import faults as fault_study
 from slipnav.studies.fault_cases import (
     NULL_FAULT_BIAS,
     fault_cases,
@@ -48,6 +49,8 @@ from slipnav.systems.robot.dynamics import plant_derivatives, plant_substep
 from slipnav.systems.robot.faults import FaultEvent, apply_sensor_faults, plant_disturbance
 from slipnav.systems.robot.parameters import kurt3d, tinyphoon
 from slipnav.systems.robot.sensors import accelerometer_truth
+
+from tests.shared import scenario_result, scenario_run, shared_runs
 
 T_N = 0.002
 R, B = 0.015, 0.068
@@ -902,7 +905,7 @@ def test_a_wheel_held_by_hand_is_not_an_encoder_fault():
 
 @pytest.fixture(scope="module")
 def corner_clean():
-    return run_scenario(load_scenario("corner")).arrays
+    return scenario_run("corner").arrays  # the default corner, shared (tests/shared.py)
 
 
 @pytest.mark.parametrize(
@@ -952,7 +955,7 @@ def test_closed_loop_frozen_gyro_at_turn_in_costs_a_tenth_of_trusting_it():
 
 
 def test_fault_cases_and_the_report_line():
-    clean = run_scenario(load_scenario("corner"), duration=2.0).arrays
+    clean = scenario_run("corner", duration=2.0).arrays  # shared with the next test (tests/shared.py)
     cases = fault_cases(clean)
     assert len(cases) == 5 * 7 + 2 * 6
     assert all(c["start"] >= float(clean["start_time"]) for c in cases)
@@ -983,7 +986,7 @@ def test_selected_faults_and_the_over_seeds_ratio(capsys):
     error over the fault-free runs' mean per channel and class (by hand: (4 + 10) / (1 + 6) = 2)."""
     from slipnav.studies.cli import main
 
-    cases = fault_cases(run_scenario(load_scenario("corner"), duration=2.0).arrays)
+    cases = fault_cases(scenario_run("corner", duration=2.0).arrays)
     chosen = select_cases(cases, ["gyro"], ["nan", "bias"])
     assert [(c["channel"], c["kind"]) for c in chosen] == [("gyro", "nan"), ("gyro", "bias")]
     assert select_cases(cases) == cases
@@ -1425,9 +1428,9 @@ def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
     """``slipnav faults --open-loop``: the trajectory's wheel speeds are fed forward, so a sensor fault
     changes the estimate but not one sample of the true path; run_fault takes the job's open_loop."""
     scenario = load_scenario("corner")
-    clean = run_scenario(scenario, seed=0, open_loop=True).arrays
+    clean = scenario_run("corner", seed=0, open_loop=True).arrays  # shared (tests/shared.py)
     event = FaultEvent("nan", "gyro", 2.2, 0.5)
-    faulty = run_scenario(scenario, seed=0, open_loop=True, faults=[event]).arrays
+    faulty = scenario_result(scenario, seed=0, open_loop=True, faults=[event]).arrays
     for key in ("true_x", "true_y", "true_phi"):
         np.testing.assert_array_equal(faulty[key], clean[key])
     assert not np.array_equal(faulty["est_phi"], clean["est_phi"])
@@ -1444,7 +1447,8 @@ def test_open_loop_faults_keep_the_path_and_judge_the_estimate_alone():
         "clean_fused_error_m": final_position_error(clean, "est"),
         "clean_fused_run_rms_m": rms_position_error(clean, "est", POSE_DELAY_SAMPLES),
     }
-    figures = run_fault(job)
+    with shared_runs(fault_study):  # the faulted run above, if run_fault runs the same (tests/shared.py)
+        figures = run_fault(job)
     assert figures["detected"] and figures["latency_s"] == 0.0
     assert figures["fused_error_m"] == pytest.approx(final_position_error(faulty, "est"), rel=1e-12)
     # The RMS over the run counts the heading the outage cost on the rest of the path; against the truth

@@ -22,6 +22,8 @@ from slipnav.systems.navigation.parameters import NavigationParameters, health_g
 from slipnav.systems.navigation.slip_detector import slip_detector_batch_end, slip_detector_step
 from slipnav.systems.navigation.yaw_calibration import calibrated_gyro, calibrated_odometry
 
+from tests.shared import scenario_result
+
 T_N = 0.002
 PAPER = paper_mode(load_scenario("corner"))
 
@@ -188,12 +190,11 @@ def test_s22_reads_c1_and_alpha_of_the_same_instant():
     at t_K (logged from row k + 1 on; row k holds C1_K-1, alpha_K-1). Corner, closed loop, 3 s: every
     delta_K of paper mode is S(22) of C1_K and alpha_K to the last bit, and misses it with C1_K-1,
     alpha_K-1 (slip control acts: the step size is cut); the default reads C1_K-1, alpha_K-1."""
-    from slipnav.scenarios.runner import run_scenario
     from slipnav.systems.control.slip_control import step_size
 
     def misses(scenario):
         """Largest |logged delta_K - S(22)| with the inputs of row k + 1 (this batch) and of row k."""
-        a, p = run_scenario(scenario, duration=3.0).arrays, scenario.slip_control
+        a, p = scenario_result(scenario, duration=3.0).arrays, scenario.slip_control  # shared: animate's
         k0 = round(float(a["start_time"]) / T_N)
         rows = range(k0, len(a["t"]) - 1, 10)
         worst = {0: 0.0, 1: 0.0}
@@ -279,7 +280,7 @@ def test_paper_effects_reports_final_rms_and_max_position_error(monkeypatch, cap
     from slipnav.scenarios.metrics import position_errors_in_percent
     from slipnav.studies import paper_effects as study
 
-    real_run, arrays = study.run_scenario, {}
+    real_run, arrays = scenario_result, {}  # the runs, shared (tests/shared.py)
 
     def run(scenario, **kwargs):
         result = real_run(scenario, **kwargs)

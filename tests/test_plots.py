@@ -8,8 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from slipnav.scenarios import plots
-from slipnav.scenarios.config import load_scenario
-from slipnav.scenarios.runner import run_scenario, write_artifacts
+from slipnav.scenarios.runner import write_artifacts
 
 from tests.shared import scenario_run
 
@@ -21,7 +20,7 @@ def corner():
 
 @pytest.fixture(scope="module")
 def corner_open():
-    return run_scenario(load_scenario("corner"), open_loop=True)
+    return scenario_run("corner", open_loop=True)
 
 
 @pytest.fixture(scope="module")

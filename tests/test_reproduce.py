@@ -16,11 +16,12 @@ from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.run_plan import follower_path
 from slipnav.studies import reproduce as rp
 from slipnav.studies import reproduce_measures as measures
+from slipnav.studies import reproduce_runs
 from slipnav.studies.cli import main
 from slipnav.systems.navigation.mixing.parameters import MixingParameters
 from slipnav.systems.navigation.mixing.weights import logsig
 
-from tests.shared import scenario_run
+from tests.shared import scenario_result, scenario_run
 
 KEYS = [
     "seyr-fig4",
@@ -64,6 +65,7 @@ def quick(tmp_path_factory):
     printed = io.StringIO()
     with pytest.MonkeyPatch.context() as m, contextlib.redirect_stdout(printed):
         m.setattr(rp, "make_runs", keep)
+        m.setattr(reproduce_runs, "run_scenario", scenario_result)  # corner's runs, shared (tests/shared.py)
         assert main(["reproduce", "--quick", "--out", str(out)]) == 0
     return out / "reproduce", printed.getvalue(), made
 

@@ -8,12 +8,15 @@ from slipnav.scenarios.config import ScenarioError
 from slipnav.studies import robustness as study
 from slipnav.studies.cli import main
 
+from tests.shared import shared_runs
+
 
 def test_cases_change_the_plant_only_and_the_last_line_summarises(monkeypatch, tmp_path):
     cases = {"matched": study.CASES["matched"], "right radius +1 %": study.CASES["right radius +1 %"]}
     monkeypatch.setattr(study, "CASES", cases)
     stream = io.StringIO()
-    rows = study.robustness(["corner"], 1, workers=0, out_dir=tmp_path, stream=stream)
+    with shared_runs(study):  # matched: the default corner; +1 %: test_yaw_calibration's (tests/shared.py)
+        rows = study.robustness(["corner"], 1, workers=0, out_dir=tmp_path, stream=stream)
     matched, right = rows
     # the right wheel's +1 % wrecks plain odometry's heading (0.23 rad/s at 1.6 m/s), not the fusion's
     assert right["odometry_pct"] > 3 * matched["odometry_pct"]  # measured 14.5 % against 3.1 %

@@ -19,6 +19,8 @@ from slipnav.systems.navigation.mixing.slide_onset import (
 from slipnav.systems.navigation.parameters import NavigationParameters, check_slide_onset, health_geometry
 from slipnav.systems.robot.sensors import default_sensor_parameters
 
+from tests.shared import scenario_run
+
 T_N = 0.002
 P = MixingParameters(slide_onset_jump=0.05)  # Tinyphoon's (the default is off)
 ARMED = (0, 0, 1.0)  # released, armed, previous odometric v_t 1 m/s
@@ -177,7 +179,7 @@ def test_the_diagram_runs_the_test_when_it_is_on():
     square = with_keys(load_scenario("square"), {"navigation.mixing.slide_onset_jump": 0.05})
     a = run_scenario(square, duration=2.5).arrays
     assert 50 < np.sum(a["slide_onset"]) < 0.5 * len(a["slide_onset"])
-    assert not np.any(run_scenario(load_scenario("square"), duration=2.5).arrays["slide_onset"])
+    assert not np.any(scenario_run("square", duration=2.5).arrays["slide_onset"])  # shared: tests/shared.py
 
 
 def test_slide_onset_parameters_are_checked_at_construction():

@@ -23,6 +23,8 @@ from slipnav.systems.navigation.yaw_calibration import (
 )
 from slipnav.systems.robot.faults import FaultEvent
 
+from tests.shared import scenario_result
+
 T_N, N_BATCH, TRACK = 0.002, 10, 0.068
 
 
@@ -257,7 +259,7 @@ def test_radius_difference_and_bias_converge_on_the_corner(right_wheel):
     (with +1 %: Gyrodometry 2.9 %, fused 0.7 %; before the calibration: fused 8.9 %)."""
     scenario = load_scenario("corner")
     scenario.plant.deviations.wheel_radius_R = right_wheel
-    a = run_scenario(scenario, seed=0).arrays
+    a = scenario_result(scenario, seed=0).arrays  # shared (tests/shared.py): 0 is the default corner
     true_difference = float(a["plant_wheel_radius_R"] / a["plant_wheel_radius_L"]) - 1.0
     one_second = np.searchsorted(a["t"], 1.0)
     D, sigma = a["est_radius_difference"][one_second], a["est_radius_difference_std"][one_second]
