@@ -59,7 +59,8 @@ def export_diagram(name: str, out, scenario_name: str = "corner") -> FilePath:
             "(Debian: apt-get install graphviz); a .dot file needs nothing"
         )
     diagram = named_diagram(name, scenario_name)
-    dot_source = readable_dot(diagram, diagram.GetGraphvizString(max_depth=2))
+    rates = load_scenario(scenario_name).rates()
+    dot_source = readable_dot(diagram, diagram.GetGraphvizString(max_depth=2), rates)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         if out.suffix == ".dot":

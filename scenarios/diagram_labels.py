@@ -94,24 +94,25 @@ def rate_groups(diagram, dot: str) -> dict:
     return dict(groups)
 
 
-def _rate_label(period: float, fastest: float) -> str:
-    name = "T_N" if period == fastest else "T_C" if period > fastest else "T"
-    return f"every {name} = {1000.0 * period:g} ms"
+def rate_label(period: float, rates) -> str:
+    """'every T_N = 2 ms', 'every T_C = 20 ms' for the ``rates``' periods (SampleRates), else 'every
+    P ms'."""
+    name = {rates.T_N: "T_N = ", rates.T_C: "T_C = "}.get(period, "")
+    return f"every {name}{1000.0 * period:g} ms"
 
 
-def readable_dot(diagram, dot: str) -> str:
+def readable_dot(diagram, dot: str, rates) -> str:
     """``dot`` (diagram.GetGraphvizString()) with the demultiplexers' slices named (signal_names) and the
-    periodic blocks framed by rate (rate_groups): the fastest period is labelled T_N, slower ones T_C."""
+    periodic blocks framed by rate (rate_groups), each frame named by rate_label with ``rates``."""
     dot = _rename_slices(dot, signal_names(dot))
     groups = rate_groups(diagram, dot)
     if not groups:
         return dot
-    fastest = min(groups)
     frames = []
     for k, period in enumerate(sorted(groups)):
         members = "; ".join(sorted(groups[period], key=lambda s: int(s[1:])))
         frames.append(
-            f'subgraph cluster_rate_{k} {{\nlabel="{_rate_label(period, fastest)}"\nstyle=dashed\n'
+            f'subgraph cluster_rate_{k} {{\nlabel="{rate_label(period, rates)}"\nstyle=dashed\n'
             f"color=gray40\n{members};\n}}"
         )
     opening = re.search(r"^subgraph cluster\d+subsystems \{\n", dot, re.M)  # the frames go inside it

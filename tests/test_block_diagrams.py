@@ -5,7 +5,7 @@ import shutil
 
 import pytest
 from slipnav.scenarios.block_diagrams import export_diagram
-from slipnav.scenarios.config import ScenarioError
+from slipnav.scenarios.config import ScenarioError, load_scenario
 from slipnav.studies.cli import main
 
 PAPER_NAMES = {
@@ -91,6 +91,17 @@ def test_the_navigation_diagram_names_its_signals_and_frames_its_rates(tmp_path)
 
 
 
+def test_a_frame_is_named_by_the_scenarios_rates(tmp_path):
+    """The control diagram's blocks run every T_C alone: their frame reads T_C, not the fastest period's
+    name; a period that is neither T_N nor T_C reads in ms."""
+    from slipnav.scenarios.diagram_labels import rate_label
+
+    text = export_diagram("control", tmp_path / "control.dot").read_text()
+    assert 'label="every T_C = 20 ms"' in text and "every T_N" not in text
+    rates = load_scenario("corner").rates()
+    assert rate_label(0.0005, rates) == "every 0.5 ms" and rate_label(0.002, rates) == "every T_N = 2 ms"
+
+
 def test_the_closed_loop_figure_in_the_docs_is_the_current_diagram():
     """docs/images/closed_loop.svg (made by `slipnav diagram closed_loop --out docs/images/closed_loop.svg`)
     draws every block and every named slice of the closed loop as the code builds it today."""
@@ -101,7 +112,7 @@ def test_the_closed_loop_figure_in_the_docs_is_the_current_diagram():
     from slipnav.scenarios.diagram_labels import drawn_blocks, readable_dot
 
     diagram = named_diagram("closed_loop")
-    text = readable_dot(diagram, diagram.GetGraphvizString(max_depth=2))
+    text = readable_dot(diagram, diagram.GetGraphvizString(max_depth=2), load_scenario("corner").rates())
     figure = html.unescape((Path(__file__).parents[1] / "docs" / "images" / "closed_loop.svg").read_text())
     for kind, name, ports in drawn_blocks(text).values():
         assert f"name={name}" in figure, (kind, name)
