@@ -116,11 +116,10 @@ def clip_returns(ring, base: int, position: int, x: float, quantum: float, p) ->
     A quantised channel (one count ``quantum`` > 0) returns to its largest level by its own noise while
     its readings span few counts: 0 unless the magnitudes read since the last larger one reach
     CLIP_MIN_COUNTS counts below |x|."""
-    if quantum > 0.0:
-        return clip_returns_quantised(ring, base, position, x, quantum, p)
     tol = p.stuck_tolerance
     magnitude = abs(x)
     larger = magnitude + tol  # a reading beyond it ends the search
+    lowest = magnitude
     runs, newer_at = 1, True  # this reading is at its own magnitude
     for j in range(1, p.clip_window):
         y = abs(ring[base + (position - j) % CLIP_WINDOW_MAX])
@@ -128,29 +127,8 @@ def clip_returns(ring, base: int, position: int, x: float, quantum: float, p) ->
             continue
         if y > larger:
             break
-        at = abs(y - magnitude) <= tol
-        if at and not newer_at:
-            runs += 1
-        newer_at = at
-    return runs
-
-
-@jitable
-def clip_returns_quantised(ring, base: int, position: int, x: float, quantum: float, p) -> int:
-    """clip_returns of a channel with one count ``quantum`` > 0: its returns to |x| count only once the
-    readings since the last larger one reach CLIP_MIN_COUNTS counts below |x|."""
-    tol = p.stuck_tolerance
-    magnitude = abs(x)
-    larger = magnitude + tol
-    lowest = magnitude
-    runs, newer_at = 1, True
-    for j in range(1, p.clip_window):
-        y = abs(ring[base + (position - j) % CLIP_WINDOW_MAX])
-        if not math.isfinite(y):
-            continue
-        if y > larger:
-            break
-        lowest = min(lowest, y)
+        if y < lowest:
+            lowest = y
         at = abs(y - magnitude) <= tol
         if at and not newer_at:
             runs += 1
