@@ -68,7 +68,7 @@ def checks_off(s, raw) -> tuple:
 def analog_checks(s, raw, bias: float, codes, p) -> None:
     """Writes codes[0:5] (module docstring, 1-4; ``inconsistent`` while a hold stands), the repeat counts,
     the last readings and the clip ring; ``bias``: the calibration's b_g; ``p``: HealthConstants."""
-    stuck_repeats = p.stuck_samples - 1 + math.ceil(p.inertial_hold_time / p.T_N - 1e-9)
+    stuck_repeats = p.stuck_samples - 1 + hold_samples(p.inertial_hold_time, p.T_N)
     reference = s[ANALOG_REFERENCE]
     last = s[ANALOG_LAST]
     repeats = s[ANALOG_REPEATS]
@@ -134,6 +134,13 @@ def clip_returns(ring, base: int, position: int, x: float, quantum: float, p) ->
             runs += 1
         newer_at = at
     return runs if magnitude - lowest >= CLIP_MIN_COUNTS * quantum else 0
+
+
+@jitable
+def hold_samples(hold_time: float, T_N: float) -> int:
+    """The samples a stream's longest healthy hold ``hold_time`` (s) spans at T_N: the repeats a stuck
+    test allows beyond its own count."""
+    return math.ceil(hold_time / T_N - 1e-9)
 
 
 @jitable

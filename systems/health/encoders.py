@@ -26,6 +26,7 @@ v_R - v_L = b (gyro - b_g) - D v_o (systems/navigation/yaw_calibration.py).
 import math
 
 from slipnav.systems.compiled import jitable
+from slipnav.systems.health.analog import channel_present, hold_samples
 from slipnav.systems.health.layout import (
     ENCODER_BLOCK_COUNT,
     ENCODER_BLOCK_DIFFERENCE,
@@ -157,8 +158,8 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
     suspect = s[ENCODER_SUSPECT]
     radii = (g.radius_R, g.radius_L)
     # the body's deceleration from the healthy tangential accelerometers present (NaN if none is)
-    first_ok = codes[0] == 0 and g.accelerometer_sets >= 1
-    second_ok = codes[2] == 0 and g.accelerometer_sets == 2
+    first_ok = codes[0] == 0 and channel_present(0, g.accelerometer_sets)
+    second_ok = codes[2] == 0 and channel_present(2, g.accelerometer_sets)
     a_body = math.nan
     if first_ok and second_ok:
         a_body = 0.5 * (raw[0] + raw[2])
@@ -178,7 +179,7 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
             v_other = abs(inc[1 - w]) * radii[1 - w] / g.T_N
             mean_predicted = still_predicted_abs[w] * radii[w] / (still[w] * g.T_N)
             if (
-                still[w] >= p.stuck_samples + math.ceil(g.encoder_hold_time / g.T_N - 1e-9)
+                still[w] >= p.stuck_samples + hold_samples(g.encoder_hold_time, g.T_N)
                 and mean_predicted > p.stuck_min_speed + p.stuck_speed_fraction * v_other
             ):
                 codes[FIRST_ENCODER + w], suspect[w] = STUCK, 1.0
