@@ -34,9 +34,9 @@ from pathlib import Path as FilePath
 import numpy as np
 from slipnav.scenarios.artifacts import check_output_directory
 from slipnav.scenarios.config import ScenarioError
+from slipnav.scenarios.files import write_text_atomically
 from slipnav.scenarios.metrics import ESTIMATES
 from slipnav.scenarios.replay import replay_file, write_replay_artifacts
-from slipnav.scenarios.sensor_log import write_text_atomically
 
 TRUTH_COLUMNS = ("t", "x", "y", "yaw", "quality")
 RPE_DISTANCE = 1.0

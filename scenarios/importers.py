@@ -24,8 +24,9 @@ from pathlib import Path as FilePath
 import numpy as np
 from slipnav.scenarios.artifacts import check_output_directory
 from slipnav.scenarios.config import ScenarioError
+from slipnav.scenarios.files import write_text_atomically
 from slipnav.scenarios.model import ModelError, RobotModel, load_model, model_text
-from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks, write_text_atomically
+from slipnav.scenarios.sensor_log import SensorLog, sensor_log_chunks
 
 RESAMPLING = ("interpolate", "hold")
 HOLD_MARGIN = 2.0

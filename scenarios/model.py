@@ -21,7 +21,7 @@ import math
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
-from slipnav.scenarios.sensor_log import write_text_atomically
+from slipnav.scenarios.files import write_text_atomically
 from slipnav.scenarios.typed_yaml import ScenarioError, check_schema, load_yaml
 from slipnav.systems.checks import check_robot_physics
 from slipnav.systems.navigation.parameters import NavigationParameters
@@ -176,5 +176,5 @@ def model_text(model: RobotModel) -> str:
 
 
 def write_model(model: RobotModel, path) -> FilePath:
-    """Write ``model`` to ``path`` atomically (sensor_log.write_text_atomically)."""
+    """Write ``model`` to ``path`` atomically (files.write_text_atomically)."""
     return write_text_atomically(path, [model_text(model)])

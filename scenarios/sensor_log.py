@@ -28,11 +28,10 @@ from __future__ import annotations
 import csv
 import dataclasses as dc
 import math
-import os
-import tempfile
 from pathlib import Path as FilePath
 
 import numpy as np
+from slipnav.scenarios.files import write_text_atomically
 from slipnav.scenarios.progress import TaskProgress
 from slipnav.systems.rates import SampleRates
 
@@ -302,14 +301,36 @@ def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
         SensorLogError naming the column, the row and the line.
     """
     path = FilePath(path)
+    records = _read_records(path)
+    columns = _parse_columns(records, path)
+    T_N = _navigation_period(records.metadata, T_N, path)
+    check_time(columns["t"], T_N, path, records.lines)
+    return SensorLog(columns=columns, metadata=records.metadata)
+
+
+@dc.dataclass
+class _Records:
+    """A log's text split: metadata, the header (and its line) and the data rows with their lines."""
+
+    metadata: dict = dc.field(default_factory=dict)
+    header: list[str] | None = None
+    header_line: int = 0
+    rows: list[list[str]] = dc.field(default_factory=list)
+    lines: list[int] = dc.field(default_factory=list)
+
+
+def _blank(record: list[str]) -> bool:
+    return not record or (len(record) == 1 and not record[0].strip())
+
+
+def _read_records(path: FilePath) -> _Records:
+    """The CSV records of ``path``: comments before the header as metadata, then the header and the rows
+    (blank lines skipped); progress on stderr by the megabytes read."""
     try:
         handle = open(path, newline="", encoding="utf-8")  # noqa: SIM115 (closed below)
     except OSError as e:
         raise SensorLogError(f"sensor log {str(path)!r} cannot be read: {e.strerror or e}") from None
-    metadata: dict = {}
-    header = None
-    rows: list[list[str]] = []
-    lines: list[int] = []
+    records = _Records()
     size = path.stat().st_size / 1e6
     progress = TaskProgress(size, f"slipnav: reading {path.name}", "MB")
     read = [0]
@@ -326,44 +347,55 @@ def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
         with handle, progress:
             reader = csv.reader(counted(handle))
             for record in reader:
-                line = reader.line_num
-                if header is None:
-                    if not record or (len(record) == 1 and not record[0].strip()):
-                        continue
-                    first = record[0].lstrip()
-                    if first.startswith("#"):
-                        text = ",".join(record).lstrip()[1:]
-                        key, sep, value = text.partition(":")
-                        if sep and key.strip() in METADATA_KEYS:
-                            metadata[key.strip()] = _metadata_value(key.strip(), value.strip(), path, line)
-                        continue
-                    _check_header(record, path, line)
-                    header = [h.strip() for h in record]
-                    header_line = line
+                if _blank(record):
                     continue
-                if not record or (len(record) == 1 and not record[0].strip()):
-                    continue  # blank line
-                rows.append(record)
-                lines.append(line)
+                if records.header is None:
+                    _read_preamble(record, reader.line_num, records, path)
+                    continue
+                records.rows.append(record)
+                records.lines.append(reader.line_num)
             progress.update(size)
     except UnicodeDecodeError as e:
         raise SensorLogError(f"sensor log {str(path)!r} is not UTF-8 text (offset {e.start})") from None
     except csv.Error as e:
         raise SensorLogError(f"sensor log {str(path)!r} is not valid CSV: {e}") from None
-    if header is None:
+    if records.header is None:
         raise SensorLogError(
             f"sensor log {str(path)!r} has no header row: allowed '{','.join(REQUIRED_COLUMNS)}' (+ optional)"
         )
-    data = np.empty((len(rows), len(header)))
-    for i, (record, line) in enumerate(zip(rows, lines, strict=True)):
+    return records
+
+
+def _read_preamble(record: list[str], line: int, records: _Records, path: FilePath) -> None:
+    """A record before the header: a ``# key: value`` comment (known keys kept) or the header itself."""
+    if record[0].lstrip().startswith("#"):
+        key, sep, value = ",".join(record).lstrip()[1:].partition(":")
+        if sep and key.strip() in METADATA_KEYS:
+            records.metadata[key.strip()] = _metadata_value(key.strip(), value.strip(), path, line)
+        return
+    _check_header(record, path, line)
+    records.header = [h.strip() for h in record]
+    records.header_line = line
+
+
+def _parse_columns(records: _Records, path: FilePath) -> dict[str, np.ndarray]:
+    """Every cell parsed (a row with another number of cells than the header is an error), by column."""
+    header = records.header
+    data = np.empty((len(records.rows), len(header)))
+    for i, (record, line) in enumerate(zip(records.rows, records.lines, strict=True)):
         if len(record) != len(header):
             raise SensorLogError(
                 f"{_where(path, None, i + 1, line)} has {len(record)} cells: allowed {len(header)}, one per "
-                f"header column (line {header_line})"
+                f"header column (line {records.header_line})"
             )
         for j, (cell, column) in enumerate(zip(record, header, strict=True)):
             data[i, j] = _parse_cell(cell, column, path, i + 1, line)
-    columns = {name: data[:, j].copy() for j, name in enumerate(header)}
+    return {name: data[:, j].copy() for j, name in enumerate(header)}
+
+
+def _navigation_period(metadata: dict, T_N: float | None, path: FilePath) -> float:
+    """The period the rows must be spaced by: the given T_N (the log's ``# T_N`` must agree), else the
+    log's, else DEFAULT_T_N; a logged T_C must be a multiple of it (systems/rates.py SampleRates)."""
     logged_T_N = metadata.get("T_N")
     if T_N is not None and logged_T_N is not None and abs(logged_T_N - T_N) > 1e-12 * T_N:
         raise SensorLogError(
@@ -371,13 +403,12 @@ def read_sensor_log(path, T_N: float | None = None) -> SensorLog:
             f"T_N={T_N!r} s: allowed a log sampled at the navigation period"
         )
     T_N = T_N if T_N is not None else logged_T_N if logged_T_N is not None else DEFAULT_T_N
-    if "T_C" in metadata:  # the periods a run checks (systems/rates.py SampleRates)
+    if "T_C" in metadata:
         try:
             SampleRates(T_N=T_N, T_C=metadata["T_C"])
         except ValueError as e:
             raise SensorLogError(f"sensor log {str(path)!r}: metadata {e}") from None
-    check_time(columns["t"], T_N, path, lines)
-    return SensorLog(columns=columns, metadata=metadata)
+    return T_N
 
 
 def _format(value: float) -> str:
@@ -426,37 +457,6 @@ def sensor_log_text(log: SensorLog) -> str:
 def write_sensor_log(log: SensorLog, path) -> FilePath:
     """Write ``log`` to ``path`` atomically (write_text_atomically)."""
     return write_text_atomically(path, sensor_log_chunks(log))
-
-
-def current_umask() -> int:
-    """The process's file-creation mask (os.umask can only be read by setting it: set and restored)."""
-    mask = os.umask(0o077)
-    os.umask(mask)
-    return mask
-
-
-def permissions_as_umask(path, directory: bool = False) -> None:
-    """Give ``path`` the permissions a plain ``open`` (``mkdir``) would: 0666 (0777) less the umask.
-    tempfile's files and folders are private (0600, 0700), which would keep an artifact from the group."""
-    os.chmod(path, (0o777 if directory else 0o666) & ~current_umask())
-
-
-def write_text_atomically(path, chunks) -> FilePath:
-    """Write the text ``chunks`` to ``path`` through a temporary file in the same folder and os.replace:
-    an interrupted write leaves the previous file (or none), never half of one. The file's permissions
-    are those the umask gives a new file."""
-    path = FilePath(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.partial-")
-    try:
-        permissions_as_umask(tmp)
-        with os.fdopen(fd, "w", newline="") as handle:
-            handle.writelines(chunks)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
 
 
 def sensor_log_from_arrays(

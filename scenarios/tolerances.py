@@ -35,8 +35,10 @@ class RobotDeviations:
     Args:
         wheel_radius_R, wheel_radius_L: each wheel's rolling radius.
         track_width: the effective distance between the wheels' contact points.
-        mass: the mass (a payload); yaw_inertia: the moment of inertia about the vertical.
-        tyre_friction: the tyres' peak friction mu; tyre_stiffness_factor: the tyre curve's Pacejka B.
+        mass: the mass (a payload).
+        yaw_inertia: the moment of inertia about the vertical.
+        tyre_friction: the tyres' peak friction mu.
+        tyre_stiffness_factor: the tyre curve's Pacejka B.
         shoe_drag: the felt shoes' Coulomb friction and viscous drag alike.
         gyro_scale: the gyro's sensitivity.
         accel1_scale, accel2_scale: each two-axis accelerometer's sensitivity.

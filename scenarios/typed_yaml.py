@@ -21,62 +21,74 @@ def type_name(t) -> str:
     return getattr(t, "__name__", str(t))
 
 
+_PLAIN_TYPES = {
+    float: lambda data: isinstance(data, (int, float)) and not isinstance(data, bool),
+    int: lambda data: isinstance(data, int) and not isinstance(data, bool),
+    bool: lambda data: isinstance(data, bool),
+    str: lambda data: isinstance(data, str),
+}
+"""What a YAML value of each plain type may be (a bool is no number)."""
+
+
 def check_schema(schema, data, where: str):
     """Check raw YAML ``data`` against the type ``schema`` (a dataclass, a list, a mapping, a tagged union
     or a plain type); ScenarioError naming the key path below ``where``."""
     origin = typing.get_origin(schema)
-    args = typing.get_args(schema)
     if origin in (typing.Union, types.UnionType):
-        if data is None and type(None) in args:
-            return
-        options = [a for a in args if a is not type(None)]
-        if len(options) == 1:
-            return check_schema(options[0], data, where)
-        if not isinstance(data, dict) or "_tag" not in data:
-            tags = ", ".join("!" + type_name(a) for a in options)
-            raise ScenarioError(f"{where}: needs a type tag, one of {tags}")
-        tag = data["_tag"].lstrip("!")
-        for option in options:
-            if type_name(option) == tag:
-                return check_schema(option, {k: v for k, v in data.items() if k != "_tag"}, where)
-        tags = ", ".join("!" + type_name(a) for a in options)
-        raise ScenarioError(f"{where}: type tag !{tag} is unknown: allowed {tags}")
-    if origin in (list, list):
-        if not isinstance(data, list):
-            raise ScenarioError(f"{where}: expected a list, got {data!r}")
-        for i, item in enumerate(data):
-            check_schema(args[0], item, f"{where}[{i}]")
-        return
-    if origin in (dict, dict):
-        if not isinstance(data, dict):
-            raise ScenarioError(f"{where}: expected a mapping, got {data!r}")
-        for key, value in data.items():
-            check_schema(args[1], value, f"{where}.{key}")
-        return
-    if dc.is_dataclass(schema):
-        if not isinstance(data, dict):
-            raise ScenarioError(f"{where or 'scenario'}: expected a mapping, got {data!r}")
-        hints = typing.get_type_hints(schema)
-        for key, value in data.items():
-            path = f"{where}.{key}" if where else str(key)
-            if key == "_tag":
-                continue
-            if key not in hints:
-                raise ScenarioError(f"{path} is an unknown key: allowed {sorted(hints)}")
-            check_schema(hints[key], value, path)
-        return
-    if schema is float:
-        ok = isinstance(data, (int, float)) and not isinstance(data, bool)
-    elif schema is int:
-        ok = isinstance(data, int) and not isinstance(data, bool)
-    elif schema is bool:
-        ok = isinstance(data, bool)
-    elif schema is str:
-        ok = isinstance(data, str)
-    else:
-        ok = True
-    if not ok:
+        _check_union(typing.get_args(schema), data, where)
+    elif origin is list:
+        _check_list(typing.get_args(schema)[0], data, where)
+    elif origin is dict:
+        _check_mapping(typing.get_args(schema)[1], data, where)
+    elif dc.is_dataclass(schema):
+        _check_dataclass(schema, data, where)
+    elif not _PLAIN_TYPES.get(schema, lambda data: True)(data):
         raise ScenarioError(f"{where}: expected {type_name(schema)}, got {data!r}")
+
+
+def _check_union(args, data, where: str):
+    """An optional type (None allowed) or a union told apart by the mapping's type tag (``!Straight``)."""
+    if data is None and type(None) in args:
+        return
+    options = [a for a in args if a is not type(None)]
+    if len(options) == 1:
+        return check_schema(options[0], data, where)
+    tags = ", ".join("!" + type_name(a) for a in options)
+    if not isinstance(data, dict) or "_tag" not in data:
+        raise ScenarioError(f"{where}: needs a type tag, one of {tags}")
+    tag = data["_tag"].lstrip("!")
+    for option in options:
+        if type_name(option) == tag:
+            return check_schema(option, {k: v for k, v in data.items() if k != "_tag"}, where)
+    raise ScenarioError(f"{where}: type tag !{tag} is unknown: allowed {tags}")
+
+
+def _check_list(item_type, data, where: str):
+    if not isinstance(data, list):
+        raise ScenarioError(f"{where}: expected a list, got {data!r}")
+    for i, item in enumerate(data):
+        check_schema(item_type, item, f"{where}[{i}]")
+
+
+def _check_mapping(value_type, data, where: str):
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{where}: expected a mapping, got {data!r}")
+    for key, value in data.items():
+        check_schema(value_type, value, f"{where}.{key}")
+
+
+def _check_dataclass(schema, data, where: str):
+    """Every key a field of ``schema`` (the type tag aside), each value checked against its field's type."""
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{where or 'scenario'}: expected a mapping, got {data!r}")
+    hints = typing.get_type_hints(schema)
+    for key, value in data.items():
+        path = f"{where}.{key}" if where else str(key)
+        if key == "_tag":
+            continue
+        if key not in hints:
+            raise ScenarioError(f"{path} is an unknown key: allowed {sorted(hints)}")
+        check_schema(hints[key], value, path)
 
 
 class StrictLoader(yaml.SafeLoader):

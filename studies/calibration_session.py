@@ -31,9 +31,9 @@ import tempfile
 from pathlib import Path as FilePath
 
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from slipnav.scenarios.files import permissions_as_umask
 from slipnav.scenarios.sensor_log import (
     SensorLogError,
-    permissions_as_umask,
     read_sensor_log,
     write_sensor_log,
 )

@@ -6,8 +6,8 @@ import math
 from pathlib import Path as FilePath
 
 import numpy as np
+from slipnav.scenarios.files import write_text_atomically
 from slipnav.scenarios.plots import save_figure_atomically
-from slipnav.scenarios.sensor_log import write_text_atomically
 from slipnav.systems.robot.faults import MAX_FAULT_TIME
 
 TARGETS = {

@@ -10,8 +10,10 @@ from pydrake.systems.framework import LeafSystem
 class SideSlipParameters:
     """Thresholds of the validity function S(20) on |v * omega| (the lateral acceleration, m/s^2).
 
-    Defaults: alpha is forced to zero below c_alpha = 0.5 m/s^2, where the side slip is physically tiny
-    (< 0.3 deg for Tinyphoon's tyres) and v_n is dominated by noise, and fully valid above d_alpha = 1.5.
+    Args:
+        c_alpha: below it alpha is forced to zero (m/s^2, >= 0): the side slip is physically tiny there
+            (< 0.3 deg for Tinyphoon's tyres) and v_n is dominated by noise.
+        d_alpha: above it alpha is fully valid (m/s^2, > c_alpha).
     """
 
     c_alpha: float = 0.5
