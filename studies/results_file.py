@@ -126,9 +126,10 @@ class ResultsFile:
         complete = data[: data.rfind(b"\n") + 1]  # a partial last line (the run being written) is dropped
         try:
             lines = complete.decode("utf-8").splitlines()
+            first = lines[0] if lines else data.decode("utf-8")  # a header cut short is judged by its start
         except UnicodeDecodeError:
-            lines = ["(not UTF-8 text)"]
-        if lines and next(csv.reader(lines[:1]))[:1] != [KEY]:
+            lines, first = ["(not UTF-8 text)"], "(not UTF-8 text)"
+        if first and not (KEY.startswith(first) or next(csv.reader([first]))[:1] == [KEY]):
             raise ScenarioError(
                 f"--resume: {str(self.path)!r} is not a sweep results file (its first column is not "
                 f"{KEY!r}): allowed a file written by a sweep"

@@ -122,6 +122,16 @@ def test_results_file_with_a_huge_field(tmp_path, capsys):
     assert "--resume: " in err and "line 2 is not a results line (field larger than field limit" in err
 
 
+@pytest.mark.parametrize("text", ["not a results file", "x,y"])
+def test_results_file_of_one_line_without_its_newline(tmp_path, capsys, text):
+    """A file with no complete line: a sweep writes its header whole, so a first line that is no start of
+    one is another file, not a header being written."""
+    (tmp_path / "accuracy.csv").write_text(text)
+    err = _one_line_error(capsys, _accuracy_resumed(tmp_path))
+    assert "is not a sweep results file (its first column is not 'key')" in err
+    assert (tmp_path / "accuracy.csv").read_text() == text  # left as it was
+
+
 def test_results_file_with_a_word_where_a_number_was(tmp_path, capsys):
     """A resumed line of this code version whose number cell was overwritten with a word: refused before
     the study's table reads it (every run resumed: no simulation)."""
