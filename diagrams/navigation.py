@@ -124,8 +124,9 @@ def build_navigation_diagram(
     b = DiagramBuilder()
     geometry = health_geometry(params, wheel_radius, track_width, rates.T_N, sensors, no_load_speed, robot)
     check_slide_onset(params.mixing, geometry)
+    believed = (geometry, sensors or SensorParameters())
     blocks = _add_navigation_blocks(
-        b, params, rates, wheel_radius, track_width, initial, geometry, calibration
+        b, params, rates, wheel_radius, track_width, initial, believed, calibration
     )
     signals = _connect_sensor_signals(b, blocks, params, geometry, rates.T_N, calibration)
     _connect_fusion(b, blocks, signals, params)
@@ -178,10 +179,11 @@ def _add(b: DiagramBuilder, system, name: str):
     return b.AddSystem(system)
 
 
-def _add_navigation_blocks(b, params, rates, wheel_radius, track_width, initial, geometry, calibration):
+def _add_navigation_blocks(b, params, rates, wheel_radius, track_width, initial, believed, calibration):
     """Add the navigation's blocks (in the diagram's order) and split their vector outputs; exports the
-    ``motor_currents`` input."""
+    ``motor_currents`` input. ``believed``: the checks' HealthGeometry and the believed SensorParameters."""
     T_N, T_C = rates.T_N, rates.T_C
+    geometry, sensors = believed
     monitor = _add(b, SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
     b.ExportInput(monitor.GetInputPort("motor_currents"), "motor_currents")
     check = split_port(b, monitor.GetOutputPort("step"), HEALTH_STEP_LAYOUT, "Sensor checks' signals")
@@ -201,7 +203,9 @@ def _add_navigation_blocks(b, params, rates, wheel_radius, track_width, initial,
     c23_block = _add(b, MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
     c23 = split_port(b, c23_block.GetOutputPort("step"), C2C3_STEP_LAYOUT, "Mixer C2 C3's signals")
     yaw_calibration = _add(
-        b, YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C), "Gyro and odometry calibration"
+        b,
+        YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C, sensors),
+        "Gyro and odometry calibration",
     )
     mixer_block = _add(
         b,

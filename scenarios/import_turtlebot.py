@@ -67,12 +67,20 @@ NAVX_GYRO_COUNT = math.radians(4000.0 / 65536)
 """rad/s: one count of the navX-MXP's gyro (data sheet: +-2000 deg/s in 16 bits)."""
 NAVX_ACCEL_COUNT = 4.0 * al.GRAVITY / 65536
 """m/s^2: one count of its accelerometer (+-2 g in 16 bits)."""
+NAVX_GYRO_DRIFT_DENSITY = math.radians(0.5) * math.sqrt(3.0) / 60.0**1.5
+"""rad/s per sqrt(s): the random walk of the navX's gyro bias whose heading error grows to the maker's
+0.5 deg per minute while moving (Kauai Labs' navX user guides, FAQ on yaw drift) at one standard
+deviation: sigma_phi(t) = q t^(3/2) / sqrt(3), q = 3.2e-5."""
+NAVX_ACCEL_INITIAL_BIAS_STD = 0.03 * al.GRAVITY
+"""m/s^2: the navX's accelerometer offset at one standard deviation, the MPU-9250's zero-g initial
+tolerance +-60 mg (its data sheet, x and y) taken as two; it covers the board's mounting tilt too
+(1 deg leaks 0.17 m/s^2 of gravity)."""
 
 
 def default_model() -> RobotModel:
     """The TurtleBot 2 as a model: Tinyphoon's sensor set and tuning with the Kobuki's data-sheet wheel
     radius, track and encoder resolution in thirds of a tick (7735 counts per revolution), and the navX's
-    one accelerometer set and converter counts."""
+    one accelerometer set, converter counts, gyro bias drift and accelerometer offset."""
     return RobotModel(
         robot="tinyphoon",
         description="TurtleBot 2 (Kobuki), data sheet: wheel radius 0.035 m, track 0.230 m, 2578.33 ticks "
@@ -83,6 +91,8 @@ def default_model() -> RobotModel:
             "accelerometer_sets": 1,
             "gyro_resolution": NAVX_GYRO_COUNT,
             "accel_resolution": NAVX_ACCEL_COUNT,
+            "gyro_drift_density": NAVX_GYRO_DRIFT_DENSITY,
+            "accel_initial_bias_std": NAVX_ACCEL_INITIAL_BIAS_STD,
         },
     ).validate()
 

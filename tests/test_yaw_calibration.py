@@ -14,6 +14,7 @@ from slipnav.systems.navigation.yaw_calibration import (
     YawCalibrationParameters,
     YawRateCalibration,
     batch_selection,
+    believed_gyro,
     bias_change_test,
     calibrated_gyro,
     calibrated_odometry,
@@ -22,6 +23,7 @@ from slipnav.systems.navigation.yaw_calibration import (
     yaw_calibration_step,
 )
 from slipnav.systems.robot.faults import FaultEvent
+from slipnav.systems.robot.sensors import SensorParameters
 
 from tests.shared import scenario_result
 
@@ -40,7 +42,7 @@ def run_batches(state, batches, p, c1=1.0, fault=False, standing=None):
 def test_static_filter_equals_the_batch_least_squares_posterior():
     """Without process noise the filter's theta and P equal the Bayesian linear regression posterior
     (information form) of y = gyro - omega_o on H = [1, v/b] with the Gaussian prior."""
-    p = YawCalibrationParameters(bias_drift_density=0.0, radius_drift_density=0.0)
+    p = believed_gyro(YawCalibrationParameters(bias_drift_density=0.0, radius_drift_density=0.0))
     rng = np.random.default_rng(1)
     b0, D0 = 0.004, 0.01
     v = rng.uniform(0.0, 2.0, 40)
@@ -63,7 +65,7 @@ def test_standstill_learns_the_bias_alone():
     """No encoder count in a batch: the row [1, 0] with the gyro's noise alone (standstill_measurement_std);
     without drift the posterior is the prior's and the batches' information summed: 1 s pins the bias
     to sqrt(1 / (1/0.0035^2 + 50/0.005^2)) = 0.7 mrad/s, and D keeps its prior."""
-    p = YawCalibrationParameters(bias_drift_density=0.0)
+    p = believed_gyro(YawCalibrationParameters(bias_drift_density=0.0))
     rng = np.random.default_rng(3)
     gyro = 0.003 + 0.0044 * rng.standard_normal(50)  # the batch means of the gyro's 0.014 rad/s noise
     state = run_batches(yaw_calibration_initial_state(p), [(g, 0.0, 0.0) for g in gyro], p)
@@ -292,3 +294,43 @@ def test_gyro_bias_step_and_ramp_while_driving_on_the_square(kind, value):
     assert abs(a["est_gyro_bias"][-1] - true_bias) < (0.005 if kind == "bias" else 0.015)
     errors = {p: final_position_error(a, p) for p in ("est", "odo", "gyro")}
     assert errors["est"] < min(errors["odo"], errors["gyro"])
+
+
+def _straight_batches_with_a_residual_step(third_witness: bool):
+    """1 s at rest, then 4 s straight at 1 m/s whose gyro less odometry steps by 0.03 rad/s after 1 s."""
+    p = YawCalibrationParameters()
+    state = run_batches(yaw_calibration_initial_state(p), [(0.0, 0.0, 0.0)] * 50, p)
+    for k in range(200):
+        for _ in range(N_BATCH):
+            gyro, odo = (0.03 if k >= 50 else 0.0), [1.0, 0.0, 0.0, 0.0]
+            state = yaw_calibration_step(
+                state, gyro, odo, 1.0, False, TRACK, p, T_N, N_BATCH, None, 0.0, third_witness
+            )
+    return calibration_parameters(state)
+
+
+def test_two_witnesses_do_not_blame_the_gyro_while_moving():
+    """With the accelerometer pair as a third yaw witness a moving step of gyro - odometry is the gyro's
+    bias (one change, b_g within 10 % of it); with the wheels alone it is as likely theirs: no change is
+    declared, and the filter shares the residual between b_g (its random walk since the rest) and D."""
+    b, D, _, _, _, _, changes = _straight_batches_with_a_residual_step(third_witness=True)
+    assert changes == 1 and b == pytest.approx(0.03, rel=0.1)
+    b, D, _, _, _, _, changes = _straight_batches_with_a_residual_step(third_witness=False)
+    assert changes == 0 and abs(b) < 0.01  # the rest pinned the bias: D v / b takes most of the step
+    assert b + D * 1.0 / TRACK == pytest.approx(0.03, rel=0.25) and D * 1.0 / TRACK > 2 * b
+
+
+def test_the_bias_prior_and_drift_are_the_believed_gyros():
+    """believed_gyro fills what YawCalibrationParameters leaves open (None) from the believed sensors, and
+    keeps what it states; the block reads the believed set's accelerometer count for its third witness."""
+    sensors = SensorParameters(gyro_initial_bias_std=0.001, gyro_drift_density=3.2e-5, accelerometer_sets=1)
+    p = believed_gyro(YawCalibrationParameters(), sensors)
+    assert (p.initial_bias_std, p.bias_drift_density) == (0.001, 3.2e-5)
+    stated = believed_gyro(YawCalibrationParameters(bias_drift_density=0.0), sensors)
+    assert (stated.initial_bias_std, stated.bias_drift_density) == (0.001, 0.0)
+    nominal = believed_gyro(YawCalibrationParameters())
+    assert (nominal.initial_bias_std, nominal.bias_drift_density) == (0.0035, 0.0005)  # SensorParameters()
+    state = yaw_calibration_initial_state(p)
+    assert calibration_parameters(state)[2] == pytest.approx(0.001)
+    block = YawRateCalibration(YawCalibrationParameters(), TRACK, T_N, N_BATCH * T_N, sensors)
+    assert block._third_witness is False and block._p.bias_drift_density == 3.2e-5

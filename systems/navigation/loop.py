@@ -84,6 +84,7 @@ from slipnav.systems.navigation.standstill import (
     zero_velocity_update,
 )
 from slipnav.systems.navigation.yaw_calibration import (
+    believed_gyro,
     calibrated_gyro,
     calibrated_odometry,
     yaw_calibration_initial_state,
@@ -145,7 +146,9 @@ class NavigationLoop:
         self.pose = list(initial.pose)
         self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
         self.baselines = BaselineState.initial(initial.pose, initial.speed)  # on the raw sensors
-        self.calibration = yaw_calibration_initial_state(params.yaw_calibration)
+        self.yaw_calibration = believed_gyro(params.yaw_calibration, sensors)
+        self.third_yaw_witness = self.geometry.accelerometer_sets == 2
+        self.calibration = yaw_calibration_initial_state(self.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
         self.tyre_model_weight = 0.0  # mix_checked's
@@ -207,7 +210,7 @@ class NavigationLoop:
         )
         self.encoder_fault = any(codes[5:7])  # the tyre peak learns nothing (velocity_mix)
         fault_enc = max(odometry_held, 1.0 if self.encoder_fault else 0.0)
-        cal, theta = self.params.yaw_calibration, self.calibration[0:2]
+        cal, theta = self.yaw_calibration, self.calibration[0:2]
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         gyro_calibrated = calibrated_gyro(g, theta, cal)
         measurement = ekf_measurement(acc, [gyro_calibrated])
@@ -345,11 +348,12 @@ class NavigationLoop:
             self.c1,
             fault,
             self.track_width,
-            self.params.yaw_calibration,
+            self.yaw_calibration,
             self.T_N,
             self.n,
             rest,
             gyro_bias_step(self.health),
+            self.third_yaw_witness,
         )
         self.standstill = standstill_step(
             self.standstill, corrected, self.checked_encoders, standing, test, self.standstill_constants

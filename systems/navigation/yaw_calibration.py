@@ -53,6 +53,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.residual_test import CusumState, CusumTest, cusum_shift, cusum_step
+from slipnav.systems.robot.sensors import SensorParameters
 from slipnav.systems.state_layout import layout_size, layout_slices
 
 
@@ -63,11 +64,12 @@ class YawCalibrationParameters:
     Args:
         enabled: calibrate (False: the EKF gets the raw gyro and the mixer the raw odometry, as in the
             paper).
-        initial_bias_std: prior standard deviation of the gyro bias (rad/s): the ADXRS300's residual
-            0.2 deg/s = 0.0035.
+        initial_bias_std: prior standard deviation of the gyro bias (rad/s); None: the believed gyro's
+            data sheet (SensorParameters.gyro_initial_bias_std; Tinyphoon's ADXRS300: 0.0035, 0.2 deg/s).
         initial_radius_difference_std: prior standard deviation of D = e_R - e_L: 0.0082, each rolling
             radius uniform within +-1 % of the nominal (scenarios/tolerances.py), 0.01 sqrt(2/3).
-        bias_drift_density: random walk of the bias (rad/s per sqrt(s)): the gyro's 0.0005.
+        bias_drift_density: random walk of the bias (rad/s per sqrt(s)); None: the believed gyro's data
+            sheet (SensorParameters.gyro_drift_density; Tinyphoon's: 0.0005).
         radius_drift_density: random walk of D (1 per sqrt(s)): 0, the rolling radii are constant over a
             run (tyre wear acts over hours). Above 0, D follows whatever the bias's drift hands it at
             constant speed, where b_g and D v/b cannot be told apart.
@@ -109,9 +111,9 @@ class YawCalibrationParameters:
     """
 
     enabled: bool = True
-    initial_bias_std: float = 0.0035
+    initial_bias_std: float | None = None
     initial_radius_difference_std: float = 0.0082
-    bias_drift_density: float = 0.0005
+    bias_drift_density: float | None = None
     radius_drift_density: float = 0.0
     measurement_std: float = 0.01
     standstill_measurement_std: float = 0.005
@@ -129,8 +131,15 @@ class YawCalibrationParameters:
     def __post_init__(self):
         if not isinstance(self.enabled, bool):
             raise ValueError(f"yaw_calibration.enabled={self.enabled!r} is out of range: allowed true, false")
+        if self.initial_bias_std is not None and not (
+            math.isfinite(self.initial_bias_std) and self.initial_bias_std > 0.0
+        ):
+            raise ValueError(
+                f"yaw_calibration.initial_bias_std={self.initial_bias_std!r} is out of range: allowed "
+                "(0, inf) or null (the believed gyro's)"
+            )
         positive = (
-            "initial_bias_std initial_radius_difference_std measurement_std standstill_measurement_std "
+            "initial_radius_difference_std measurement_std standstill_measurement_std "
             "innovation_gate straight_yaw_rate change_yaw_rate steady_yaw_acceleration largest_bias_step "
             "change_drift"
         ).split()
@@ -140,6 +149,8 @@ class YawCalibrationParameters:
                 raise ValueError(f"yaw_calibration.{name}={v!r} is out of range: allowed (0, inf)")
         for name in ("bias_drift_density", "radius_drift_density"):
             v = getattr(self, name)
+            if name == "bias_drift_density" and v is None:
+                continue  # the believed gyro's
             if not (math.isfinite(v) and v >= 0.0):
                 raise ValueError(f"yaw_calibration.{name}={v!r} is out of range: allowed [0, inf)")
         if not (math.isfinite(self.change_run_length) and self.change_run_length > 1.0):
@@ -160,6 +171,21 @@ class YawCalibrationParameters:
             raise ValueError(
                 f"yaw_calibration.trusted_c1={self.trusted_c1!r} is out of range: allowed [0, 1]"
             )
+
+
+def believed_gyro(p: YawCalibrationParameters, sensors: SensorParameters | None = None):
+    """``p`` with the gyro bias's prior and random walk that it leaves open (None) taken from the believed
+    gyro's data sheet ``sensors`` (None: the nominal SensorParameters())."""
+    if p.initial_bias_std is not None and p.bias_drift_density is not None:
+        return p
+    sensors = sensors or SensorParameters()
+    return dc.replace(
+        p,
+        initial_bias_std=sensors.gyro_initial_bias_std if p.initial_bias_std is None else p.initial_bias_std,
+        bias_drift_density=(
+            sensors.gyro_drift_density if p.bias_drift_density is None else p.bias_drift_density
+        ),
+    )
 
 
 CALIBRATION_LAYOUT = (
@@ -200,7 +226,8 @@ def bias_change_test(p: YawCalibrationParameters) -> CusumTest:
 
 
 def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
-    """theta = [0, 0], P = diag(prior variances), empty batch."""
+    """theta = [0, 0], P = diag(prior variances), empty batch (believed_gyro's priors)."""
+    p = believed_gyro(p)
     state = np.zeros(STATE_SIZE)
     state[_P] = np.diag([p.initial_bias_std**2, p.initial_radius_difference_std**2]).ravel()
     state[_OK] = 1.0
@@ -236,6 +263,7 @@ def yaw_calibration_step(
     batch_length: int,
     standing: bool | None = None,
     bias_step: float = 0.0,
+    third_witness: bool = True,
 ) -> np.ndarray:
     """One T_N sample: accumulate the batch; at its end (batch_length samples) the Kalman update of theta
     if every check passed. ``standing``: the standstill detector's decision for this sample
@@ -244,7 +272,10 @@ def yaw_calibration_step(
     otherwise (the wheels' counts lag a turn's start or end) it is neither learned from nor tested.
     ``bias_step``: a step of b_g the sensor checks measured on an excluded gyro (rad/s, 0: none;
     systems/health/gyro.py, gyro_bias_step_block), taken as a bias change (bias_step_update with R =
-    measurement_std^2) at once.
+    measurement_std^2) at once. ``third_witness``: the accelerometer pair witnesses the yaw rate (two
+    accelerometer sets), so that the sensor checks exclude a wheel whose yaw disagrees with gyro and pair;
+    without it a moving batch's change is the wheels' as likely as the gyro's and is not tested (a rest's
+    is: there the standstill detector witnesses too).
     Returns the next state (the theta used at this sample is ``state``'s)."""
     state = np.array(state, dtype=float)
     if not p.enabled:
@@ -274,6 +305,7 @@ def yaw_calibration_step(
     gyro_mean, omega_mean, v_mean, moving = state[_SUMS] / n
     theta, P = state[_THETA].copy(), state[_P].reshape(NUM_THETA, NUM_THETA)
     # predict step: the random walks over the batch
+    p = believed_gyro(p)
     P = P + np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * (n * T_N)
     wheels = omega_mean + theta[1] * v_mean / track_width  # the calibrated odometric yaw rate
     change = p.steady_yaw_acceleration * n * T_N  # both witnesses' yaw rates steady since the last batch
@@ -283,6 +315,7 @@ def yaw_calibration_step(
     state[_PREVIOUS_WHEELS] = wheels if state[_OK] > 0.5 else math.nan
     state[_PREVIOUS_GYRO] = gyro_mean if state[_OK] > 0.5 else math.nan
     learn, test = batch_selection(gyro_mean - theta[0], wheels, moving > 0.0, steady, p)
+    test = test and (third_witness or moving == 0.0)
     witnessed = moving > 0.0 or state[_STANDING] == n  # a rest the detector confirms
     if state[_OK] > 0.5 and witnessed and (learn or test):
         H = np.array([1.0, v_mean / track_width])
@@ -408,11 +441,24 @@ class YawRateCalibration(LeafSystem):
 
     Args:
         params: YawCalibrationParameters. track_width: the nominal track (m). T_N, T_C: periods (s).
+        sensors: the believed sensor set (None: the nominal SensorParameters()): the gyro's data sheet
+            (believed_gyro) and whether the accelerometer pair witnesses the yaw rate (two sets;
+            yaw_calibration_step's third_witness).
     """
 
-    def __init__(self, params: YawCalibrationParameters, track_width: float, T_N: float, T_C: float):
+    def __init__(
+        self,
+        params: YawCalibrationParameters,
+        track_width: float,
+        T_N: float,
+        T_C: float,
+        sensors: SensorParameters | None = None,
+    ):
         super().__init__()
+        sensors = sensors or SensorParameters()
+        params = believed_gyro(params, sensors)
         self._p, self._b, self._T_N = params, track_width, T_N
+        self._third_witness = sensors.accelerometer_sets == 2
         self._n = int(round(T_C / T_N))
         self._gyro = self.DeclareVectorInputPort("gyro", 1)
         self._odo = self.DeclareVectorInputPort("odometry", 4)
@@ -459,6 +505,7 @@ class YawRateCalibration(LeafSystem):
             self._n,
             self._standstill.Eval(context).tolist()[0] > 0.5 if self._standstill.HasValue(context) else None,
             step,
+            self._third_witness,
         )
         discrete_state.set_value(self._state, state)
         if state[_COUNT] == 0.0 or step != 0.0:  # a batch ended, or a bias step: theta, P, the counts moved
