@@ -36,7 +36,6 @@ from slipnav.systems.health.perturbation import (
     sideways_push,
 )
 from slipnav.systems.navigation.loop import LOOP_KEYS, NavigationLoop
-from slipnav.systems.navigation.parameters import NavigationInitialState
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.contact import NO_DISTURBANCE
 from slipnav.systems.robot.dynamics import plant_advance, plant_derivatives, substeps_per
@@ -104,21 +103,11 @@ def run_plain_loop(
         raise ValueError(f"truth.plant_time_step={time_step!r} is out of range: allowed (0, 0.01] s")
     plant_steps = substeps_per(rates.T_N, time_step, "T_N")
     noise = checked_noise(noise, truth.seed, num_steps)
-    initial_pose, initial_speed = truth.initial_pose, truth.initial_speed
-    world = PlainPlant(truth.robot(belief), initial_pose, initial_speed, rates.T_N, plant_steps, time_step)
-    sensors = PlainSensors(truth.sensors, truth.seed, world.initial_wheel_speeds, rates.T_N)
-    nav = NavigationLoop(
-        belief.navigation,
-        (robot.radius_R, robot.radius_L),
-        robot.track_width,
-        rates.T_N,
-        rates.T_C,
-        NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
-        belief.data_sheet,
-        robot.no_load_speed,
-        belief.calibration,
-        robot,
+    world = PlainPlant(
+        truth.robot(belief), truth.initial_pose, truth.initial_speed, rates.T_N, plant_steps, time_step
     )
+    sensors = PlainSensors(truth.sensors, truth.seed, world.initial_wheel_speeds, rates.T_N)
+    nav = NavigationLoop(belief.navigation_belief(truth.initial_state))
     # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
     ctrl = PlainControl(control, robot, rates.T_C)
     faults = check_fault_events(truth.faults)
