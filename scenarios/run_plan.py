@@ -25,8 +25,6 @@ from slipnav.scenarios.trajectories import (
 )
 from slipnav.systems.checks import require_seed
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.robot.parameters import RobotParameters
-from slipnav.systems.robot.sensors import SensorParameters
 
 
 def check_run_options(
@@ -165,44 +163,27 @@ class RunPlan:
 
     Args:
         scenario: the scenario as run (in paper mode if asked, with the --localisation override).
-        seed, duration (--duration; None: the scenario's end), speed_law, slip_control, open_loop,
-        tolerances, faults: the run's settings, the scenario's where not overridden.
+        duration (--duration; None: the scenario's end), speed_law, slip_control, open_loop, tolerances:
+        the run's settings, the scenario's where not overridden.
         rates: the sample periods. belief: what navigation and control read (Scenario.belief: the
-        nominal robot refined by a model). plant, sensor_params: the real robot and sensors (with the
-        seed, faults and initial state: ``truth``); deviations: their drawn deviations from the nominal
-        values. reference, initial_speed: reference_for's.
-        initial_pose: the scenario's initial pose as a tuple.
+        nominal robot refined by a model). truth: the simulated robot (diagrams.records.Truth: the real
+        robot and sensors, the seed, the faults, the scenario's plant time step and initial pose, and the
+        reference's initial speed, reference_for's; a max_speed closed loop starts at rest instead);
+        deviations: the real robot's and sensors' drawn deviations from the nominal values.
+        reference: the reference trajectory (reference_for's).
     """
 
     scenario: Scenario
-    seed: int
     duration: float | None
     speed_law: str
     slip_control: bool
     open_loop: bool
     tolerances: bool
-    faults: object
     rates: SampleRates
     belief: Belief
-    plant: RobotParameters
-    sensor_params: SensorParameters
+    truth: Truth
     deviations: dict
     reference: Trajectory
-    initial_speed: float
-    initial_pose: tuple
-
-    def truth(self, initial_speed: float) -> Truth:
-        """The simulated robot of this run (diagrams.records.Truth), starting at ``initial_speed`` (m/s):
-        the real robot and sensors, the seed, the faults, the scenario's plant time step and initial pose."""
-        return Truth(
-            sensors=self.sensor_params,
-            seed=self.seed,
-            plant=self.plant,
-            initial_pose=self.initial_pose,
-            initial_speed=initial_speed,
-            plant_time_step=self.scenario.plant_time_step,
-            faults=self.faults,
-        )
 
 
 def plan_run(
@@ -232,19 +213,22 @@ def plan_run(
     reference, initial_speed = reference_for(scenario)
     return RunPlan(
         scenario=scenario,
-        seed=seed,
         duration=duration,
         speed_law=speed_law,
         slip_control=slip_control,
         open_loop=open_loop,
         tolerances=tolerances,
-        faults=scenario.faults if faults is None else faults,
         rates=rates,
         belief=belief,
-        plant=plant,
-        sensor_params=sensor_params,
+        truth=Truth(
+            sensors=sensor_params,
+            seed=seed,
+            plant=plant,
+            initial_pose=tuple(scenario.initial_pose),
+            initial_speed=initial_speed,
+            plant_time_step=scenario.plant_time_step,
+            faults=scenario.faults if faults is None else faults,
+        ),
         deviations=deviations,
         reference=reference,
-        initial_speed=initial_speed,
-        initial_pose=tuple(scenario.initial_pose),
     )

@@ -69,7 +69,7 @@ def run_scenario(
     )
     run = build_run(plan)
     simulated = simulate_run(plan, run)
-    record = plant_record(plan.plant, plan.sensor_params)
+    record = plant_record(plan.truth.plant, plan.truth.sensors)
     arrays = run_arrays(plan, run, simulated, record)
     summary = run_summary(
         plan,
@@ -83,7 +83,7 @@ def run_scenario(
     )
     return RunResult(
         scenario=plan.scenario,
-        seed=plan.seed,
+        seed=plan.truth.seed,
         arrays=arrays,
         summary=summary,
         reference=plan.reference,
@@ -112,22 +112,23 @@ class BuiltRun:
 def build_run(plan: RunPlan) -> BuiltRun:
     """The run's open-loop (feed-forward of the reference) or closed-loop diagram; raises ScenarioError
     for what the builders reject."""
-    belief, scenario = plan.belief, plan.scenario
+    belief, scenario, truth = plan.belief, plan.scenario, plan.truth
     if plan.open_loop:
-        start = standstill_for(scenario, plan.initial_speed)
+        start = standstill_for(scenario, truth.initial_speed)
         v_R, v_L = plan.reference.wheel_speeds(belief.robot.track_width)
         built = as_scenario_error(
             lambda: build_open_loop_diagram(
-                plan.truth(plan.initial_speed),
+                truth,
                 belief,
                 np.column_stack([v_R, v_L]),
                 np.column_stack([plan.reference.x, plan.reference.y, plan.reference.phi]),
                 start_time=start,
             )
         )
-        return BuiltRun(built, None, start, plan.reference.duration + start, plan.initial_speed)
+        return BuiltRun(built, None, start, plan.reference.duration + start, truth.initial_speed)
     control, initial_speed, nominal = closed_loop_settings(scenario, plan.slip_control, plan.speed_law)
-    built = as_scenario_error(lambda: build_closed_loop_diagram(plan.truth(initial_speed), belief, control))
+    truth = dc.replace(truth, initial_speed=initial_speed)  # a max_speed closed loop starts at rest
+    built = as_scenario_error(lambda: build_closed_loop_diagram(truth, belief, control))
     return BuiltRun(built, control.path, control.start_time, nominal, initial_speed)
 
 
@@ -152,8 +153,8 @@ def simulate_run(plan: RunPlan, run: BuiltRun) -> SimulatedRun:
     # Open loop: the reference's end; closed loop: a generous limit, cut at completion below.
     nominal = run.nominal if open_loop else 3.0 * run.nominal + scenario.settle_time
     limit = end_time(scenario, nominal, plan.duration)
-    check_fault_starts(plan.faults, limit)
-    simulator = make_simulator(run.built.diagram, plan.seed, plan.belief.robot.speed_loop_period)
+    check_fault_starts(plan.truth.faults, limit)
+    simulator = make_simulator(run.built.diagram, plan.truth.seed, plan.belief.robot.speed_loop_period)
     context = simulator.get_context()
     drain = LogDrain(run.built.loggers, context, int(math.ceil(limit / plan.rates.T_N)) + 2)
     health = NavigationHealth(run.built.diagram, context)
@@ -183,7 +184,7 @@ def run_arrays(plan: RunPlan, run: BuiltRun, simulated: SimulatedRun, record: di
     """The artifact arrays of a simulated run: the logged series (NaN where the diagram logs none), the
     nominal scalars and the real robot's ``plant_*`` scalars (``record``: plant_record)."""
     context = simulated.simulator.get_context()
-    arrays = collect_arrays(simulated.drain.loggers(), context, plan.plant, copy=False)
+    arrays = collect_arrays(simulated.drain.loggers(), context, plan.truth.plant, copy=False)
     n = len(arrays["t"])
     for key in SERIES_KEYS:
         arrays.setdefault(key, np.full(n, np.nan))
