@@ -16,8 +16,7 @@ import time
 import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, control_offset
 from slipnav.diagrams.records import Belief, Truth
-from slipnav.scenarios.config import with_paper_mode
-from slipnav.scenarios.run_plan import closed_loop_settings
+from slipnav.scenarios.run_plan import RunOptions, plan_run
 from slipnav.systems.control.path_follower import (
     bounded_speed,
     check_path_curvature,
@@ -349,20 +348,9 @@ def localisation_reader(source: str):
 def run_scenario_plain_loop(
     scenario, seed: int, num_steps: int, slip_control=None, speed_law=None, noise=None, timings=None
 ) -> dict:
-    """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (same overrides)."""
-
-    scenario = with_paper_mode(scenario)
-    slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
-    plant, sensor_params, _ = scenario.plant_parameters(seed)
-    speed_law = scenario.speed_law if speed_law is None else speed_law
-    control, initial_speed, _ = closed_loop_settings(scenario, slip_control, speed_law)
-    truth = Truth(
-        sensors=sensor_params,
-        seed=seed,
-        plant=plant,
-        initial_pose=tuple(scenario.initial_pose),
-        initial_speed=initial_speed,
-        plant_time_step=scenario.plant_time_step,
-        faults=scenario.faults,
-    )
-    return run_plain_loop(truth, scenario.belief(), control, num_steps, noise=noise, timings=timings)
+    """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (plan_run with the same
+    overrides, RunPlan.closed_loop)."""
+    options = RunOptions(seed=seed, slip_control=slip_control, speed_law=speed_law, open_loop=False)
+    plan = plan_run(scenario, options)
+    truth, control, _ = plan.closed_loop()
+    return run_plain_loop(truth, plan.belief, control, num_steps, noise=noise, timings=timings)

@@ -25,10 +25,10 @@ from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.log_drain import LogDrain
 from slipnav.scenarios.navigation_health import NavigationHealth
 from slipnav.scenarios.run_plan import (
+    RunOptions,
     RunPlan,
     as_scenario_error,
     check_fault_starts,
-    closed_loop_settings,
     end_time,
     plan_run,
     standstill_for,
@@ -37,36 +37,26 @@ from slipnav.scenarios.run_summary import belief_model, run_sensor_log, run_summ
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.scenarios.trajectories import Path
 
-__all__ = ["RunResult", "run_scenario", "write_artifacts"]
-"""The Python API (docs/python-api.md): run_scenario and write_artifacts, which writes its RunResult."""
+__all__ = ["RunOptions", "RunResult", "run_scenario", "write_artifacts"]
+"""The Python API (docs/python-api.md): run_scenario (its overrides: RunOptions) and write_artifacts,
+which writes its RunResult."""
 
 
-def run_scenario(
-    scenario: Scenario,
-    seed: int | None = None,
-    duration: float | None = None,
-    slip_control: bool | None = None,
-    speed_law: str | None = None,
-    open_loop: bool | None = None,
-    tolerances: bool = False,
-    faults=None,
-    localisation: str | None = None,
-) -> RunResult:
+def run_scenario(scenario: Scenario, options: RunOptions | None = None, **overrides) -> RunResult:
     """Simulate ``scenario`` and collect the run artifact.
 
-    The keyword arguments override the scenario (the command line's --seed, --duration,
-    --no-slip-control, --speed-law, --open-loop, --tolerances; None keeps the scenario's). Navigation
-    and control read the nominal robot refined by a model (``scenario.belief()``); the plant and sensors
-    are the real robot (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*``
-    scalars, the summary's ``plant``). A closed-loop run ends when the controller has finished its
+    ``options`` (RunOptions: the command line's --seed, --duration, --no-slip-control, --speed-law,
+    --open-loop, --tolerances, --localisation and the fault list; None keeps the scenario's) and
+    ``overrides``, RunOptions' fields as keywords over them (``run_scenario(scenario, seed=1,
+    duration=2.0)``), override the scenario. Navigation and control read the nominal robot refined by a
+    model (``scenario.belief()``); the plant and sensors are the real robot
+    (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*`` scalars, the
+    summary's ``plant``). A closed-loop run ends when the controller has finished its
     trajectory (progress Pi at its end) or path (virtual target at its end) plus ``settle_time``, or at
     the duration limit (default: three times the nominal time). Completion is then judged on the true
-    pose (judge_completion): ``summary["completed"]``. ``faults``: FaultEvents replacing the scenario's
-    ``faults``; ``localisation``: what the follower localises by (--localisation); None keeps them.
+    pose (judge_completion): ``summary["completed"]``.
     """
-    plan = plan_run(
-        scenario, seed, duration, slip_control, speed_law, open_loop, tolerances, faults, localisation
-    )
+    plan = plan_run(scenario, dc.replace(options or RunOptions(), **overrides))
     run = build_run(plan)
     simulated = simulate_run(plan, run)
     record = plant_record(plan.truth.plant, plan.truth.sensors)
@@ -126,10 +116,9 @@ def build_run(plan: RunPlan) -> BuiltRun:
             )
         )
         return BuiltRun(built, None, start, plan.reference.duration + start, truth.initial_speed)
-    control, initial_speed, nominal = closed_loop_settings(scenario, plan.slip_control, plan.speed_law)
-    truth = dc.replace(truth, initial_speed=initial_speed)  # a max_speed closed loop starts at rest
+    truth, control, nominal = plan.closed_loop()
     built = as_scenario_error(lambda: build_closed_loop_diagram(truth, belief, control))
-    return BuiltRun(built, control.path, control.start_time, nominal, initial_speed)
+    return BuiltRun(built, control.path, control.start_time, nominal, truth.initial_speed)
 
 
 @dc.dataclass
