@@ -52,6 +52,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import out_of_range, require_flag, require_in
 from slipnav.systems.residual_test import CusumState, CusumTest, cusum_shift, cusum_step
 from slipnav.systems.state_layout import layout_size, layout_slices
 
@@ -127,39 +128,22 @@ class YawCalibrationParameters:
     noise_batches: float = 100.0
 
     def __post_init__(self):
-        if not isinstance(self.enabled, bool):
-            raise ValueError(f"yaw_calibration.enabled={self.enabled!r} is out of range: allowed true, false")
+        require_flag("yaw_calibration.enabled", self.enabled)
         positive = (
             "initial_bias_std initial_radius_difference_std measurement_std standstill_measurement_std "
             "innovation_gate straight_yaw_rate change_yaw_rate steady_yaw_acceleration largest_bias_step "
             "change_drift"
         ).split()
         for name in positive:
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"yaw_calibration.{name}={v!r} is out of range: allowed (0, inf)")
+            require_in(f"yaw_calibration.{name}", getattr(self, name), "(0, inf)")
         for name in ("bias_drift_density", "radius_drift_density"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0.0):
-                raise ValueError(f"yaw_calibration.{name}={v!r} is out of range: allowed [0, inf)")
-        if not (math.isfinite(self.change_run_length) and self.change_run_length > 1.0):
-            raise ValueError(
-                f"yaw_calibration.change_run_length={self.change_run_length!r} is out of range: allowed "
-                "(1, inf) batches"
-            )
-        if not (math.isfinite(self.noise_batches) and self.noise_batches >= 1.0):
-            raise ValueError(
-                f"yaw_calibration.noise_batches={self.noise_batches!r} is out of range: allowed [1, inf)"
-            )
+            require_in(f"yaw_calibration.{name}", getattr(self, name), "[0, inf)")
+        require_in("yaw_calibration.change_run_length", self.change_run_length, "(1, inf) batches")
+        require_in("yaw_calibration.noise_batches", self.noise_batches, "[1, inf)")
         if not (math.isfinite(self.change_clip) and self.change_clip > self.change_drift):
-            raise ValueError(
-                f"yaw_calibration.change_clip={self.change_clip!r} is out of range: allowed "
-                f"(change_drift={self.change_drift}, inf)"
-            )
-        if not (0.0 <= self.trusted_c1 <= 1.0):
-            raise ValueError(
-                f"yaw_calibration.trusted_c1={self.trusted_c1!r} is out of range: allowed [0, 1]"
-            )
+            allowed = f"(change_drift={self.change_drift}, inf)"
+            raise out_of_range("yaw_calibration.change_clip", self.change_clip, allowed)
+        require_in("yaw_calibration.trusted_c1", self.trusted_c1, "[0, 1]")
 
 
 CALIBRATION_LAYOUT = (
