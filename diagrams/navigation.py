@@ -14,14 +14,9 @@ from slipnav.systems.navigation.ekf import InertialEkf, KalmanGain, ekf_prior_co
 from slipnav.systems.navigation.mixing.mixer import MIXER_LAYOUT, TYRE_MODEL_STATE_LAYOUT, VelocityMixer
 from slipnav.systems.navigation.mixing.weights import C2C3_STEP_LAYOUT, MixerC1, MixerC2C3
 from slipnav.systems.navigation.odometry import ODOMETRY_STEP_LAYOUT, Odometry
-from slipnav.systems.navigation.parameters import (
-    NavigationInitialState,
-    NavigationParameters,
-    check_slide_onset,
-    health_geometry,
-)
+from slipnav.systems.navigation.parameters import NavigationBelief
 from slipnav.systems.navigation.pose import PoseIntegrator
-from slipnav.systems.navigation.sensor_correction import SensorCalibration, SensorCorrection
+from slipnav.systems.navigation.sensor_correction import SensorCorrection
 from slipnav.systems.navigation.sideslip import SideSlipEstimator
 from slipnav.systems.navigation.slip_detector import TangentialSlipDetector
 from slipnav.systems.navigation.standstill import (
@@ -34,9 +29,6 @@ from slipnav.systems.navigation.yaw_calibration import (
     PARAMETERS_LAYOUT,
     YawRateCalibration,
 )
-from slipnav.systems.rates import SampleRates
-from slipnav.systems.robot.parameters import RobotParameters
-from slipnav.systems.robot.sensors import SensorParameters, default_sensor_parameters
 
 NAVIGATION_OUTPUTS = (
     "pose",
@@ -62,26 +54,14 @@ NAVIGATION_OUTPUTS = (
 )
 
 
-def build_navigation_diagram(
-    params: NavigationParameters,
-    rates: SampleRates,
-    wheel_radius,
-    track_width: float,
-    initial: NavigationInitialState | None = None,
-    sensors: SensorParameters | None = None,
-    no_load_speed: float | None = None,
-    calibration: SensorCalibration | None = None,
-    robot: RobotParameters | None = None,
-) -> Diagram:
-    """The navigation algorithm as a Diagram.
+def build_navigation_diagram(belief: NavigationBelief) -> Diagram:
+    """The navigation algorithm as a Diagram, of what the navigation is given (``belief``:
+    systems.navigation.parameters.NavigationBelief).
 
-    ``wheel_radius``: one radius for both wheels or the pair (r_R, r_L) of a calibrated model (m).
-    ``sensors``, ``no_load_speed``: the sensors' data sheet (default Tinyphoon's) and the nominal motors'
-    no-load speed (m/s) for the sensor checks (systems.navigation.parameters.health_geometry).
-    ``calibration``: the model's SensorCalibration; unless it is the identity a SensorCorrection block
-    removes it from the checked inertial samples before every block that reads them.
-    ``robot``: the nominal robot, whose mass, motors and drags give the sensor checks the force reference
-    of the tangential accelerometers from the optional ``motor_currents`` input (None: none).
+    Unless ``belief.calibration`` (the model's SensorCalibration) is None or the identity, a
+    SensorCorrection block removes it from the checked inertial samples before every block that reads
+    them. ``belief.robot`` (None: none) gives the sensor checks the force reference of the tangential
+    accelerometers from the optional ``motor_currents`` input.
     ``external_force`` (optional; unconnected: none): the perturbation monitor's sideways push, which
     leaves v_n to the lateral kinematics (VelocityMixer); add_perturbation_monitor connects it.
     The baselines (odometry-only and Gyrodometry, systems/navigation/baselines.py) read the raw encoders and
@@ -119,16 +99,11 @@ def build_navigation_diagram(
         - standstill
         - accelerometer_bias
     """
-    params.validate()
-    initial = initial or NavigationInitialState()
+    params = belief.params.validate()
     b = DiagramBuilder()
-    geometry = health_geometry(params, wheel_radius, track_width, rates.T_N, sensors, no_load_speed, robot)
-    check_slide_onset(params.mixing, geometry)
-    believed = (geometry, sensors or SensorParameters())
-    blocks = _add_navigation_blocks(
-        b, params, rates, wheel_radius, track_width, initial, believed, calibration
-    )
-    signals = _connect_sensor_signals(b, blocks, params, geometry, rates.T_N, calibration)
+    geometry = belief.geometry()
+    blocks = _add_navigation_blocks(b, belief, geometry)
+    signals = _connect_sensor_signals(b, blocks, params, geometry, belief.rates.T_N, belief.calibration)
     _connect_fusion(b, blocks, signals, params)
     _export_navigation_outputs(b, blocks, signals)
     diagram = b.Build()
@@ -179,11 +154,11 @@ def _add(b: DiagramBuilder, system, name: str):
     return b.AddSystem(system)
 
 
-def _add_navigation_blocks(b, params, rates, wheel_radius, track_width, initial, believed, calibration):
+def _add_navigation_blocks(b, belief: NavigationBelief, geometry):
     """Add the navigation's blocks (in the diagram's order) and split their vector outputs; exports the
-    ``motor_currents`` input. ``believed``: the checks' HealthGeometry and the believed SensorParameters."""
-    T_N, T_C = rates.T_N, rates.T_C
-    geometry, sensors = believed
+    ``motor_currents`` input."""
+    params, initial, T_N, T_C = belief.params, belief.initial, belief.rates.T_N, belief.rates.T_C
+    wheel_radius, track_width = belief.wheel_radius, belief.track_width
     monitor = _add(b, SensorHealthMonitor(params.health, geometry, initial.speed), "Sensor checks")
     b.ExportInput(monitor.GetInputPort("motor_currents"), "motor_currents")
     check = split_port(b, monitor.GetOutputPort("step"), HEALTH_STEP_LAYOUT, "Sensor checks' signals")
@@ -204,7 +179,7 @@ def _add_navigation_blocks(b, params, rates, wheel_radius, track_width, initial,
     c23 = split_port(b, c23_block.GetOutputPort("step"), C2C3_STEP_LAYOUT, "Mixer C2 C3's signals")
     yaw_calibration = _add(
         b,
-        YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C, sensors),
+        YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C, belief.sensors),
         "Gyro and odometry calibration",
     )
     mixer_block = _add(
@@ -223,7 +198,13 @@ def _add_navigation_blocks(b, params, rates, wheel_radius, track_width, initial,
     baselines = _add(
         b,
         Baselines(
-            params.gyrodometry, wheel_radius, track_width, T_N, initial.pose, initial.speed, calibration
+            params.gyrodometry,
+            wheel_radius,
+            track_width,
+            T_N,
+            initial.pose,
+            initial.speed,
+            belief.calibration,
         ),
         "Baselines",
     )
@@ -368,38 +349,14 @@ def _export_navigation_outputs(b, blocks: NavigationBlocks, signals: NavigationS
     b.ExportOutput(signals.zupt["accelerometer_bias"], "accelerometer_bias")
 
 
-def add_navigation(
-    builder,
-    sensors,
-    navigation,
-    rates,
-    robot,
-    initial_speed=0.0,
-    initial_pose=(0.0, 0.0, 0.0),
-    nominal_sensors: SensorParameters | None = None,
-    calibration: SensorCalibration | None = None,
-    currents_port=None,
-):
-    """Add the navigation diagram fed by ``sensors`` (ProprioceptiveSensors or a SensorFaultInjector) and
-    the motor drivers' ``currents_port`` (None: unconnected) to ``builder``; ``robot``,
-    ``nominal_sensors`` (default the robot's data sheet) and ``calibration`` (the model's
-    SensorCalibration, default none) are what it knows.
+def add_navigation(builder, sensors, belief: NavigationBelief, currents_port=None):
+    """Add the navigation diagram of ``belief`` (NavigationBelief: what it knows) fed by ``sensors``
+    (ProprioceptiveSensors or a SensorFaultInjector) and the motor drivers' ``currents_port`` (None:
+    unconnected) to ``builder``.
 
     Returns (navigation subsystem, its output ports keyed ``nav_<name>`` for logging).
     """
-    nav = builder.AddSystem(
-        build_navigation_diagram(
-            navigation,
-            rates,
-            (robot.radius_R, robot.radius_L),
-            robot.track_width,
-            NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
-            nominal_sensors or default_sensor_parameters(robot.name),
-            robot.no_load_speed,
-            calibration,
-            robot,
-        )
-    )
+    nav = builder.AddSystem(build_navigation_diagram(belief))
     for name in ("accelerometers", "gyro", "encoders"):
         builder.Connect(sensors.GetOutputPort(name), nav.GetInputPort(name))
     if currents_port is not None:

@@ -13,7 +13,8 @@ from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
 def add_robot_and_navigation(builder: DiagramBuilder, truth: Truth, belief: Belief):
     """The simulated robot (``truth.robot(belief)``) with its sensors and their faults, and the navigation
     reading them (``belief.navigation`` None: none), which knows the nominal robot, the sensors' data
-    sheet and the model's calibration of the ``belief`` (add_navigation).
+    sheet and the model's calibration of the ``belief`` and starts from the truth's initial speed and
+    pose (Belief.navigation_belief, add_navigation).
 
     Returns (RobotHandles, the navigation subsystem or None, its output ports keyed for logging).
     """
@@ -33,13 +34,7 @@ def add_robot_and_navigation(builder: DiagramBuilder, truth: Truth, belief: Beli
     nav, nav_ports = add_navigation(
         builder,
         handles.readings,
-        belief.navigation,
-        belief.rates,
-        belief.robot,
-        truth.initial_speed,
-        truth.initial_pose,
-        belief.data_sheet,
-        belief.calibration,
+        belief.navigation_belief(truth.initial_state),
         handles.sensors.GetOutputPort("motor_currents"),
     )
     return handles, nav, nav_ports

@@ -12,7 +12,11 @@ from __future__ import annotations
 import dataclasses as dc
 
 from slipnav.systems.health.perturbation import PerturbationParameters
-from slipnav.systems.navigation.parameters import NavigationParameters
+from slipnav.systems.navigation.parameters import (
+    NavigationBelief,
+    NavigationInitialState,
+    NavigationParameters,
+)
 from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.parameters import RobotParameters
@@ -52,6 +56,13 @@ class Belief:
         """The PerturbationMonitor's tuning: ``perturbation_monitor``, else PerturbationParameters()."""
         return self.perturbation_monitor or PerturbationParameters()
 
+    def navigation_belief(self, initial: NavigationInitialState) -> NavigationBelief:
+        """What the navigation is given of this belief, starting from ``initial``: the tuning, the nominal
+        robot, the periods, the data sheet (``data_sheet``) and the calibration."""
+        return NavigationBelief.of_robot(
+            self.navigation, self.robot, self.rates, initial, self.data_sheet, self.calibration
+        )
+
 
 @dc.dataclass(frozen=True)
 class Truth:
@@ -74,6 +85,11 @@ class Truth:
     initial_speed: float = 0.0
     plant_time_step: float = DEFAULT_TIME_STEP
     faults: tuple = ()
+
+    @property
+    def initial_state(self) -> NavigationInitialState:
+        """The initial speed (m/s) and pose as the navigation starts from them."""
+        return NavigationInitialState(speed=self.initial_speed, pose=tuple(self.initial_pose))
 
     def robot(self, belief: Belief) -> RobotParameters:
         """The simulated robot: ``plant``, else the ``belief``'s nominal robot."""

@@ -12,26 +12,16 @@ from slipnav.diagrams.loggers import add_loggers
 from slipnav.diagrams.navigation import NAVIGATION_OUTPUTS, build_navigation_diagram
 from slipnav.systems.health.perturbation import PerturbationParameters
 from slipnav.systems.health.perturbation_monitor import add_perturbation_monitor
-from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
-from slipnav.systems.navigation.sensor_correction import SensorCalibration
-from slipnav.systems.rates import SampleRates
-from slipnav.systems.robot.sensors import SensorParameters, default_sensor_parameters
+from slipnav.systems.navigation.parameters import NavigationBelief
+from slipnav.systems.robot.sensors import default_sensor_parameters
 
 
 def build_log_replay_diagram(
-    params: NavigationParameters,
-    rates: SampleRates,
-    wheel_radius,
-    track_width: float,
+    belief: NavigationBelief,
     accelerometers,
     gyro,
     encoders,
-    initial: NavigationInitialState | None = None,
-    sensors: SensorParameters | None = None,
-    no_load_speed: float | None = None,
-    calibration: SensorCalibration | None = None,
     currents=None,
-    robot=None,
     commands=None,
     perturbation_monitor=None,
 ):
@@ -40,12 +30,10 @@ def build_log_replay_diagram(
     as in a run (so artifact_arrays.collect_navigation reads them).
 
     Args:
-        params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration: as
-            build_navigation_diagram (the model).
+        belief: what the navigation is given (NavigationBelief: the model), as build_navigation_diagram.
         accelerometers: (N, 4) a_t1, a_n1, a_t2, a_n2; gyro: (N,); encoders: (N, 2) wheel angles (rad);
-        currents: (N, 2) the motor drivers' readings (A) or None; robot: the nominal RobotParameters, for
-        the sensor checks' force reference (build_navigation_diagram).
-        commands: (N, 2) the logged wheel speed commands (m/s) or None. With them (and ``robot``) a
+        currents: (N, 2) the motor drivers' readings (A) or None.
+        commands: (N, 2) the logged wheel speed commands (m/s) or None. With them (and ``belief.robot``) a
             PerturbationMonitor (``perturbation_monitor``: its PerturbationParameters, default the
             defaults) runs as in the run: its flags are logged (``perturbation``, ``force_residual``) and
             its sideways push reaches the navigation, so that a run with a push replays bit for bit too.
@@ -53,14 +41,11 @@ def build_log_replay_diagram(
     Returns:
         (diagram, loggers keyed ``nav_<output>``).
     """
+    rates, robot = belief.rates, belief.robot
     b = DiagramBuilder()
     source = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders, currents, commands))
     source.set_name("Sensor log")
-    nav = b.AddSystem(
-        build_navigation_diagram(
-            params, rates, wheel_radius, track_width, initial, sensors, no_load_speed, calibration, robot
-        )
-    )
+    nav = b.AddSystem(build_navigation_diagram(belief))
     for name in ("accelerometers", "gyro", "encoders", "motor_currents"):
         b.Connect(source.GetOutputPort(name), nav.GetInputPort(name))
     ports = {f"nav_{name}": nav.GetOutputPort(name) for name in NAVIGATION_OUTPUTS if name != "covariance"}
@@ -74,7 +59,7 @@ def build_log_replay_diagram(
             robot,
             rates.T_N,
             source.GetOutputPort("motor_currents"),
-            (sensors or default_sensor_parameters(robot.name)).accelerometer_sets > 0,
+            (belief.sensors or default_sensor_parameters(robot.name)).accelerometer_sets > 0,
         )
         ports["perturbation"] = monitor.GetOutputPort("perturbation")
         ports["force_residual"] = monitor.GetOutputPort("force_residual")
@@ -139,17 +124,17 @@ class SensorReplay(LeafSystem):
         return self._rows[min(k, len(self._rows) - 1)]
 
 
-def build_navigation_replay(
-    params, rates, wheel_radius, track_width, accelerometers, gyro, encoders, initial=None
-):
-    """SensorReplay -> navigation diagram, with the navigation outputs logged every T_N.
+def build_navigation_replay(belief: NavigationBelief, accelerometers, gyro, encoders):
+    """SensorReplay -> navigation diagram of ``belief`` (NavigationBelief), with the navigation outputs
+    logged every T_N.
 
     Returns (diagram, loggers keyed by navigation output name).
     """
+    rates = belief.rates
     b = DiagramBuilder()
     replay = b.AddSystem(SensorReplay(rates.T_N, accelerometers, gyro, encoders))
     replay.set_name("Sensor replay")
-    nav = b.AddSystem(build_navigation_diagram(params, rates, wheel_radius, track_width, initial))
+    nav = b.AddSystem(build_navigation_diagram(belief))
     for name in ("accelerometers", "gyro", "encoders"):
         b.Connect(replay.GetOutputPort(name), nav.GetInputPort(name))
     loggers = {}

@@ -11,6 +11,7 @@ from slipnav.diagrams.records import Belief, Truth
 from slipnav.scenarios.config import ScenarioError, load_scenario
 from slipnav.scenarios.diagram_labels import readable_dot
 from slipnav.scenarios.run_plan import follower_path, reference_for
+from slipnav.systems.navigation.parameters import NavigationBelief
 
 DIAGRAM_NAMES = ("navigation", "control", "closed_loop")
 FORMATS = (".dot", ".svg", ".png")
@@ -23,7 +24,9 @@ def named_diagram(name: str, scenario_name: str = "corner"):
     scenario = load_scenario(scenario_name)
     rates, robot = scenario.rates(), scenario.robot_parameters()
     if name == "navigation":
-        return build_navigation_diagram(scenario.navigation, rates, robot.wheel_radius, robot.track_width)
+        return build_navigation_diagram(
+            NavigationBelief(scenario.navigation, robot.wheel_radius, robot.track_width, rates)
+        )
     reference, initial_speed = reference_for(scenario)
     control = ControlSettings(
         mode=scenario.mode,

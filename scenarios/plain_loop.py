@@ -16,8 +16,7 @@ import time
 import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, control_offset
 from slipnav.diagrams.records import Belief, Truth
-from slipnav.scenarios.config import with_paper_mode
-from slipnav.scenarios.run_plan import closed_loop_settings
+from slipnav.scenarios.run_plan import RunOptions, plan_run
 from slipnav.systems.control.path_follower import (
     bounded_speed,
     check_path_curvature,
@@ -36,7 +35,6 @@ from slipnav.systems.health.perturbation import (
     sideways_push,
 )
 from slipnav.systems.navigation.loop import LOOP_KEYS, NavigationLoop
-from slipnav.systems.navigation.parameters import NavigationInitialState
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.contact import NO_DISTURBANCE
 from slipnav.systems.robot.dynamics import plant_advance, plant_derivatives, substeps_per
@@ -104,21 +102,11 @@ def run_plain_loop(
         raise ValueError(f"truth.plant_time_step={time_step!r} is out of range: allowed (0, 0.01] s")
     plant_steps = substeps_per(rates.T_N, time_step, "T_N")
     noise = checked_noise(noise, truth.seed, num_steps)
-    initial_pose, initial_speed = truth.initial_pose, truth.initial_speed
-    world = PlainPlant(truth.robot(belief), initial_pose, initial_speed, rates.T_N, plant_steps, time_step)
-    sensors = PlainSensors(truth.sensors, truth.seed, world.initial_wheel_speeds, rates.T_N)
-    nav = NavigationLoop(
-        belief.navigation,
-        (robot.radius_R, robot.radius_L),
-        robot.track_width,
-        rates.T_N,
-        rates.T_C,
-        NavigationInitialState(speed=initial_speed, pose=tuple(initial_pose)),
-        belief.data_sheet,
-        robot.no_load_speed,
-        belief.calibration,
-        robot,
+    world = PlainPlant(
+        truth.robot(belief), truth.initial_pose, truth.initial_speed, rates.T_N, plant_steps, time_step
     )
+    sensors = PlainSensors(truth.sensors, truth.seed, world.initial_wheel_speeds, rates.T_N)
+    nav = NavigationLoop(belief.navigation_belief(truth.initial_state))
     # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
     ctrl = PlainControl(control, robot, rates.T_C)
     faults = check_fault_events(truth.faults)
@@ -360,20 +348,9 @@ def localisation_reader(source: str):
 def run_scenario_plain_loop(
     scenario, seed: int, num_steps: int, slip_control=None, speed_law=None, noise=None, timings=None
 ) -> dict:
-    """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (same overrides)."""
-
-    scenario = with_paper_mode(scenario)
-    slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
-    plant, sensor_params, _ = scenario.plant_parameters(seed)
-    speed_law = scenario.speed_law if speed_law is None else speed_law
-    control, initial_speed, _ = closed_loop_settings(scenario, slip_control, speed_law)
-    truth = Truth(
-        sensors=sensor_params,
-        seed=seed,
-        plant=plant,
-        initial_pose=tuple(scenario.initial_pose),
-        initial_speed=initial_speed,
-        plant_time_step=scenario.plant_time_step,
-        faults=scenario.faults,
-    )
-    return run_plain_loop(truth, scenario.belief(), control, num_steps, noise=noise, timings=timings)
+    """run_plain_loop for a Scenario, built as run_scenario builds its closed loop (plan_run with the same
+    overrides, RunPlan.closed_loop)."""
+    options = RunOptions(seed=seed, slip_control=slip_control, speed_law=speed_law, open_loop=False)
+    plan = plan_run(scenario, options)
+    truth, control, _ = plan.closed_loop()
+    return run_plain_loop(truth, plan.belief, control, num_steps, noise=noise, timings=timings)

@@ -31,7 +31,11 @@ from slipnav.scenarios.run_summary import POSITION_ERROR_KEYS, position_error_su
 from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_metadata, read_sensor_log
 from slipnav.systems.checks import require_finite
 from slipnav.systems.health.perturbation import perturbation_report
-from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
+from slipnav.systems.navigation.parameters import (
+    NavigationBelief,
+    NavigationInitialState,
+    NavigationParameters,
+)
 
 
 @dc.dataclass
@@ -102,24 +106,11 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
     counts = check_counts(log, model)
     if navigation is None:
         navigation = model.navigation_over(NavigationParameters())
-    initial = initial_state(log)
-    acc, gyro, enc = log.accelerometers, log.gyro, log.encoder_angles(counts)
-    diagram, loggers = build_log_replay_diagram(
-        navigation,
-        rates,
-        (robot.radius_R, robot.radius_L),
-        robot.track_width,
-        acc,
-        gyro,
-        enc,
-        initial,
-        model.sensor_parameters(),
-        robot.no_load_speed,
-        model.calibration,
-        log.currents,
-        robot,
-        log.commands,
+    belief = NavigationBelief.of_robot(
+        navigation, robot, rates, initial_state(log), model.sensor_parameters(), model.calibration
     )
+    acc, gyro, enc = log.accelerometers, log.gyro, log.encoder_angles(counts)
+    diagram, loggers = build_log_replay_diagram(belief, acc, gyro, enc, log.currents, log.commands)
     simulator = Simulator(diagram)
     simulator.Initialize()
     end = (len(log) - 1) * rates.T_N

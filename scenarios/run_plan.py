@@ -25,32 +25,57 @@ from slipnav.scenarios.trajectories import (
 )
 from slipnav.systems.checks import require_seed
 from slipnav.systems.rates import SampleRates
-from slipnav.systems.robot.parameters import RobotParameters
-from slipnav.systems.robot.sensors import SensorParameters
 
 
-def check_run_options(
-    scenario: Scenario,
-    seed: int | None = None,
-    duration: float | None = None,
-    slip_control: bool | None = None,
-    speed_law: str | None = None,
-    open_loop: bool | None = None,
-) -> None:
+@dc.dataclass(frozen=True)
+class RunOptions:
+    """run_scenario's overrides of a scenario (the command line's flags); None keeps the scenario's.
+
+    Args:
+        seed: the noise seed and the tolerances' draw (--seed; an integer 0 .. 2**31-1).
+        duration: the run's end (s; --duration; None: the scenario's duration or its reference's end).
+        slip_control: a trajectory scenario's slip control on or off (--no-slip-control).
+        speed_law: a max_speed scenario's speed law, ``bounded`` or ``constant`` (--speed-law).
+        open_loop: the feed-forward of the reference instead of the closed loop (--open-loop).
+        tolerances: True draws the plant from the tolerance preset where the scenario sets no bound
+            (--tolerances).
+        faults: FaultEvents replacing the scenario's ``faults``.
+        localisation: what the follower localises by: fused, odometry, gyrodometry, truth (--localisation).
+    """
+
+    seed: int | None = None
+    duration: float | None = None
+    slip_control: bool | None = None
+    speed_law: str | None = None
+    open_loop: bool | None = None
+    tolerances: bool = False
+    faults: object = None
+    localisation: str | None = None
+
+    def runs_open_loop(self, scenario: Scenario) -> bool:
+        """Whether the run is open loop: ``open_loop``, else the scenario's ``controller: feedforward``."""
+        return scenario.controller == "feedforward" if self.open_loop is None else self.open_loop
+
+
+def check_run_options(scenario: Scenario, options: RunOptions) -> None:
     """The overrides of run_scenario (the command line's flags), checked against the scenario before
     anything is built; raises ScenarioError naming the flag (and the parameter)."""
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"scenario must be a Scenario (load_scenario(...)), got {scenario!r}")
+    if not isinstance(options, RunOptions):
+        raise ScenarioError(f"options must be a RunOptions, got {options!r}")
     scenario.validate()  # a Scenario built or changed in Python
-    if seed is not None:
-        as_scenario_error(lambda: require_seed(seed, "--seed"))
-    if duration is not None:
-        check_duration(scenario, duration)
-    for name, value in (("slip_control", slip_control), ("open_loop", open_loop)):
+    if options.seed is not None:
+        as_scenario_error(lambda: require_seed(options.seed, "--seed"))
+    if options.duration is not None:
+        check_duration(scenario, options.duration)
+    for name in ("slip_control", "open_loop"):
+        value = getattr(options, name)
         if value is not None and not isinstance(value, bool):
             raise ScenarioError(f"{name}={value!r} is out of range: allowed True, False or None")
-    open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
+    open_loop = options.runs_open_loop(scenario)
     how = "this run is open loop (--open-loop or controller: feedforward)"
+    speed_law = options.speed_law
     if speed_law is not None:
         if speed_law not in ("bounded", "constant"):
             raise ScenarioError(f"--speed-law={speed_law!r} is unknown: allowed bounded, constant")
@@ -61,7 +86,7 @@ def check_run_options(
             )
         if open_loop:
             raise ScenarioError(f"--speed-law (speed_law) applies to the closed loop only: {how}")
-    if slip_control is not None:
+    if options.slip_control is not None:
         if scenario.mode != "trajectory":
             raise ScenarioError(
                 f"--no-slip-control (slip_control) applies to trajectory scenarios only: {scenario.name!r} "
@@ -165,86 +190,68 @@ class RunPlan:
 
     Args:
         scenario: the scenario as run (in paper mode if asked, with the --localisation override).
-        seed, duration (--duration; None: the scenario's end), speed_law, slip_control, open_loop,
-        tolerances, faults: the run's settings, the scenario's where not overridden.
+        duration (--duration; None: the scenario's end), speed_law, slip_control, open_loop, tolerances:
+        the run's settings, the scenario's where not overridden.
         rates: the sample periods. belief: what navigation and control read (Scenario.belief: the
-        nominal robot refined by a model). plant, sensor_params: the real robot and sensors (with the
-        seed, faults and initial state: ``truth``); deviations: their drawn deviations from the nominal
-        values. reference, initial_speed: reference_for's.
-        initial_pose: the scenario's initial pose as a tuple.
+        nominal robot refined by a model). truth: the simulated robot (diagrams.records.Truth: the real
+        robot and sensors, the seed, the faults, the scenario's plant time step and initial pose, and the
+        reference's initial speed, reference_for's; a max_speed closed loop starts at rest instead);
+        deviations: the real robot's and sensors' drawn deviations from the nominal values.
+        reference: the reference trajectory (reference_for's).
     """
 
     scenario: Scenario
-    seed: int
     duration: float | None
     speed_law: str
     slip_control: bool
     open_loop: bool
     tolerances: bool
-    faults: object
     rates: SampleRates
     belief: Belief
-    plant: RobotParameters
-    sensor_params: SensorParameters
+    truth: Truth
     deviations: dict
     reference: Trajectory
-    initial_speed: float
-    initial_pose: tuple
 
-    def truth(self, initial_speed: float) -> Truth:
-        """The simulated robot of this run (diagrams.records.Truth), starting at ``initial_speed`` (m/s):
-        the real robot and sensors, the seed, the faults, the scenario's plant time step and initial pose."""
-        return Truth(
-            sensors=self.sensor_params,
-            seed=self.seed,
-            plant=self.plant,
-            initial_pose=self.initial_pose,
-            initial_speed=initial_speed,
-            plant_time_step=self.scenario.plant_time_step,
-            faults=self.faults,
-        )
+    def closed_loop(self) -> tuple[Truth, ControlSettings, float]:
+        """The run's closed loop: its Truth (a max_speed run starts at rest), its ControlSettings and its
+        nominal end (s), closed_loop_settings'."""
+        settings = closed_loop_settings(self.scenario, self.slip_control, self.speed_law)
+        control, initial_speed, nominal = settings
+        return dc.replace(self.truth, initial_speed=initial_speed), control, nominal
 
 
-def plan_run(
-    scenario: Scenario,
-    seed: int | None = None,
-    duration: float | None = None,
-    slip_control: bool | None = None,
-    speed_law: str | None = None,
-    open_loop: bool | None = None,
-    tolerances: bool = False,
-    faults=None,
-    localisation: str | None = None,
-) -> RunPlan:
-    """The RunPlan of run_scenario's arguments (its docstring), the overrides checked first
-    (check_run_options); raises ScenarioError naming the flag."""
-    check_run_options(scenario, seed, duration, slip_control, speed_law, open_loop)
+def plan_run(scenario: Scenario, options: RunOptions) -> RunPlan:
+    """The RunPlan of ``scenario`` with the overrides ``options`` (run_scenario's docstring), checked
+    first (check_run_options); raises ScenarioError naming the flag."""
+    check_run_options(scenario, options)
     scenario = with_paper_mode(scenario)
-    if localisation is not None:
-        scenario = dc.replace(scenario, localisation=localisation).validate()
-    seed = scenario.seed if seed is None else int(seed)
-    speed_law = scenario.speed_law if speed_law is None else speed_law
-    slip_control = scenario.slip_control_enabled if slip_control is None else slip_control
-    open_loop = scenario.controller == "feedforward" if open_loop is None else open_loop
+    if options.localisation is not None:
+        scenario = dc.replace(scenario, localisation=options.localisation).validate()
+    seed = scenario.seed if options.seed is None else int(options.seed)
+    speed_law = scenario.speed_law if options.speed_law is None else options.speed_law
+    slip_control = scenario.slip_control_enabled if options.slip_control is None else options.slip_control
     rates = scenario.rates()
     belief = scenario.belief()
-    plant, sensor_params, deviations = scenario.plant_parameters(seed, tolerances)
+    plant, sensor_params, deviations = scenario.plant_parameters(seed, options.tolerances)
     reference, initial_speed = reference_for(scenario)
     return RunPlan(
         scenario=scenario,
-        seed=seed,
-        duration=duration,
+        duration=options.duration,
         speed_law=speed_law,
         slip_control=slip_control,
-        open_loop=open_loop,
-        tolerances=tolerances,
-        faults=scenario.faults if faults is None else faults,
+        open_loop=options.runs_open_loop(scenario),
+        tolerances=options.tolerances,
         rates=rates,
         belief=belief,
-        plant=plant,
-        sensor_params=sensor_params,
+        truth=Truth(
+            sensors=sensor_params,
+            seed=seed,
+            plant=plant,
+            initial_pose=tuple(scenario.initial_pose),
+            initial_speed=initial_speed,
+            plant_time_step=scenario.plant_time_step,
+            faults=scenario.faults if options.faults is None else options.faults,
+        ),
         deviations=deviations,
         reference=reference,
-        initial_speed=initial_speed,
-        initial_pose=tuple(scenario.initial_pose),
     )

@@ -97,8 +97,8 @@ def run_summary(
     when the controller finished (None: never), the navigation's health and the simulation's wall time.
     Completion is judged on the true pose (judge_completion)."""
     scenario, reference, robot, open_loop = plan.scenario, plan.reference, plan.belief.robot, plan.open_loop
-    seed, slip_control, speed_law, faults = plan.seed, plan.slip_control, plan.speed_law, plan.faults
-    tolerances, deviations = plan.tolerances, plan.deviations
+    seed, faults, deviations = plan.truth.seed, plan.truth.faults, plan.deviations
+    slip_control, speed_law, tolerances = plan.slip_control, plan.speed_law, plan.tolerances
     # Completion on the true pose against the path followed (closed loop) or the reference (open loop).
     track_x, track_y = (reference.x, reference.y) if path is None else (path.x, path.y)
     judged = judge_completion(
@@ -169,8 +169,8 @@ def run_summary(
 def run_sensor_log(plan: RunPlan, arrays: dict, initial_speed: float, start: float) -> SensorLog:
     """The sensor log of a run (scenarios/sensor_log.py): what the robot read, with the header a replay
     starts from (``initial_speed``: the robot's at t = 0; ``start``: the standstill, s)."""
-    scenario, robot, rates, sensor_params = plan.scenario, plan.belief.robot, plan.rates, plan.sensor_params
-    seed, pose0 = plan.seed, plan.initial_pose
+    scenario, robot, rates, sensor_params = plan.scenario, plan.belief.robot, plan.rates, plan.truth.sensors
+    seed, pose0 = plan.truth.seed, plan.truth.initial_pose
     return sensor_log_from_arrays(
         arrays,
         sensor_params.encoder_counts_per_revolution,

@@ -25,10 +25,10 @@ from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.log_drain import LogDrain
 from slipnav.scenarios.navigation_health import NavigationHealth
 from slipnav.scenarios.run_plan import (
+    RunOptions,
     RunPlan,
     as_scenario_error,
     check_fault_starts,
-    closed_loop_settings,
     end_time,
     plan_run,
     standstill_for,
@@ -37,39 +37,29 @@ from slipnav.scenarios.run_summary import belief_model, run_sensor_log, run_summ
 from slipnav.scenarios.tolerances import plant_record
 from slipnav.scenarios.trajectories import Path
 
-__all__ = ["RunResult", "run_scenario", "write_artifacts"]
-"""The Python API (docs/python-api.md): run_scenario and write_artifacts, which writes its RunResult."""
+__all__ = ["RunOptions", "RunResult", "run_scenario", "write_artifacts"]
+"""The Python API (docs/python-api.md): run_scenario (its overrides: RunOptions) and write_artifacts,
+which writes its RunResult."""
 
 
-def run_scenario(
-    scenario: Scenario,
-    seed: int | None = None,
-    duration: float | None = None,
-    slip_control: bool | None = None,
-    speed_law: str | None = None,
-    open_loop: bool | None = None,
-    tolerances: bool = False,
-    faults=None,
-    localisation: str | None = None,
-) -> RunResult:
+def run_scenario(scenario: Scenario, options: RunOptions | None = None, **overrides) -> RunResult:
     """Simulate ``scenario`` and collect the run artifact.
 
-    The keyword arguments override the scenario (the command line's --seed, --duration,
-    --no-slip-control, --speed-law, --open-loop, --tolerances; None keeps the scenario's). Navigation
-    and control read the nominal robot refined by a model (``scenario.belief()``); the plant and sensors
-    are the real robot (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*``
-    scalars, the summary's ``plant``). A closed-loop run ends when the controller has finished its
+    ``options`` (RunOptions: the command line's --seed, --duration, --no-slip-control, --speed-law,
+    --open-loop, --tolerances, --localisation and the fault list; None keeps the scenario's) and
+    ``overrides``, RunOptions' fields as keywords over them (``run_scenario(scenario, seed=1,
+    duration=2.0)``), override the scenario. Navigation and control read the nominal robot refined by a
+    model (``scenario.belief()``); the plant and sensors are the real robot
+    (``scenario.plant_parameters``), whose drawn values the artifact records (``plant_*`` scalars, the
+    summary's ``plant``). A closed-loop run ends when the controller has finished its
     trajectory (progress Pi at its end) or path (virtual target at its end) plus ``settle_time``, or at
     the duration limit (default: three times the nominal time). Completion is then judged on the true
-    pose (judge_completion): ``summary["completed"]``. ``faults``: FaultEvents replacing the scenario's
-    ``faults``; ``localisation``: what the follower localises by (--localisation); None keeps them.
+    pose (judge_completion): ``summary["completed"]``.
     """
-    plan = plan_run(
-        scenario, seed, duration, slip_control, speed_law, open_loop, tolerances, faults, localisation
-    )
+    plan = plan_run(scenario, dc.replace(options or RunOptions(), **overrides))
     run = build_run(plan)
     simulated = simulate_run(plan, run)
-    record = plant_record(plan.plant, plan.sensor_params)
+    record = plant_record(plan.truth.plant, plan.truth.sensors)
     arrays = run_arrays(plan, run, simulated, record)
     summary = run_summary(
         plan,
@@ -83,7 +73,7 @@ def run_scenario(
     )
     return RunResult(
         scenario=plan.scenario,
-        seed=plan.seed,
+        seed=plan.truth.seed,
         arrays=arrays,
         summary=summary,
         reference=plan.reference,
@@ -112,23 +102,23 @@ class BuiltRun:
 def build_run(plan: RunPlan) -> BuiltRun:
     """The run's open-loop (feed-forward of the reference) or closed-loop diagram; raises ScenarioError
     for what the builders reject."""
-    belief, scenario = plan.belief, plan.scenario
+    belief, scenario, truth = plan.belief, plan.scenario, plan.truth
     if plan.open_loop:
-        start = standstill_for(scenario, plan.initial_speed)
+        start = standstill_for(scenario, truth.initial_speed)
         v_R, v_L = plan.reference.wheel_speeds(belief.robot.track_width)
         built = as_scenario_error(
             lambda: build_open_loop_diagram(
-                plan.truth(plan.initial_speed),
+                truth,
                 belief,
                 np.column_stack([v_R, v_L]),
                 np.column_stack([plan.reference.x, plan.reference.y, plan.reference.phi]),
                 start_time=start,
             )
         )
-        return BuiltRun(built, None, start, plan.reference.duration + start, plan.initial_speed)
-    control, initial_speed, nominal = closed_loop_settings(scenario, plan.slip_control, plan.speed_law)
-    built = as_scenario_error(lambda: build_closed_loop_diagram(plan.truth(initial_speed), belief, control))
-    return BuiltRun(built, control.path, control.start_time, nominal, initial_speed)
+        return BuiltRun(built, None, start, plan.reference.duration + start, truth.initial_speed)
+    truth, control, nominal = plan.closed_loop()
+    built = as_scenario_error(lambda: build_closed_loop_diagram(truth, belief, control))
+    return BuiltRun(built, control.path, control.start_time, nominal, truth.initial_speed)
 
 
 @dc.dataclass
@@ -152,8 +142,8 @@ def simulate_run(plan: RunPlan, run: BuiltRun) -> SimulatedRun:
     # Open loop: the reference's end; closed loop: a generous limit, cut at completion below.
     nominal = run.nominal if open_loop else 3.0 * run.nominal + scenario.settle_time
     limit = end_time(scenario, nominal, plan.duration)
-    check_fault_starts(plan.faults, limit)
-    simulator = make_simulator(run.built.diagram, plan.seed, plan.belief.robot.speed_loop_period)
+    check_fault_starts(plan.truth.faults, limit)
+    simulator = make_simulator(run.built.diagram, plan.truth.seed, plan.belief.robot.speed_loop_period)
     context = simulator.get_context()
     drain = LogDrain(run.built.loggers, context, int(math.ceil(limit / plan.rates.T_N)) + 2)
     health = NavigationHealth(run.built.diagram, context)
@@ -183,7 +173,7 @@ def run_arrays(plan: RunPlan, run: BuiltRun, simulated: SimulatedRun, record: di
     """The artifact arrays of a simulated run: the logged series (NaN where the diagram logs none), the
     nominal scalars and the real robot's ``plant_*`` scalars (``record``: plant_record)."""
     context = simulated.simulator.get_context()
-    arrays = collect_arrays(simulated.drain.loggers(), context, plan.plant, copy=False)
+    arrays = collect_arrays(simulated.drain.loggers(), context, plan.truth.plant, copy=False)
     n = len(arrays["t"])
     for key in SERIES_KEYS:
         arrays.setdefault(key, np.full(n, np.nan))

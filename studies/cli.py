@@ -55,7 +55,7 @@ from slipnav.scenarios.importers import LogImportError, write_import
 from slipnav.scenarios.model import ModelError
 from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.replay import replay_file, sensor_columns_without_samples, write_replay_artifacts
-from slipnav.scenarios.run_plan import check_run_options
+from slipnav.scenarios.run_plan import RunOptions, check_run_options
 from slipnav.scenarios.runner import run_scenario, write_artifacts
 from slipnav.scenarios.sensor_log import SensorLogError
 from slipnav.studies.accuracy import accuracy
@@ -142,18 +142,18 @@ def _run(args) -> int:
         scenario = paper_mode(scenario)
     if args.model is not None:
         scenario = dataclasses.replace(scenario, model=args.model).validate()
-    options = dict(
+    options = RunOptions(
         seed=args.seed,
         duration=args.duration,
         slip_control=False if args.no_slip_control else None,
         speed_law=args.speed_law,
         open_loop=args.open_loop or None,
+        tolerances=args.tolerances,
+        localisation=args.localisation,
     )
-    check_run_options(scenario, **options)
-    options["tolerances"] = args.tolerances  # every mistake before the simulation starts
-    options["localisation"] = args.localisation
+    check_run_options(scenario, options)  # every mistake before the simulation starts
     check_output_directory(args.out)
-    result = run_scenario(scenario, **options)
+    result = run_scenario(scenario, options)
     if not _write(write_artifacts, result, args):
         return 1
     if args.animate and not _write(lambda r, out, figures: [write_run_animation(r, out)], result, args):

@@ -54,7 +54,7 @@ from slipnav.scenarios.metrics import (
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.engine import session
 from slipnav.systems.navigation.loop import NavigationLoop, run_navigation_loop
-from slipnav.systems.navigation.parameters import NavigationInitialState
+from slipnav.systems.navigation.parameters import NavigationBelief, NavigationInitialState
 from slipnav.systems.navigation.sideslip import side_slip_angle
 
 VARIANTS = (
@@ -82,14 +82,14 @@ class OracleNavigationLoop(NavigationLoop):
     """NavigationLoop whose velocity mixer S(15)-(17) gets oracle inputs from the true run.
 
     Args:
+        belief: what the navigation is given (NavigationBelief), as NavigationLoop.
         slipping: (N,) bool, C1 = 0 where True and 1 elsewhere (None: the C1 of S(12)).
         true_v_t: (N,) true tangential speed, replacing the mixed v_t of S(15) (None: S(15) as is).
         side_slip: (N,) bool, samples where C2 is forced to 0 (None: C2 of S(13)).
-        other arguments: as NavigationLoop.
     """
 
-    def __init__(self, *args, slipping=None, true_v_t=None, side_slip=None, **kwargs):
-        super().__init__(*args, **kwargs)
+    def __init__(self, belief: NavigationBelief, slipping=None, true_v_t=None, side_slip=None):
+        super().__init__(belief)
         self._slipping, self._true_v_t, self._side_slip = slipping, true_v_t, side_slip
 
     def velocity_mix(self, odo, inertial, c2, c3, previous, standing):
@@ -120,24 +120,13 @@ def replay(a: dict, scenario, navigation=None, **oracles) -> dict:
     ``navigation``: NavigationParameters (default: the scenario's). ``oracles``: the keyword arguments of
     OracleNavigationLoop.
     """
-    belief, rates = scenario.belief(), scenario.rates()
-    robot = belief.robot  # what the run's navigation believes: robot, sensors' data sheet, calibration
-    loop = OracleNavigationLoop(
-        navigation or belief.navigation,
-        (robot.radius_R, robot.radius_L),
-        robot.track_width,
-        rates.T_N,
-        rates.T_C,
-        NavigationInitialState(
-            speed=float(a["true_v_t"][0]),
-            pose=(float(a["true_x"][0]), float(a["true_y"][0]), float(a["true_phi"][0])),
-        ),
-        belief.sensors,
-        robot.no_load_speed,
-        belief.calibration,
-        robot,
-        **oracles,
+    belief = scenario.belief()  # what the run's navigation believes: robot, sensors' data sheet, calibration
+    initial = NavigationInitialState(
+        speed=float(a["true_v_t"][0]),
+        pose=(float(a["true_x"][0]), float(a["true_y"][0]), float(a["true_phi"][0])),
     )
+    believed = dc.replace(belief, navigation=navigation or belief.navigation).navigation_belief(initial)
+    loop = OracleNavigationLoop(believed, **oracles)
     accelerometers = np.column_stack([a[f"meas_{k}"] for k in ("a_t1", "a_n1", "a_t2", "a_n2")])
     encoders = np.column_stack([a["meas_enc_R"], a["meas_enc_L"]])
     return run_navigation_loop(loop, accelerometers, a["meas_gyro"], encoders)

@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 from slipnav.systems.navigation.loop import NavigationLoop
 from slipnav.systems.navigation.mixing.parameters import MixingParameters
-from slipnav.systems.navigation.parameters import NavigationParameters
+from slipnav.systems.navigation.parameters import NavigationBelief, NavigationParameters
+from slipnav.systems.rates import SampleRates
 
 SPIN_RATE = 20.0
 """rad/s: Tinyphoon spinning on the spot at its wheel-speed limit (0.068 m/s per rad/s)."""
@@ -58,7 +59,7 @@ def spin(duration: float, T_N: float = 0.002, T_C: float = 0.02, seed: int = 0) 
     variance, and whether the estimate stayed finite."""
     rng = np.random.default_rng(seed)
     params = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
-    loop = NavigationLoop(params, 0.015, 0.068, T_N, T_C)
+    loop = NavigationLoop(NavigationBelief(params, 0.015, 0.068, SampleRates(T_N, T_C)))
     step = 2.0 * math.pi / 6144
     wheel_rate = 0.034 * SPIN_RATE / 0.015  # rad/s of each wheel
     low, high, velocity, asymmetry, finite = math.inf, 0.0, 0.0, 0.0, True

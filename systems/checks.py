@@ -1,8 +1,9 @@
 """Checks of physically impossible or unusable settings, shared by the scenario loader and the Python
 diagram builders. Each raises ValueError naming the parameter and the allowed range.
 
-The range checks of each parameter set live with it (RobotParameters.__post_init__, ...); these are the
-checks across parameters and against what the models can represent:
+The range checks of each parameter set live with it (RobotParameters.__post_init__, ...), written with
+systems/ranges.py's require_in; these are the checks across parameters and against what the models can
+represent:
 
 - tyre friction mu >= 0.05, and the tyres' traction mu f_w g at least 0.5 m/s^2 beyond the felt shoes'
   Coulomb drag mu_s (1 - f_w) g (Tinyphoon: mu >= 0.126); below it the robot barely moves.

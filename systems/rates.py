@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses as dc
 import math
 
+from slipnav.systems.ranges import require_in
+
 
 @dc.dataclass(frozen=True)
 class SampleRates:
@@ -19,9 +21,8 @@ class SampleRates:
     T_C: float = 0.02
 
     def __post_init__(self):
-        for name, value in (("T_N", self.T_N), ("T_C", self.T_C)):
-            if not (math.isfinite(value) and 0.0 < value <= 1.0):
-                raise ValueError(f"{name}={value!r} is out of range: allowed (0, 1] s")
+        for name in ("T_N", "T_C"):
+            require_in(name, getattr(self, name), "(0, 1] s")
         ratio = self.T_C / self.T_N
         if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
             raise ValueError(

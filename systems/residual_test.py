@@ -26,6 +26,7 @@ import numpy as np
 from pydrake.common.containers import namedview
 from scipy.stats import chi2
 from slipnav.systems.compiled import jitable
+from slipnav.systems.ranges import out_of_range, require_in
 
 CusumState = namedview(
     "CusumState", ["upper", "lower", "upper_count", "lower_count", "upper_sum", "lower_sum"]
@@ -40,8 +41,7 @@ SIEGMUND_CORRECTION = 1.166
 def chi_square_gate(false_alarm: float, dof: int = 1) -> float:
     """The gate on the sum of squares of ``dof`` normalised innovations that a healthy channel exceeds
     with probability ``false_alarm`` (in (0, 1))."""
-    if not 0.0 < false_alarm < 1.0:
-        raise ValueError(f"false_alarm={false_alarm!r} is out of range: allowed (0, 1)")
+    require_in("false_alarm", false_alarm, "(0, 1)")
     return float(chi2.ppf(1.0 - false_alarm, dof))
 
 
@@ -58,10 +58,8 @@ def cusum_threshold(run_length: float, drift: float) -> float:
     """The threshold h (sigma) at which the two-sided CUSUM of drift k raises a false alarm once in
     ``run_length`` healthy samples on average (each side once in 2 run_length; bisection of
     cusum_run_length, remembered per (run_length, drift): the calibration asks for it every batch)."""
-    if not (math.isfinite(run_length) and run_length > 1.0):
-        raise ValueError(f"run_length={run_length!r} is out of range: allowed (1, inf) samples")
-    if not (math.isfinite(drift) and drift > 0.0):
-        raise ValueError(f"drift={drift!r} is out of range: allowed (0, inf) sigma")
+    require_in("run_length", run_length, "(1, inf) samples")
+    require_in("drift", drift, "(0, inf) sigma")
     low, high = 0.0, 1.0
     while cusum_run_length(high, drift) < 2.0 * run_length:
         high *= 2.0
@@ -89,7 +87,7 @@ class CusumTest:
     def from_run_length(cls, run_length: float, drift: float, clip: float) -> "CusumTest":
         """The test raising one false alarm per ``run_length`` healthy samples on average."""
         if not (math.isfinite(clip) and clip > drift):
-            raise ValueError(f"clip={clip!r} is out of range: allowed ({drift}, inf) sigma")
+            raise out_of_range("clip", clip, f"({drift}, inf) sigma")
         return cls(drift, cusum_threshold(run_length, drift), clip)
 
 

@@ -7,6 +7,7 @@ a lock per result makes one process simulate it while another that needs it wait
 
 import contextlib
 import copy
+import dataclasses as dc
 import fcntl
 import hashlib
 import os
@@ -78,10 +79,12 @@ def scenario_run(name: str, **options):
     return _run(load_scenario(name), options)[0]
 
 
-def scenario_result(scenario, **options):
-    """``run_scenario(scenario, **options)`` (a RunResult), simulated once per test session: the key is
-    the scenario's repr (every field of it) and the options."""
-    return _run(scenario, options)[0]
+def scenario_result(scenario, options=None, **overrides):
+    """``run_scenario(scenario, options, **overrides)`` (a RunResult), simulated once per test session: the
+    key is the scenario's repr (every field of it) and the options (a RunOptions' fields, then
+    ``overrides``)."""
+    fields = {} if options is None else {f.name: getattr(options, f.name) for f in dc.fields(options)}
+    return _run(scenario, {**fields, **overrides})[0]
 
 
 def scenario_frenet_errors(name: str, **options):

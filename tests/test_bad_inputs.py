@@ -21,6 +21,7 @@ from slipnav.diagrams.records import Belief, Truth
 from slipnav.diagrams.robot import make_simulator
 from slipnav.scenarios import runner
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml
+from slipnav.scenarios.run_plan import closed_loop_settings
 from slipnav.studies.cli import main
 from slipnav.systems.navigation.parameters import NavigationParameters
 from slipnav.systems.rates import SampleRates
@@ -214,7 +215,7 @@ def _open_loop_inputs():
 
 def _closed_loop_inputs():
     scenario = load_scenario("corner")
-    control, _, _ = runner.closed_loop_settings(scenario, True, "bounded")
+    control, _, _ = closed_loop_settings(scenario, True, "bounded")
     return dict(
         truth=Truth(sensors=SensorParameters(), seed=0),
         belief=Belief(robot=tinyphoon(), rates=SampleRates(), navigation=NavigationParameters()),

@@ -876,14 +876,22 @@ def test_a_stuck_encoders_restored_travel_never_becomes_s11s_reference():
     speed (which gave dv = 0.40 m/s and C1 0.02, a slip that never was). dv stays within the noise of
     the other detections (0.044 m/s) and C1 above 0.6."""
     from slipnav.systems.navigation.loop import NavigationLoop, run_navigation_loop
-    from slipnav.systems.navigation.parameters import NavigationInitialState, NavigationParameters
+    from slipnav.systems.navigation.parameters import (
+        NavigationBelief,
+        NavigationInitialState,
+        NavigationParameters,
+    )
+    from slipnav.systems.rates import SampleRates
 
     n, v = 600, 0.2
     rng = np.random.default_rng(0)
     k = np.arange(1, n + 1)
     angles = np.round(np.column_stack([v / R * T_N * k] * 2) / STEP) * STEP
     angles[305:, 1] = angles[305, 1]
-    loop = NavigationLoop(NavigationParameters(), R, B, T_N, 0.02, NavigationInitialState(speed=v))
+    belief = NavigationBelief(
+        NavigationParameters(), R, B, SampleRates(T_N, 0.02), NavigationInitialState(speed=v)
+    )
+    loop = NavigationLoop(belief)
     out = run_navigation_loop(loop, rng.normal(0, 0.02, (n, 4)), rng.normal(0, 0.005, n), angles)
     detected = int(np.flatnonzero(out["health_encoder_L"] == STUCK)[0])
     assert detected == 310

@@ -49,6 +49,7 @@ from slipnav.systems.navigation.mixing.weights import (
 )
 from slipnav.systems.navigation.odometry import odometry, odometry_step
 from slipnav.systems.navigation.parameters import (
+    NavigationBelief,
     NavigationInitialState,
     NavigationParameters,
     health_geometry,
@@ -61,6 +62,7 @@ from slipnav.systems.rates import SampleRates
 from tests.shared import scenario_run
 
 T_N = 0.002
+RATES = SampleRates(T_N, 0.02)
 
 
 # --- EKF S(2)-S(9) ------------------------------------------------------------------------------------
@@ -617,7 +619,7 @@ def test_the_baselines_read_the_raw_sensors():
     gyro = 0.014 * rng.standard_normal(N)
     gyro[200:220] = np.nan
     acc = 0.06 * rng.standard_normal((N, 4))
-    out = navigation_loop(acc, gyro, enc, NavigationParameters(), r, b, T_N, 0.02)
+    out = navigation_loop(acc, gyro, enc, NavigationBelief(NavigationParameters(), r, b, RATES))
     assert out["odo_phi"][150] == pytest.approx(-50 * v * T_N / b, rel=0.03)  # the stuck samples' turn
     assert abs(out["odo_phi"][-1]) < 1e-9  # the resumed increment turns it back
     assert np.max(np.abs(out["est_phi"])) < 0.01 and np.max(np.abs(out["gyro_phi"])) < 0.01
@@ -655,9 +657,8 @@ def test_diagram_matches_sequential_reference_loop(name):
     a = run_scenario(scenario, duration=2.2).arrays  # 1 s standstill, then driving
     robot = scenario.robot_parameters()
     rates = scenario.rates()
-    out = navigation_loop(
-        *sensor_rows(a), scenario.navigation, robot.wheel_radius, robot.track_width, rates.T_N, rates.T_C
-    )
+    belief = NavigationBelief(scenario.navigation, robot.wheel_radius, robot.track_width, rates)
+    out = navigation_loop(*sensor_rows(a), belief)
     assert np.max(np.abs(a["true_v_t"])) > 1.0  # the robot really moved
     for key in LOOP_KEYS:
         np.testing.assert_allclose(out[key], a[key], rtol=0, atol=1e-12, err_msg=key)
@@ -689,7 +690,7 @@ def test_covariance_stays_symmetric_positive_definite_over_a_minute():
     enc = np.floor(np.column_stack([theta_R, theta_L]) / step) * step
     # Synthetic encoders roll without the tyres' creep: S(15) without its compensation.
     rigid = NavigationParameters(mixing=MixingParameters(odometry_slip_compensation=False))
-    out = navigation_loop(acc, gyro, enc, rigid, 0.015, 0.068, T_N, 0.02)
+    out = navigation_loop(acc, gyro, enc, NavigationBelief(rigid, 0.015, 0.068, RATES))
     P = out["P"][::500]
     np.testing.assert_array_equal(P, np.transpose(P, (0, 2, 1)))
     eigenvalues = np.linalg.eigvalsh(P)
@@ -768,7 +769,7 @@ def spin_on_the_spot(omega: float, pushed: bool, duration: float = 30.0, checks:
         mixing=MixingParameters(odometry_slip_compensation=False),
         health=SensorHealthParameters(enabled=checks),
     )
-    return params, navigation_loop(acc, gyro, enc, params, 0.015, 0.068, T_N, 0.02)
+    return params, navigation_loop(acc, gyro, enc, NavigationBelief(params, 0.015, 0.068, RATES))
 
 
 def test_covariance_stays_bounded_in_a_long_fast_spin():
@@ -820,9 +821,10 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
     enc[301:303, :] = np.nan
     robot = scenario.robot_parameters()
     rates = SampleRates()
-    diagram, loggers = build_navigation_replay(
-        scenario.navigation, rates, robot.wheel_radius, robot.track_width, acc, gyro, enc
+    belief = NavigationBelief(
+        scenario.navigation, robot.wheel_radius, robot.track_width, rates, NavigationInitialState()
     )
+    diagram, loggers = build_navigation_replay(belief, acc, gyro, enc)
     simulator = Simulator(diagram)
     simulator.AdvanceTo((len(gyro) - 1) * T_N)
     context = simulator.get_context()
@@ -850,17 +852,7 @@ def test_nan_and_inf_samples_are_detected_held_and_flagged():
     assert odo_v[302] == pytest.approx(odo_v[300], rel=1e-12)
     assert odo_v[303] == pytest.approx(odo_v[300], rel=1e-12)
     assert odo_v[304] == pytest.approx(r * np.mean(enc[304] - enc[303]) / T_N, rel=1e-9, abs=1e-15)
-    out = navigation_loop(
-        acc,
-        gyro,
-        enc,
-        scenario.navigation,
-        robot.wheel_radius,
-        robot.track_width,
-        T_N,
-        0.02,
-        NavigationInitialState(),
-    )
+    out = navigation_loop(acc, gyro, enc, belief)
     np.testing.assert_allclose(out["est_x"], logs["pose"][0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(out["est_v_t"], logs["mixed_estimate"][0], rtol=0, atol=1e-12)
     # P with the mixing's pseudo-measurements: the diagram's EKF equals the loop's (P_k-1 at t_k).

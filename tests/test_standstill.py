@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 from slipnav.systems.navigation.loop import NavigationLoop, run_navigation_loop
-from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
+from slipnav.systems.navigation.parameters import NavigationBelief, NavigationParameters, health_geometry
 from slipnav.systems.navigation.standstill import (
     StandstillParameters,
     StandstillState,
@@ -18,9 +18,11 @@ from slipnav.systems.navigation.standstill import (
     standstill_test,
     zero_velocity_update,
 )
+from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.sensors import SensorParameters
 
 T_N = 0.002
+RATES = SampleRates(T_N, 0.02)
 GEOMETRY = health_geometry(NavigationParameters(), 0.015, 0.068, T_N)  # Tinyphoon's data sheet
 
 
@@ -131,7 +133,7 @@ def test_the_pose_holds_at_rest_while_the_biases_drift():
     """60 s at rest with the biases drifting sqrt(10) times faster than the data sheet says (as far as
     10 min at the data sheet's density): the pose moves < 1 cm and the biases are tracked."""
     accelerometers, gyro, encoders, bias = rest_streams(60.0, 3, 0.0065 * math.sqrt(10.0))
-    loop = NavigationLoop(NavigationParameters(), 0.015, 0.068, T_N, 0.02)
+    loop = NavigationLoop(NavigationBelief(NavigationParameters(), 0.015, 0.068, RATES))
     out = run_navigation_loop(loop, accelerometers, gyro, encoders)
     moved = math.hypot(out["est_x"][-1], out["est_y"][-1])
     assert moved < 0.01
@@ -142,7 +144,7 @@ def test_the_pose_holds_at_rest_while_the_biases_drift():
     # without the measurement the first 10 s of the same streams already move the pose farther
     params = NavigationParameters()
     params.standstill.enabled = False
-    loop = NavigationLoop(params, 0.015, 0.068, T_N, 0.02)
+    loop = NavigationLoop(NavigationBelief(params, 0.015, 0.068, RATES))
     off = run_navigation_loop(loop, accelerometers[:5000], gyro[:5000], encoders[:5000])
     assert off["standstill"].max() == 0.0
     assert math.hypot(off["est_x"][-1], off["est_y"][-1]) > 10 * moved
@@ -153,7 +155,7 @@ def test_rejections_at_rest_stay_near_the_false_rejection_rate():
     false_rejection of the samples (the PT1's samples are correlated, so a factor 5 of margin). 25 s
     settled, 12 500 samples: rejected 0.06 % (seeds 1 and 2: 0.05 %, 0.12 %; over 55 s before: 0.05 %)."""
     accelerometers, gyro, encoders, _ = rest_streams(30.0, 7, 0.0065)
-    loop = NavigationLoop(NavigationParameters(), 0.015, 0.068, T_N, 0.02)
+    loop = NavigationLoop(NavigationBelief(NavigationParameters(), 0.015, 0.068, RATES))
     out = run_navigation_loop(loop, accelerometers, gyro, encoders)
     rejected = 1.0 - out["standstill"][2500:].mean()  # from 5 s on
     assert rejected < 5 * StandstillParameters().false_rejection
@@ -163,7 +165,7 @@ def test_a_gyro_bias_step_at_rest_moves_neither_position_nor_heading():
     """At rest the wheels and the accelerometers outvote a gyro whose bias stepped by 0.1 rad/s: the
     ZUPT holds the heading (the yaw calibration's gate does not learn so large a step)."""
     accelerometers, gyro, encoders, _ = rest_streams(10.0, 5, 0.0065, gyro_step=0.1)
-    loop = NavigationLoop(NavigationParameters(), 0.015, 0.068, T_N, 0.02)
+    loop = NavigationLoop(NavigationBelief(NavigationParameters(), 0.015, 0.068, RATES))
     out = run_navigation_loop(loop, accelerometers, gyro, encoders)
     assert out["standstill"][2500:].mean() > 0.99
     assert abs(out["est_phi"][-1]) < 1e-3 and math.hypot(out["est_x"][-1], out["est_y"][-1]) < 1e-4

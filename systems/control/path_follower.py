@@ -24,6 +24,7 @@ import dataclasses as dc
 import math
 
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import require_flag, require_in
 
 
 @dc.dataclass
@@ -60,15 +61,10 @@ class PathFollowerParameters:
 
     def __post_init__(self):
         for name in ("gamma", "k1", "k2", "epsilon"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"follower.{name}={v!r} is out of range: allowed (0, inf)")
+            require_in(f"follower.{name}", getattr(self, name), "(0, inf)")
         for name in ("use_estimated_speed", "delayed_speed_law"):
-            if not isinstance(getattr(self, name), bool):
-                value = getattr(self, name)
-                raise ValueError(f"follower.{name}={value!r} is out of range: allowed true, false")
-        if not (math.isfinite(self.k3) and 0.0 <= self.k3 < math.pi / 2):
-            raise ValueError(f"follower.k3={self.k3!r} is out of range: allowed [0, pi/2)")
+            require_flag(f"follower.{name}", getattr(self, name))
+        require_in("follower.k3", self.k3, "[0, pi/2)")
 
 
 def wrap_angle(a: float) -> float:

@@ -23,6 +23,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.navigation.mixing.weights import logsig
+from slipnav.systems.ranges import out_of_range, require_flag, require_in
 
 
 @dc.dataclass
@@ -67,30 +68,22 @@ class StepSizeParameters:
     after_navigation: bool = False
 
     def __post_init__(self):
-        checks = (
-            ("delta_min", 0.0 < self.delta_min < 1.0, "(0, 1)"),
-            ("delta_max", 1.0 < self.delta_max <= 10.0, "(1, 10]"),
-            ("q_delta", 1.0 < self.q_delta <= 10.0, "(1, 10]"),
-            ("a4", self.a4 > 0.0, "(0, inf)"),
-            ("b4", 0.0 < self.b4 < math.pi / 2, "(0, pi/2)"),
-            ("delta_rem", 0.0 < self.delta_rem < 1.0, "(0, 1)"),
-            ("c_delta", math.isfinite(self.c_delta), "finite"),
-            ("k_s", self.k_s >= 0.0, "[0, inf)"),
-        )
         for name in ("delayed_step_size", "after_navigation"):
-            if not isinstance(getattr(self, name), bool):
-                value = getattr(self, name)
-                raise ValueError(f"slip_control.{name}={value!r} is out of range: allowed true, false")
-        for name, ok, allowed in checks:
-            if not ok:
-                raise ValueError(
-                    f"slip_control.{name}={getattr(self, name)!r} is out of range: allowed {allowed}"
-                )
+            require_flag(f"slip_control.{name}", getattr(self, name))
+        for name, allowed in (
+            ("delta_min", "(0, 1)"),
+            ("delta_max", "(1, 10]"),
+            ("q_delta", "(1, 10]"),
+            ("a4", "(0, inf)"),
+            ("b4", "(0, pi/2)"),
+            ("delta_rem", "(0, 1)"),
+        ):
+            require_in(f"slip_control.{name}", getattr(self, name), allowed)
+        if not math.isfinite(self.c_delta):
+            raise out_of_range("slip_control.c_delta", self.c_delta, "finite")
+        require_in("slip_control.k_s", self.k_s, "[0, inf)")
         if not self.d_delta < self.c_delta:
-            raise ValueError(
-                f"slip_control.d_delta={self.d_delta!r} is out of range: "
-                f"allowed (-inf, c_delta={self.c_delta})"
-            )
+            raise out_of_range("slip_control.d_delta", self.d_delta, f"(-inf, c_delta={self.c_delta})")
 
 
 def max_step_size(lag: float, p: StepSizeParameters) -> float:

@@ -8,6 +8,7 @@ import math
 
 from slipnav.systems.health.layout import GAIN_WINDOW_MAX
 from slipnav.systems.health.yaw_witness import yaw_test_threshold
+from slipnav.systems.ranges import is_integer, out_of_range, require_in, require_integer
 
 NO_CURRENTS = (math.nan, math.nan)
 """The motor current readings when none are read: the tangential accelerometers' reference is the
@@ -187,40 +188,25 @@ class SensorHealthParameters:
             "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
             "bias_step_yaw_rate yaw_false_alarm_time yaw_witness_lag stuck_min_speed"
         ).split():
-            _positive(name, getattr(self, name))
+            require_in(name, getattr(self, name), "(0, inf)")
         if self.max_wheel_speed is not None:
-            _positive("max_wheel_speed", self.max_wheel_speed)
-        if not (
-            isinstance(self.saturation_fraction, (int, float)) and 0.5 <= self.saturation_fraction <= 1.0
-        ):
-            raise ValueError(
-                f"saturation_fraction={self.saturation_fraction!r} is out of range: allowed [0.5, 1]"
-            )
+            require_in("max_wheel_speed", self.max_wheel_speed, "(0, inf)")
+        require_in("saturation_fraction", self.saturation_fraction, "[0.5, 1]")
         value = self.clip_samples
-        if isinstance(value, bool) or not isinstance(value, int) or not (value == 0 or 2 <= value <= 50):
-            raise ValueError(
-                f"clip_samples={value!r} is out of range: allowed 0 (off) or integers in [2, 50]"
-            )
+        if not (is_integer(value) and value == 0):  # 0: off
+            require_integer("clip_samples", value, "0 (off) or integers in [2, 50]")
         for name in ("stuck_samples", "consistency_samples", "clip_window"):  # clip_window 50: the ring
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 50):
-                raise ValueError(f"{name}={value!r} is out of range: allowed integers in [2, 50]")
-        value = self.bias_step_samples
-        if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= 500):
-            raise ValueError(f"bias_step_samples={value!r} is out of range: allowed integers in [2, 500]")
-        value = self.gain_samples
-        if isinstance(value, bool) or not isinstance(value, int) or not (2 <= value <= GAIN_WINDOW_MAX):
-            raise ValueError(f"gain_samples={value!r} is out of range: allowed integers in [2, 50]")
-        value = self.gain_tolerance
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value < 1.0):
-            raise ValueError(f"gain_tolerance={value!r} is out of range: allowed [0, 1)")
-        value = self.gain_release
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 < value <= 1.0):
-            raise ValueError(f"gain_release={value!r} is out of range: allowed (0, 1]")
+            require_integer(name, getattr(self, name), "integers in [2, 50]")
+        require_integer("bias_step_samples", self.bias_step_samples, "integers in [2, 500]")
+        require_integer("gain_samples", self.gain_samples, f"integers in [2, {GAIN_WINDOW_MAX}]")
+        require_in("gain_tolerance", self.gain_tolerance, "[0, 1)")
+        value = require_in("gain_release", self.gain_release, "(0, 1]")
         if not value > self.gain_tolerance:
-            raise ValueError(
-                f"gain_release={value!r} is out of range: allowed above "
-                f"gain_tolerance={self.gain_tolerance!r} (a gain within the tolerance must clear the pair)"
+            raise out_of_range(
+                "gain_release",
+                value,
+                f"above gain_tolerance={self.gain_tolerance!r} "
+                "(a gain within the tolerance must clear the pair)",
             )
         for name in (
             "fast_consistency_samples",
@@ -228,13 +214,9 @@ class SensorHealthParameters:
             "gyro_readmission_samples",
             "gain_block_samples",
         ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or not (1 <= value <= 50):
-                raise ValueError(f"{name}={value!r} is out of range: allowed integers in [1, 50]")
+            require_integer(name, getattr(self, name), "integers in [1, 50]")
         for name in ("encoder_readmission_fraction", "gyro_readmission_fraction", "yaw_slip_fraction"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= 1.0):
-                raise ValueError(f"{name}={value!r} is out of range: allowed [0, 1]")
+            require_in(name, getattr(self, name), "[0, 1]")
         for name in (
             "stuck_tolerance",
             "stuck_speed_fraction",
@@ -242,26 +224,13 @@ class SensorHealthParameters:
             "gain_cross_coupling",
             "gain_offset_allowance",
         ):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
+            require_in(name, getattr(self, name), "[0, inf)")
         for name, unit in (
             ("fast_consistency_factor", ""),
             ("stuck_braking_deceleration", " m/s^2"),
             ("gain_threshold", ""),
         ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0.0:
-                raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf]{unit}")
-
-
-def _positive(name: str, value) -> None:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        or not (math.isfinite(value) and value > 0)
-    ):
-        raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf)")
+            require_in(name, getattr(self, name), f"(0, inf]{unit}")
 
 
 @dc.dataclass(frozen=True)

@@ -61,6 +61,7 @@ import math
 
 import numpy as np
 from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT
+from slipnav.systems.ranges import out_of_range, require_in
 from slipnav.systems.robot.contact import shoe_drag
 from slipnav.systems.robot.parameters import RobotParameters
 from slipnav.systems.state_layout import layout_indices, layout_size
@@ -147,13 +148,9 @@ class PerturbationParameters:
             "slide_time_constant", "slide_demand_hold",
         )  # fmt: skip
         for name in positive + ("lateral_threshold",):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed (0, inf)")
+            require_in(f"perturbation_monitor.{name}", getattr(self, name), "(0, inf)")
         for name in ("force_threshold", "slide_threshold", "slide_demand"):  # inf allowed
-            value = getattr(self, name)
-            if not value > 0.0:  # also rejects NaN
-                raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed (0, inf]")
+            require_in(f"perturbation_monitor.{name}", getattr(self, name), "(0, inf]")
         for name in (
             "speed_fraction",
             "yaw_fraction",
@@ -162,18 +159,11 @@ class PerturbationParameters:
             "slide_per_speed",
             "force_fraction",
         ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"perturbation_monitor.{name}={value!r} is out of range: allowed [0, inf)")
-        if not self.push_demand >= 0.0:  # inf allowed; also rejects NaN
-            raise ValueError(
-                f"perturbation_monitor.push_demand={self.push_demand!r} is out of range: allowed [0, inf]"
-            )
-        if int(self.confirm_samples) != self.confirm_samples or not 1 <= self.confirm_samples <= 100:
-            raise ValueError(
-                f"perturbation_monitor.confirm_samples={self.confirm_samples!r} is out of range: "
-                "allowed 1 .. 100"
-            )
+            require_in(f"perturbation_monitor.{name}", getattr(self, name), "[0, inf)")
+        require_in("perturbation_monitor.push_demand", self.push_demand, "[0, inf]")  # inf allowed
+        n = self.confirm_samples
+        if int(n) != n or not 1 <= n <= 100:  # a whole number of samples
+            raise out_of_range("perturbation_monitor.confirm_samples", n, "1 .. 100")
 
     def validate(self) -> "PerturbationParameters":
         self.__post_init__()

@@ -26,6 +26,7 @@ import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.compiled import compiled, jitable
+from slipnav.systems.ranges import require_in
 
 EkfState = namedview("EkfState", ["v_t", "v_n", "omega", "a_t", "a_n"])
 
@@ -66,18 +67,13 @@ class EkfParameters:
     velocity_variance_limit: float = 1.0
 
     def __post_init__(self):
-        limit = self.velocity_variance_limit
-        if isinstance(limit, bool) or not (isinstance(limit, (int, float)) and 0.0 < limit < math.inf):
-            raise ValueError(
-                f"ekf.velocity_variance_limit={limit!r} is out of range: allowed (0, inf) m^2/s^2"
-            )
+        require_in("ekf.velocity_variance_limit", self.velocity_variance_limit, "(0, inf) m^2/s^2")
         for name, size in (("Q", 5), ("R", 3), ("P0", 5), ("R_mixing", 2)):
             values = getattr(self, name)
             if len(values) != size:
                 raise ValueError(f"ekf.{name} must list {size} diagonal entries, got {len(values)}")
             for i, v in enumerate(values):
-                if not (math.isfinite(v) and v > 0.0):
-                    raise ValueError(f"ekf.{name}[{i}]={v!r} is out of range: allowed (0, inf)")
+                require_in(f"ekf.{name}[{i}]", v, "(0, inf)")
 
     def matrices(self):
         return np.diag(self.Q), np.diag(self.R), np.diag(self.P0)

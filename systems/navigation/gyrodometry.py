@@ -11,6 +11,7 @@ rate's PT1 (rate_time_constant); the increments themselves are still the sample'
 import dataclasses as dc
 import math
 
+from slipnav.systems.ranges import require_in
 from slipnav.systems.rates import pt1_step
 
 
@@ -38,14 +39,9 @@ class GyrodometryParameters:
 
     def __post_init__(self):
         for name in ("c1", "c2"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"gyrodometry.{name}={v!r} is out of range: allowed (0, inf)")
-        if not (0.0 <= self.drift_rate < 1.0):
-            raise ValueError(f"gyrodometry.drift_rate={self.drift_rate!r} is out of range: allowed [0, 1)")
-        tau = self.rate_time_constant
-        if not (math.isfinite(tau) and tau >= 0.0):
-            raise ValueError(f"gyrodometry.rate_time_constant={tau!r} is out of range: allowed [0, inf) s")
+            require_in(f"gyrodometry.{name}", getattr(self, name), "(0, inf)")
+        require_in("gyrodometry.drift_rate", self.drift_rate, "[0, 1)")
+        require_in("gyrodometry.rate_time_constant", self.rate_time_constant, "[0, inf) s")
 
 
 def gyrodometry_step(

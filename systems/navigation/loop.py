@@ -60,18 +60,9 @@ from slipnav.systems.navigation.mixing.weights import (
     mixing_c3,
 )
 from slipnav.systems.navigation.odometry import odometry_step, wheel_radii
-from slipnav.systems.navigation.parameters import (
-    NavigationInitialState,
-    NavigationParameters,
-    check_slide_onset,
-    health_geometry,
-)
+from slipnav.systems.navigation.parameters import NavigationBelief
 from slipnav.systems.navigation.pose import pose_step
-from slipnav.systems.navigation.sensor_correction import (
-    SensorCalibration,
-    corrected_accelerometers,
-    corrected_gyro,
-)
+from slipnav.systems.navigation.sensor_correction import corrected_accelerometers, corrected_gyro
 from slipnav.systems.navigation.sideslip import side_slip_angle
 from slipnav.systems.navigation.slip_detector import slip_detector_batch_end, slip_detector_step
 from slipnav.systems.navigation.standstill import (
@@ -91,8 +82,6 @@ from slipnav.systems.navigation.yaw_calibration import (
     yaw_calibration_step,
 )
 from slipnav.systems.robot.faults import SENSOR_CHANNELS
-from slipnav.systems.robot.parameters import RobotParameters
-from slipnav.systems.robot.sensors import SensorParameters
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
@@ -108,35 +97,25 @@ class NavigationLoop:
     ``step``. ``navigation_loop`` runs it over logged rows; the closed-loop reference loop
     (scenarios/plain_loop.py) runs it on line with the plant.
 
-    Args: as navigation_loop.
+    Args:
+        belief: what the navigation is given (NavigationBelief: the tuning, the believed geometry, the
+            periods, the initial state, the data sheet, the calibration and the nominal robot).
     """
 
-    def __init__(
-        self,
-        params: NavigationParameters,
-        wheel_radius,
-        track_width: float,
-        T_N: float,
-        T_C: float,
-        initial: NavigationInitialState | None = None,
-        sensors: SensorParameters | None = None,
-        no_load_speed: float | None = None,
-        calibration: SensorCalibration | None = None,
-        robot: RobotParameters | None = None,
-    ):
-        initial = initial or NavigationInitialState()
-        r_R, r_L = wheel_radii(wheel_radius)
+    def __init__(self, belief: NavigationBelief):
+        params, initial, T_N = belief.params, belief.initial, belief.rates.T_N
+        r_R, r_L = wheel_radii(belief.wheel_radius)
+        calibration = belief.calibration
         identity = calibration is None or calibration.validate().is_identity()
         self.sensor_calibration = None if identity else calibration
-        self.geometry = health_geometry(params, wheel_radius, track_width, T_N, sensors, no_load_speed, robot)
-        check_slide_onset(params.mixing, self.geometry)
+        self.geometry = belief.geometry()
         self.health = health_initial_state(self.geometry, initial.speed)
         self.health_constants = health_constants(params.health, self.geometry)
         self.standstill_constants = standstill_constants(params.standstill, self.geometry, T_N)
         self.standstill = standstill_initial_state(self.standstill_constants)
         self.wheel_radius = (r_R, r_L) if r_R != r_L else r_R
-        self.params, self.track_width, self.T_N = params, track_width, T_N
-        self.n = int(round(T_C / T_N))
+        self.params, self.track_width, self.T_N = params, belief.track_width, T_N
+        self.n = belief.rates.batch_length
         self.Q, self.R, self.P = params.ekf.matrices()
         self.x = initial.ekf_state()
         self.L = ekf_gain(ekf_prior_covariance(self.P, self.x, self.Q, T_N), self.R)
@@ -146,7 +125,7 @@ class NavigationLoop:
         self.pose = list(initial.pose)
         self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
         self.baselines = BaselineState.initial(initial.pose, initial.speed)  # on the raw sensors
-        self.yaw_calibration = believed_gyro(params.yaw_calibration, sensors)
+        self.yaw_calibration = believed_gyro(params.yaw_calibration, belief.sensors)
         self.third_yaw_witness = self.geometry.accelerometer_sets == 2
         self.calibration = yaw_calibration_initial_state(self.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
@@ -372,35 +351,17 @@ class NavigationLoop:
         self.v_track, self.alpha, _ = side_slip_angle(mixed[0], mixed[1], mixed[2], self.params.sideslip)
 
 
-def navigation_loop(
-    accelerometers,
-    gyro,
-    encoders,
-    params: NavigationParameters,
-    wheel_radius,
-    track_width: float,
-    T_N: float,
-    T_C: float,
-    initial: NavigationInitialState | None = None,
-    sensors: SensorParameters | None = None,
-    no_load_speed: float | None = None,
-    calibration: SensorCalibration | None = None,
-):
+def navigation_loop(accelerometers, gyro, encoders, belief: NavigationBelief):
     """Run the navigation algorithm sequentially over N sensor rows (as read at t_0 ... t_N-1).
 
     Args:
         accelerometers: (N, 4); gyro: (N,) or (N, 1); encoders: (N, 2).
-        sensors, no_load_speed: the sensors' data sheet and the nominal motors' no-load speed (m/s) for
-            the sensor checks (health_geometry).
-        calibration: the model's SensorCalibration, removed from the checked samples (SensorCorrection).
+        belief: what the navigation is given (NavigationBelief).
 
     Returns:
         dict of (N,) arrays keyed by LOOP_KEYS, plus ``P`` (N, 5, 5): the EKF covariance P_k-1 at t_k.
     """
-    loop = NavigationLoop(
-        params, wheel_radius, track_width, T_N, T_C, initial, sensors, no_load_speed, calibration
-    )
-    return run_navigation_loop(loop, accelerometers, gyro, encoders)
+    return run_navigation_loop(NavigationLoop(belief), accelerometers, gyro, encoders)
 
 
 def run_navigation_loop(loop: NavigationLoop, accelerometers, gyro, encoders) -> dict:

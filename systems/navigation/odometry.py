@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import require_in
 
 
 def odometry(v_R: float, v_L: float, track_width: float):
@@ -18,8 +19,7 @@ def wheel_radii(wheel_radius) -> tuple[float, float]:
     else:
         r_R = r_L = float(wheel_radius)
     for name, r in (("wheel_radius (right)", r_R), ("wheel_radius (left)", r_L)):
-        if not (math.isfinite(r) and r > 0.0):
-            raise ValueError(f"{name}={r!r} is out of range: allowed (0, inf) m")
+        require_in(name, r, "(0, inf) m")
     return r_R, r_L
 
 

@@ -1,7 +1,7 @@
 """What the navigation is given: its tuning (NavigationParameters, every part's parameters), its initial
-state (NavigationInitialState), and what the sensor checks know of the robot and its sensors
-(health_geometry), shared by the navigation diagram (diagrams/navigation.py) and the plain loop
-(systems/navigation/loop.py).
+state (NavigationInitialState), what the sensor checks know of the robot and its sensors
+(health_geometry), and the record of all of it (NavigationBelief) that the navigation diagram
+(diagrams/navigation.py) and the plain loop (systems/navigation/loop.py) take.
 """
 
 import dataclasses as dc
@@ -15,9 +15,11 @@ from slipnav.systems.navigation.ekf import EkfParameters
 from slipnav.systems.navigation.gyrodometry import GyrodometryParameters
 from slipnav.systems.navigation.mixing.parameters import MixingParameters
 from slipnav.systems.navigation.odometry import wheel_radii
+from slipnav.systems.navigation.sensor_correction import SensorCalibration
 from slipnav.systems.navigation.sideslip import SideSlipParameters
 from slipnav.systems.navigation.standstill import StandstillParameters
 from slipnav.systems.navigation.yaw_calibration import YawCalibrationParameters
+from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.parameters import RobotParameters
 from slipnav.systems.robot.sensors import SensorParameters
 
@@ -132,3 +134,73 @@ def health_geometry(
         tyre_peak_acceleration=robot.traction_limit_acceleration if robot is not None else math.inf,
         **force,
     )
+
+
+@dc.dataclass(frozen=True)
+class NavigationBelief:
+    """What the navigation is given: its tuning, the believed geometry and sample periods, its initial
+    state and what the sensor checks know of the sensors and the robot.
+
+    Args:
+        params: the tuning (NavigationParameters).
+        wheel_radius: one radius for both wheels or the pair (r_R, r_L) of a calibrated model (m).
+        track_width: the believed track width (m).
+        rates: the sample periods T_N, T_C (s).
+        initial: the initial speed and pose (default: at rest at the origin).
+        sensors: the sensors' data sheet for the sensor checks (None: Tinyphoon's, SensorParameters()).
+        no_load_speed: the nominal motors' no-load speed (m/s), 1.5 x which is the plausible wheel speed
+            (None: health.max_wheel_speed, else DEFAULT_WHEEL_SPEED_BOUND).
+        calibration: the model's SensorCalibration, removed from the checked inertial samples (None: none).
+        robot: the nominal robot, whose mass, motors and drags give the sensor checks the force reference
+            of the tangential accelerometers (None: none).
+    """
+
+    params: NavigationParameters
+    wheel_radius: float | tuple
+    track_width: float
+    rates: SampleRates = dc.field(default_factory=SampleRates)
+    initial: NavigationInitialState = dc.field(default_factory=NavigationInitialState)
+    sensors: SensorParameters | None = None
+    no_load_speed: float | None = None
+    calibration: SensorCalibration | None = None
+    robot: RobotParameters | None = None
+
+    @classmethod
+    def of_robot(
+        cls,
+        params: NavigationParameters,
+        robot: RobotParameters,
+        rates: SampleRates,
+        initial: NavigationInitialState | None = None,
+        sensors: SensorParameters | None = None,
+        calibration: SensorCalibration | None = None,
+    ) -> "NavigationBelief":
+        """The belief of the nominal ``robot``: its wheel radii (r_R, r_L), track width, no-load speed and
+        force figures, with the tuning ``params``, the ``rates``, the ``initial`` state (None: at rest at
+        the origin), the data sheet ``sensors`` and the ``calibration``."""
+        return cls(
+            params=params,
+            wheel_radius=(robot.radius_R, robot.radius_L),
+            track_width=robot.track_width,
+            rates=rates,
+            initial=initial or NavigationInitialState(),
+            sensors=sensors,
+            no_load_speed=robot.no_load_speed,
+            calibration=calibration,
+            robot=robot,
+        )
+
+    def geometry(self) -> HealthGeometry:
+        """What the sensor checks know (health_geometry), with the slide-onset test checked against the
+        encoders' resolution (check_slide_onset: ValueError naming mixing.slide_onset_jump)."""
+        geometry = health_geometry(
+            self.params,
+            self.wheel_radius,
+            self.track_width,
+            self.rates.T_N,
+            self.sensors,
+            self.no_load_speed,
+            self.robot,
+        )
+        check_slide_onset(self.params.mixing, geometry)
+        return geometry

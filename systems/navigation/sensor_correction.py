@@ -24,6 +24,7 @@ import dataclasses as dc
 import math
 
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import require_in
 
 
 @dc.dataclass
@@ -57,15 +58,10 @@ class SensorCalibration:
     def validate(self, where: str = "calibration") -> "SensorCalibration":
         """Raise ValueError naming ``<where>.<key>`` and its allowed range."""
         for name in ("gyro_scale_error", "accel1_scale_error", "accel2_scale_error"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and -0.5 < value < 0.5):
-                raise ValueError(f"{where}.{name}={value!r} is out of range: allowed (-0.5, 0.5)")
+            require_in(f"{where}.{name}", getattr(self, name), "(-0.5, 0.5)")
         for name in ("accel1_misalignment", "accel2_misalignment"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and abs(value) < 0.5):
-                raise ValueError(f"{where}.{name}={value!r} is out of range: allowed (-0.5, 0.5) rad")
-        if not (math.isfinite(self.gyro_bias) and abs(self.gyro_bias) < 1.0):
-            raise ValueError(f"{where}.gyro_bias={self.gyro_bias!r} is out of range: allowed (-1, 1) rad/s")
+            require_in(f"{where}.{name}", getattr(self, name), "(-0.5, 0.5) rad")
+        require_in(f"{where}.gyro_bias", self.gyro_bias, "(-1, 1) rad/s")
         if len(self.accel_bias) != 4 or not all(math.isfinite(b) and abs(b) < 10.0 for b in self.accel_bias):
             raise ValueError(
                 f"{where}.accel_bias={self.accel_bias!r}: allowed four finite numbers in (-10, 10) m/s^2"

@@ -4,6 +4,7 @@ import dataclasses as dc
 import math
 
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import out_of_range, require_in
 
 
 @dc.dataclass
@@ -20,12 +21,9 @@ class SideSlipParameters:
     d_alpha: float = 1.5
 
     def __post_init__(self):
-        if not (math.isfinite(self.c_alpha) and self.c_alpha >= 0.0):
-            raise ValueError(f"sideslip.c_alpha={self.c_alpha!r} is out of range: allowed [0, inf)")
+        require_in("sideslip.c_alpha", self.c_alpha, "[0, inf)")
         if not (math.isfinite(self.d_alpha) and self.d_alpha > self.c_alpha):
-            raise ValueError(
-                f"sideslip.d_alpha={self.d_alpha!r} is out of range: allowed (c_alpha={self.c_alpha}, inf)"
-            )
+            raise out_of_range("sideslip.d_alpha", self.d_alpha, f"(c_alpha={self.c_alpha}, inf)")
 
 
 def track_speed(v_t: float, v_n: float) -> float:

@@ -35,6 +35,7 @@ import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import LeafSystem
 from scipy.stats import chi2
+from slipnav.systems.ranges import require_flag, require_in
 
 StandstillState = namedview(
     "StandstillState",
@@ -85,15 +86,10 @@ class StandstillParameters:
     false_rejection: float = 1e-3
 
     def __post_init__(self):
-        if not isinstance(self.enabled, bool):
-            raise ValueError(f"standstill.enabled={self.enabled!r} is out of range: allowed true, false")
+        require_flag("standstill.enabled", self.enabled)
         for name in ("still_time", "averaging_time"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not (isinstance(value, (int, float)) and 0.0 < value < math.inf):
-                raise ValueError(f"standstill.{name}={value!r} is out of range: allowed (0, inf) s")
-        value = self.false_rejection
-        if isinstance(value, bool) or not (isinstance(value, (int, float)) and 0.0 < value < 1.0):
-            raise ValueError(f"standstill.false_rejection={value!r} is out of range: allowed (0, 1)")
+            require_in(f"standstill.{name}", getattr(self, name), "(0, inf) s")
+        require_in("standstill.false_rejection", self.false_rejection, "(0, 1)")
 
 
 @dc.dataclass(frozen=True)

@@ -52,6 +52,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import out_of_range, require_flag, require_in
 from slipnav.systems.residual_test import CusumState, CusumTest, cusum_shift, cusum_step
 from slipnav.systems.robot.sensors import SensorParameters
 from slipnav.systems.state_layout import layout_size, layout_slices
@@ -129,48 +130,25 @@ class YawCalibrationParameters:
     noise_batches: float = 100.0
 
     def __post_init__(self):
-        if not isinstance(self.enabled, bool):
-            raise ValueError(f"yaw_calibration.enabled={self.enabled!r} is out of range: allowed true, false")
-        if self.initial_bias_std is not None and not (
-            math.isfinite(self.initial_bias_std) and self.initial_bias_std > 0.0
-        ):
-            raise ValueError(
-                f"yaw_calibration.initial_bias_std={self.initial_bias_std!r} is out of range: allowed "
-                "(0, inf) or null (the believed gyro's)"
-            )
+        require_flag("yaw_calibration.enabled", self.enabled)
+        if self.initial_bias_std is not None:  # None: the believed gyro's
+            require_in("yaw_calibration.initial_bias_std", self.initial_bias_std, "(0, inf)")
         positive = (
             "initial_radius_difference_std measurement_std standstill_measurement_std "
             "innovation_gate straight_yaw_rate change_yaw_rate steady_yaw_acceleration largest_bias_step "
             "change_drift"
         ).split()
         for name in positive:
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"yaw_calibration.{name}={v!r} is out of range: allowed (0, inf)")
+            require_in(f"yaw_calibration.{name}", getattr(self, name), "(0, inf)")
         for name in ("bias_drift_density", "radius_drift_density"):
-            v = getattr(self, name)
-            if name == "bias_drift_density" and v is None:
-                continue  # the believed gyro's
-            if not (math.isfinite(v) and v >= 0.0):
-                raise ValueError(f"yaw_calibration.{name}={v!r} is out of range: allowed [0, inf)")
-        if not (math.isfinite(self.change_run_length) and self.change_run_length > 1.0):
-            raise ValueError(
-                f"yaw_calibration.change_run_length={self.change_run_length!r} is out of range: allowed "
-                "(1, inf) batches"
-            )
-        if not (math.isfinite(self.noise_batches) and self.noise_batches >= 1.0):
-            raise ValueError(
-                f"yaw_calibration.noise_batches={self.noise_batches!r} is out of range: allowed [1, inf)"
-            )
+            if getattr(self, name) is not None:  # bias_drift_density None: the believed gyro's
+                require_in(f"yaw_calibration.{name}", getattr(self, name), "[0, inf)")
+        require_in("yaw_calibration.change_run_length", self.change_run_length, "(1, inf) batches")
+        require_in("yaw_calibration.noise_batches", self.noise_batches, "[1, inf)")
         if not (math.isfinite(self.change_clip) and self.change_clip > self.change_drift):
-            raise ValueError(
-                f"yaw_calibration.change_clip={self.change_clip!r} is out of range: allowed "
-                f"(change_drift={self.change_drift}, inf)"
-            )
-        if not (0.0 <= self.trusted_c1 <= 1.0):
-            raise ValueError(
-                f"yaw_calibration.trusted_c1={self.trusted_c1!r} is out of range: allowed [0, 1]"
-            )
+            allowed = f"(change_drift={self.change_drift}, inf)"
+            raise out_of_range("yaw_calibration.change_clip", self.change_clip, allowed)
+        require_in("yaw_calibration.trusted_c1", self.trusted_c1, "[0, 1]")
 
 
 def believed_gyro(p: YawCalibrationParameters, sensors: SensorParameters | None = None):
@@ -301,6 +279,12 @@ def yaw_calibration_step(
     values[_STANDING] += 1.0 if standing is None or standing else 0.0
     if values[_COUNT] < batch_length:
         return state
+    return batch_update(state, track_width, p, T_N, third_witness)
+
+
+def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: float, third_witness: bool):
+    """A batch's end (yaw_calibration_step): the random walks' prediction, the batch's selection, the
+    bias-change test and the Kalman update of theta; the batch's sums restart. Returns ``state``."""
     n = state[_COUNT]
     gyro_mean, omega_mean, v_mean, moving = state[_SUMS] / n
     theta, P = state[_THETA].copy(), state[_P].reshape(NUM_THETA, NUM_THETA)

@@ -37,6 +37,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import require_in
 from slipnav.systems.robot.contact import NO_DISTURBANCE
 
 SENSOR_CHANNELS = ("accel1_t", "accel1_n", "accel2_t", "accel2_n", "gyro", "encoder_R", "encoder_L")
@@ -116,10 +117,9 @@ class FaultEvent:
 
 
 def _require(name: str, value, low: float, high: float, closed_low: bool) -> None:
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or not ((low <= value) if closed_low else (low < value)) or value > high:
-        bracket = "[" if closed_low else "("
-        raise ValueError(f"fault {name}={value!r} is out of range: allowed {bracket}{low:g}, {high:g}]")
+    """A finite ``value`` in [low, high] (``closed_low``), else in (low, high]."""
+    bracket = "[" if closed_low else "("
+    require_in(f"fault {name}", value, f"{bracket}{low:g}, {high:g}]", finite=True)
 
 
 def check_fault_events(events, where: str = "faults") -> tuple:

@@ -6,16 +6,37 @@ from __future__ import annotations
 import collections
 import dataclasses as dc
 import functools
-import math
+
+from slipnav.systems.ranges import require_in
 
 GRAVITY = 9.81
 
-
-def _require(name: str, value: float, low: float, high: float = math.inf, *, low_open=True):
-    ok_low = value > low if low_open else value >= low
-    if not (ok_low and value <= high and math.isfinite(value)):
-        bracket = "(" if low_open else "["
-        raise ValueError(f"{name}={value!r} is out of range: allowed {bracket}{low}, {high}]")
+PARAMETER_RANGES = {
+    "mass": "(0.0, inf]",
+    "yaw_inertia": "(0.0, inf]",
+    "track_width": "(0.0, inf]",
+    "wheel_radius": "(0.0, inf]",
+    "wheel_inertia": "(0.0, inf]",
+    "wheel_load_fraction": "(0.0, 1.0]",
+    "tyre_friction": "(0.0, 2.0]",
+    "tyre_stiffness_factor": "(0.0, inf]",
+    "tyre_shape_factor": "(1.0, 2.0]",
+    "slip_speed_floor": "(0.0, inf]",
+    "shoe_offset": "[0.0, inf]",
+    "shoe_friction": "[0.0, 2.0]",
+    "shoe_viscous_drag": "[0.0, inf]",
+    "shoe_slip_speed": "(0.0, inf]",
+    "motor_constant": "(0.0, inf]",
+    "motor_resistance": "(0.0, inf]",
+    "motor_current_limit": "(0.0, inf]",
+    "supply_voltage": "(0.0, inf]",
+    "bearing_drag": "[0.0, inf]",
+    "speed_loop_period": "(0.0, 0.1]",
+    "speed_loop_kp": "[0.0, inf]",
+    "speed_loop_ki": "[0.0, inf]",
+    "wheel_speed_limit": "(0.0, inf]",
+}
+"""The allowed values of RobotParameters' fields (systems/ranges.py's notation), each also finite."""
 
 
 @dc.dataclass(frozen=True)
@@ -82,32 +103,11 @@ class RobotParameters:
     rolling_radius_L: float | None = None
 
     def __post_init__(self):
-        _require("mass", self.mass, 0.0)
-        _require("yaw_inertia", self.yaw_inertia, 0.0)
-        _require("track_width", self.track_width, 0.0)
-        _require("wheel_radius", self.wheel_radius, 0.0)
-        _require("wheel_inertia", self.wheel_inertia, 0.0)
-        _require("wheel_load_fraction", self.wheel_load_fraction, 0.0, 1.0)
-        _require("tyre_friction", self.tyre_friction, 0.0, 2.0)
-        _require("tyre_stiffness_factor", self.tyre_stiffness_factor, 0.0)
-        _require("tyre_shape_factor", self.tyre_shape_factor, 1.0, 2.0)
-        _require("slip_speed_floor", self.slip_speed_floor, 0.0)
-        _require("shoe_offset", self.shoe_offset, 0.0, low_open=False)
-        _require("shoe_friction", self.shoe_friction, 0.0, 2.0, low_open=False)
-        _require("shoe_viscous_drag", self.shoe_viscous_drag, 0.0, low_open=False)
-        _require("shoe_slip_speed", self.shoe_slip_speed, 0.0)
-        _require("motor_constant", self.motor_constant, 0.0)
-        _require("motor_resistance", self.motor_resistance, 0.0)
-        _require("motor_current_limit", self.motor_current_limit, 0.0)
-        _require("supply_voltage", self.supply_voltage, 0.0)
-        _require("bearing_drag", self.bearing_drag, 0.0, low_open=False)
-        _require("speed_loop_period", self.speed_loop_period, 0.0, 0.1)
-        _require("speed_loop_kp", self.speed_loop_kp, 0.0, low_open=False)
-        _require("speed_loop_ki", self.speed_loop_ki, 0.0, low_open=False)
-        _require("wheel_speed_limit", self.wheel_speed_limit, 0.0)
+        for name, allowed in PARAMETER_RANGES.items():
+            require_in(name, getattr(self, name), allowed, finite=True)
         for name in ("rolling_radius_R", "rolling_radius_L"):
             if getattr(self, name) is not None:
-                _require(name, getattr(self, name), 0.0)
+                require_in(name, getattr(self, name), "(0.0, inf]", finite=True)
         if self.wheel_speed_limit > self.no_load_speed:
             raise ValueError(
                 f"wheel_speed_limit={self.wheel_speed_limit} exceeds the motors' no-load "

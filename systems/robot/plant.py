@@ -6,10 +6,9 @@ systems/robot/parameters.py.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
+from slipnav.systems.ranges import require_in
 from slipnav.systems.robot.contact import NO_DISTURBANCE, tyre_slip
 from slipnav.systems.robot.dynamics import plant_advance, plant_derivatives, substeps_per
 from slipnav.systems.robot.motors import MOTORS_ON, motor_current, motor_currents, speed_loop_update
@@ -78,10 +77,8 @@ class DifferentialDrivePlant(LeafSystem):
         update_period: float | None = None,
     ):
         super().__init__()
-        if not (math.isfinite(time_step) and 0.0 <= time_step <= 0.01):
-            raise ValueError(
-                f"plant time_step={time_step!r} is out of range: allowed 0 (continuous) or (0, 0.01] s"
-            )
+        if time_step != 0.0:  # 0: continuous
+            require_in("plant time_step", time_step, "0 (continuous) or (0, 0.01] s")
         self._params = params
         self._time_step = time_step
         x0 = np.zeros(10)

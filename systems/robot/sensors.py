@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.ranges import out_of_range, require_in
 
 NOISE_CHANNELS = 14
 """Standard-normal inputs per sample: 4 accel white, 4 accel drift, 4 vibration, gyro white, gyro drift."""
@@ -118,39 +119,21 @@ class SensorParameters:
             "accel_resolution"
         ).split()
         for name in nonneg:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name}={value!r} is out of range: allowed [0, inf)")
+            require_in(name, getattr(self, name), "[0, inf)")
         for name in ("accel_vibration_time_constant", "accel_range", "gyro_range", "current_resolution"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"{name}={value!r} is out of range: allowed (0, inf)")
-        if int(self.encoder_counts_per_revolution) != self.encoder_counts_per_revolution or not (
-            1 <= self.encoder_counts_per_revolution <= 10**7
-        ):
-            raise ValueError(
-                f"encoder_counts_per_revolution={self.encoder_counts_per_revolution!r} is out of "
-                "range: allowed integers in [1, 10000000]"
-            )
+            require_in(name, getattr(self, name), "(0, inf)")
+        counts = self.encoder_counts_per_revolution
+        if int(counts) != counts or not 1 <= counts <= 10**7:  # a whole number of counts
+            raise out_of_range("encoder_counts_per_revolution", counts, "integers in [1, 10000000]")
         for name in ("gyro_scale_error", "accel1_scale_error", "accel2_scale_error", "current_scale_error"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and -1.0 < value < 1.0):
-                raise ValueError(f"{name}={value!r} is out of range: allowed (-1, 1) (a sensitivity > 0)")
+            require_in(name, getattr(self, name), "(-1, 1) (a sensitivity > 0)")
         for name in ("accel1_misalignment", "accel2_misalignment"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and abs(value) < 0.5 * math.pi):
-                raise ValueError(f"{name}={value!r} is out of range: allowed (-pi/2, pi/2) rad")
-        if not (math.isfinite(self.inertial_hold_time) and 0.0 <= self.inertial_hold_time <= 1.0):
-            raise ValueError(
-                f"inertial_hold_time={self.inertial_hold_time!r} is out of range: allowed [0, 1] s"
-            )
-        if not (math.isfinite(self.encoder_hold_time) and 0.0 <= self.encoder_hold_time <= 10.0):
-            raise ValueError(
-                f"encoder_hold_time={self.encoder_hold_time!r} is out of range: allowed [0, 10] s"
-            )
+            require_in(name, getattr(self, name), "(-pi/2, pi/2) rad")
+        require_in("inertial_hold_time", self.inertial_hold_time, "[0, 1] s")
+        require_in("encoder_hold_time", self.encoder_hold_time, "[0, 10] s")
         sets = self.accelerometer_sets
         if isinstance(sets, bool) or not isinstance(sets, (int, float)) or sets not in (0, 1, 2):
-            raise ValueError(f"accelerometer_sets={sets!r} is out of range: allowed 0, 1 or 2")
+            raise out_of_range("accelerometer_sets", sets, "0, 1 or 2")
         if len(self.accelerometer_position) != 2:
             raise ValueError("accelerometer_position must be a pair (x, y) in metres")
 

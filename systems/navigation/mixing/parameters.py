@@ -4,6 +4,8 @@ systems/navigation/mixing/mixer.py) and its range checks."""
 import dataclasses as dc
 import math
 
+from slipnav.systems.ranges import out_of_range, require_flag, require_in, require_integer
+
 
 @dc.dataclass
 class MixingParameters:
@@ -188,45 +190,26 @@ class MixingParameters:
     def _check_mixing_laws(self):
         """The ranges of S(12)-(14) and S(17)'s relaxations."""
         for name in ("a1", "b1", "a2", "b2", "a3", "b3", "tyre_stiffness_factor"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
-        for name in ("p", "q2", "dv_memory"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and 0.0 <= v < 1.0) or (name == "q2" and v == 0.0):
-                bracket = "(0, 1)" if name == "q2" else "[0, 1)"
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed {bracket}")
-        tau = self.c3_residual_time_constant
-        if not (math.isfinite(tau) and tau >= 0.0):
-            raise ValueError(f"mixing.c3_residual_time_constant={tau!r} is out of range: allowed [0, inf) s")
-        if not self.gyro_turn_rate >= 0.0:  # also rejects NaN; inf: S(14) alone
-            raise ValueError(
-                f"mixing.gyro_turn_rate={self.gyro_turn_rate!r} is out of range: allowed [0, inf] rad/s"
-            )
-        if not 0.0 < self.q2_inertial <= 1.0:
-            raise ValueError(f"mixing.q2_inertial={self.q2_inertial!r} is out of range: allowed (0, 1]")
+            require_in(f"mixing.{name}", getattr(self, name), "(0, inf)")
+        for name, allowed in (("p", "[0, 1)"), ("q2", "(0, 1)"), ("dv_memory", "[0, 1)")):
+            require_in(f"mixing.{name}", getattr(self, name), allowed)
+        require_in("mixing.c3_residual_time_constant", self.c3_residual_time_constant, "[0, inf) s")
+        require_in("mixing.gyro_turn_rate", self.gyro_turn_rate, "[0, inf] rad/s")  # inf: S(14) alone
+        require_in("mixing.q2_inertial", self.q2_inertial, "(0, 1]")
 
     def _check_tyre_curve(self):
         """The ranges of the tyre curve, its check and the switches."""
-        a = self.tyre_peak_acceleration
-        if not a > 0.0:  # also rejects NaN; inf: no side slip, the paper's S(17)
-            raise ValueError(f"mixing.tyre_peak_acceleration={a!r} is out of range: allowed (0, inf] m/s^2")
-        c = self.tyre_shape_factor
-        if not 1.0 < c < 2.0:
-            raise ValueError(f"mixing.tyre_shape_factor={c!r} is out of range: allowed (1, 2)")
+        # inf: no side slip, the paper's S(17)
+        require_in("mixing.tyre_peak_acceleration", self.tyre_peak_acceleration, "(0, inf] m/s^2")
+        require_in("mixing.tyre_shape_factor", self.tyre_shape_factor, "(1, 2)")
         for name in (
             "odometry_slip_compensation",
             "side_slip_from_accelerations",
             "delta_v_running_integral",
             "tyre_peak_identification",
         ):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(
-                    f"mixing.{name}={getattr(self, name)!r} is out of range: allowed true, false"
-                )
-        gate = self.tyre_model_gate_deg
-        if not gate > 0.0:  # also rejects NaN; inf: the tyre curve alone
-            raise ValueError(f"mixing.tyre_model_gate_deg={gate!r} is out of range: allowed (0, inf] deg")
+            require_flag(f"mixing.{name}", getattr(self, name))
+        require_in("mixing.tyre_model_gate_deg", self.tyre_model_gate_deg, "(0, inf] deg")  # inf: the curve
         for name in (
             "tyre_model_gate_steepness",
             "tyre_model_gate_speed",
@@ -236,47 +219,27 @@ class MixingParameters:
             "tyre_peak_identification_time_constant",
             "tyre_peak_candidate_bound",
         ):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf)")
-        if not (math.isfinite(self.free_side_slip_anchor) and 0.0 < self.free_side_slip_anchor < 1.0):
-            raise ValueError(
-                f"mixing.free_side_slip_anchor={self.free_side_slip_anchor!r} is out of range: allowed (0, 1)"
-            )
+            require_in(f"mixing.{name}", getattr(self, name), "(0, inf)")
+        require_in("mixing.free_side_slip_anchor", self.free_side_slip_anchor, "(0, 1)")
         for name in ("drag_acceleration", "drag_per_speed", "tyre_reference_speed"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0.0):
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed [0, inf)")
+            require_in(f"mixing.{name}", getattr(self, name), "[0, inf)")
 
     def _check_slide_onset_and_tyre_peak(self):
         """The ranges of the slide-onset test and of the tyre peak's identification."""
-        if not self.slide_onset_jump > 0.0:  # also rejects NaN; inf: no per-sample test
-            raise ValueError(
-                f"mixing.slide_onset_jump={self.slide_onset_jump!r} is out of range: allowed (0, inf] m/s"
-            )
+        # inf: no per-sample test
+        require_in("mixing.slide_onset_jump", self.slide_onset_jump, "(0, inf] m/s")
         for name, unit in (
             ("slide_onset_release", "m/s"),
             ("slide_onset_max_time", "s"),
             ("slide_onset_pair_tolerance", "m/s^2"),
         ):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0.0):
-                raise ValueError(f"mixing.{name}={v!r} is out of range: allowed (0, inf) {unit}")
-        lo, hi = self.tyre_peak_evidence_slip, self.tyre_peak_full_evidence_slip
-        if not (math.isfinite(lo) and lo > 0.0):
-            raise ValueError(f"mixing.tyre_peak_evidence_slip={lo!r} is out of range: allowed (0, inf)")
+            require_in(f"mixing.{name}", getattr(self, name), f"(0, inf) {unit}")
+        lo = require_in("mixing.tyre_peak_evidence_slip", self.tyre_peak_evidence_slip, "(0, inf)")
+        hi = self.tyre_peak_full_evidence_slip
         if not (math.isfinite(hi) and hi > lo):
-            raise ValueError(
-                f"mixing.tyre_peak_full_evidence_slip={hi!r} is out of range: allowed "
-                f"(tyre_peak_evidence_slip={lo!r}, inf)"
-            )
-        lo, hi = self.tyre_peak_min_ratio, self.tyre_peak_max_ratio
-        if not (math.isfinite(lo) and 0.0 < lo <= 1.0):
-            raise ValueError(f"mixing.tyre_peak_min_ratio={lo!r} is out of range: allowed (0, 1]")
-        if not (math.isfinite(hi) and hi >= 1.0):
-            raise ValueError(f"mixing.tyre_peak_max_ratio={hi!r} is out of range: allowed [1, inf)")
+            allowed = f"(tyre_peak_evidence_slip={lo!r}, inf)"
+            raise out_of_range("mixing.tyre_peak_full_evidence_slip", hi, allowed)
+        require_in("mixing.tyre_peak_min_ratio", self.tyre_peak_min_ratio, "(0, 1]")
+        require_in("mixing.tyre_peak_max_ratio", self.tyre_peak_max_ratio, "[1, inf)")
         n = self.slide_onset_release_samples
-        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000:
-            raise ValueError(
-                f"mixing.slide_onset_release_samples={n!r} is out of range: allowed an integer in [1, 1000]"
-            )
+        require_integer("mixing.slide_onset_release_samples", n, "an integer in [1, 1000]")
