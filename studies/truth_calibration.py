@@ -14,11 +14,16 @@ Three linear least-squares fits, on the samples where a wheel turns faster than 
 1. v = (r_R w_R + r_L w_L) / 2: the rolling radii r_R, r_L;
 2. omega = (r_R w_R - r_L w_L) / b: the effective track b (a Kobuki's wheels turn the robot less than
    its data-sheet track says: the tyres' width and the casters' scrub);
-3. gyro = (1 + s_g) omega + b_g: the gyro's scale error s_g and its bias b_g on the day (a record).
+3. the gyro's integral against the truth's heading change, int gyro dt = (1 + s_g) (yaw - yaw_0) +
+   b_g t + c over every sample the truth covers (unsmoothed): the gyro's scale error s_g and its bias b_g
+   on the day (a record). Angles, not rates: a residual lag between the gyro's and the truth's clocks
+   shifts a rate by the yaw acceleration times the lag, which a rate fit takes for scale, while the
+   heading a turn adds is the same whenever it is read.
 
 Each estimate's standard error is the fit's (residual variance times the normal equations' inverse),
-with the samples' correlation over the filter's window counted: the residuals of neighbouring samples
-are not independent, so the variance is scaled by the window's length in samples.
+with the samples' correlation counted: the residuals of neighbouring samples are not independent, so the
+variance is scaled by the samples per independent one, the filter's window in fits 1 and 2, and in fit 3
+(1 + rho) / (1 - rho) for the residuals' lag-one autocorrelation rho (an AR(1) model's effective count).
 """
 
 import dataclasses as dc
@@ -92,6 +97,22 @@ def smoothed_signals(columns: dict, truth: dict, encoder_step: float, T_N: float
     return signals
 
 
+def integrated_gyro_fit(columns: dict, truth: dict, T_N: float) -> tuple:
+    """Fit 3 of the module docstring: ((1 + s_g, b_g), their standard errors) from the gyro's running
+    integral against the truth's unwrapped heading on the samples the truth covers."""
+    t = np.asarray(columns["t"], float)
+    pose, covered = truth_on(t, truth)
+    gyro = np.asarray(columns["gyro"], float)
+    use = covered & np.isfinite(gyro)
+    angle = np.cumsum(np.where(np.isfinite(gyro), gyro, 0.0)) * T_N
+    design = np.column_stack([pose[:, 2] - pose[use, 2][0], t, np.ones_like(t)])[use]
+    theta, *_ = np.linalg.lstsq(design, angle[use], rcond=None)
+    residual = angle[use] - design @ theta
+    rho = float(np.clip(np.corrcoef(residual[:-1], residual[1:])[0, 1], 0.0, 1.0 - 1e-9))
+    theta, errors = _fit(design, angle[use], (1.0 + rho) / (1.0 - rho))
+    return theta[:2], errors[:2]
+
+
 def calibrate_from_truth(columns: dict, truth: dict, model: RobotModel) -> TruthCalibration:
     """The fits of the module docstring on a sensor log's ``columns`` (t, gyro, enc_R, enc_L on the
     model's T_N grid) against ``truth`` (evaluate.read_truth's seen rows on the log's clock)."""
@@ -111,9 +132,7 @@ def calibrate_from_truth(columns: dict, truth: dict, model: RobotModel) -> Truth
     inverse_track, inverse_error = _fit(difference[:, None], omega, s["window"])
     if not inverse_track[0] > 0.0:
         raise TruthCalibrationError("--truth: the wheels' yaw rate does not follow the truth's: no track")
-    (gain, bias), (gain_error, bias_error) = _fit(
-        np.column_stack([omega, np.ones_like(omega)]), gyro, s["window"]
-    )
+    (gain, bias), (gain_error, bias_error) = integrated_gyro_fit(columns, truth, model.T_N)
     track = 1.0 / inverse_track[0]
     errors = {
         "rolling_radius_R": 2.0 * float(half_error[0]),
