@@ -1,14 +1,17 @@
 """The replay engines (scenarios/replay_engines.py): the plain loop gives the diagram's arrays and summary
-bit for bit."""
+bit for bit, and it is what ``slipnav replay`` and ``slipnav evaluate`` run by default."""
 
 import dataclasses as dc
+import json
 
 import numpy as np
 import pytest
 from slipnav.scenarios.config import load_scenario
+from slipnav.scenarios.evaluate import EvaluationError, load_estimates
 from slipnav.scenarios.replay import replay_log
-from slipnav.scenarios.runner import run_scenario
+from slipnav.scenarios.runner import run_scenario, write_artifacts
 from slipnav.scenarios.sensor_log import COMMAND_COLUMNS, CURRENT_COLUMNS
+from slipnav.studies.cli import main
 from slipnav.systems.robot.faults import FaultEvent
 
 TIMED = ("wall_time_s", "realtime_factor", "engine")
@@ -72,3 +75,26 @@ def test_the_plain_replay_of_a_log_with_fewer_accelerometer_sets_is_the_diagrams
     assert np.isnan(run.sensor_log.columns["acc2_t"]).all()
     a = assert_engines_agree(run.sensor_log, run.model)
     np.testing.assert_array_equal(a["est_x"], run.arrays["est_x"])
+
+
+def test_replay_and_evaluate_run_the_plain_engine_by_default(pushed_run, tmp_path, capsys):
+    write_artifacts(pushed_run, tmp_path, figures=False)
+    log = tmp_path / "square-seed0.sensors.csv"
+    summary = tmp_path / "square-seed0-replay.summary.json"
+    assert main(["replay", str(log), "--out", str(tmp_path), "--no-figures"]) == 0
+    assert json.loads(summary.read_text())["engine"] == "plain"
+    assert main(["replay", str(log), "--out", str(tmp_path), "--no-figures", "--engine", "diagram"]) == 0
+    assert json.loads(summary.read_text())["engine"] == "diagram"
+    truth = tmp_path / "square.truth.csv"
+    a = pushed_run.arrays
+    rows = zip(a["t"], a["true_x"], a["true_y"], a["true_phi"], strict=True)
+    truth.write_text("t,x,y,yaw,quality\n" + "".join(f"{t},{x},{y},{p},1\n" for t, x, y, p in rows))
+    assert main(["evaluate", str(log), "--truth", str(truth), "--out", str(tmp_path)]) == 0
+    assert json.loads(summary.read_text())["engine"] == "plain"
+    with pytest.raises(SystemExit) as e:
+        main(["evaluate", str(log), "--truth", str(truth), "--engine", "nope"])
+    assert e.value.code == 2 and "invalid choice: 'nope'" in capsys.readouterr().err
+    with pytest.raises(EvaluationError, match="--engine applies to a sensor log"):
+        load_estimates(tmp_path / "square-seed0-replay.npz", truth, engine="diagram")
+    with pytest.raises(ValueError, match="engine='nope' is unknown: allowed plain, diagram"):
+        replay_log(pushed_run.sensor_log, pushed_run.model, engine="nope")
