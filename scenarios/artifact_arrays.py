@@ -106,39 +106,43 @@ def collect_perturbations(a: dict, logs, data) -> None:
             a[f"perturbation_{channel}"] = forces[i]
 
 
+YAW_CALIBRATION_KEYS = (None, "est_radius_difference", "est_gyro_bias_std", "est_radius_difference_std")
+YAW_CALIBRATION_KEYS += (None, None, "gyro_bias_changes")
+"""The keys of the yaw calibration's parameters [b_g, D, sigma(b_g), sigma(D), learned, rejected, bias
+changes] (calibration_parameters; b_g is ``est_gyro_bias``, the ``gyro_bias`` output)."""
+NAVIGATION_SIGNALS = (
+    ("nav_pose", ("est_x", "est_y", "est_phi")),
+    ("nav_odometry_pose", ("odo_x", "odo_y", "odo_phi")),
+    ("nav_gyrodometry_pose", ("gyro_x", "gyro_y", "gyro_phi")),
+    ("nav_mixed_estimate", ("est_v_t", "est_v_n", "est_omega", "est_a_t", "est_a_n")),
+    ("nav_side_slip_angle", ("est_alpha",)),
+    ("nav_track_speed", ("est_track_speed",)),
+    ("nav_C1", ("C1",)),
+    ("nav_slide_onset", ("slide_onset",)),
+    ("nav_C2_C3", ("C2", "C3")),
+    ("nav_tyre_model_check", ("tyre_model_weight", "free_v_n", None, "est_tyre_peak")),
+    ("nav_delta_v", ("delta_v",)),
+    ("nav_odometry", ("odo_v_t", "odo_omega")),
+    ("nav_gyro_bias", ("est_gyro_bias",)),
+    ("nav_standstill", ("standstill",)),
+    ("nav_accelerometer_bias", tuple(f"est_accel_bias_{axis}" for axis in ("t1", "n1", "t2", "n2"))),
+    ("nav_health", tuple(f"health_{channel}" for channel in SENSOR_CHANNELS)),
+    ("nav_yaw_calibration", YAW_CALIBRATION_KEYS),
+)
+"""The artifact's navigation keys, in its order: per logged navigation output (``nav_<output>``,
+diagrams/navigation.py) the key of each of its leading elements (None: no key). ``fault`` follows from
+``nav_health`` and ``nav_encoder_fault`` (collect_navigation)."""
+
+
 def collect_navigation(a: dict, data) -> None:
-    """The navigation keys of the artifact from the navigation diagram's loggers (``data(name)``: the
-    logger's rows x samples; the keys are views of its rows)."""
-    for prefix, name in (("est", "nav_pose"), ("odo", "nav_odometry_pose"), ("gyro", "nav_gyrodometry_pose")):
-        pose = data(name)
-        a[f"{prefix}_x"], a[f"{prefix}_y"], a[f"{prefix}_phi"] = pose[0], pose[1], pose[2]
-    mixed = data("nav_mixed_estimate")
-    for i, key in enumerate(["est_v_t", "est_v_n", "est_omega", "est_a_t", "est_a_n"]):
-        a[key] = mixed[i]
-    a["est_alpha"] = data("nav_side_slip_angle")[0]
-    a["est_track_speed"] = data("nav_track_speed")[0]
-    a["C1"] = data("nav_C1")[0]
-    a["slide_onset"] = data("nav_slide_onset")[0]
-    c23 = data("nav_C2_C3")
-    a["C2"], a["C3"] = c23[0], c23[1]
-    check = data("nav_tyre_model_check")
-    a["tyre_model_weight"], a["free_v_n"] = check[0], check[1]
-    a["est_tyre_peak"] = check[3]
-    a["delta_v"] = data("nav_delta_v")[0]
-    odo = data("nav_odometry")
-    a["odo_v_t"], a["odo_omega"] = odo[0], odo[1]
-    a["est_gyro_bias"] = data("nav_gyro_bias")[0]
-    a["standstill"] = data("nav_standstill")[0]
-    accel_bias = data("nav_accelerometer_bias")
-    for i, axis in enumerate(("t1", "n1", "t2", "n2")):
-        a[f"est_accel_bias_{axis}"] = accel_bias[i]
+    """The navigation keys of the artifact (NAVIGATION_SIGNALS, then ``fault``) from the navigation
+    diagram's loggers (``data(name)``: the logger's rows x samples; the keys are views of its rows)."""
+    for name, keys in NAVIGATION_SIGNALS:
+        rows = data(name)
+        for i, key in enumerate(keys):
+            if key is not None:
+                a[key] = rows[i]
     health = data("nav_health")
-    for i, channel in enumerate(SENSOR_CHANNELS):
-        a[f"health_{channel}"] = health[i]
     # a channel excluded (any health code > 0; an absent accelerometer set is none), or the odometry held
     excluded = (np.max(health[0:5], axis=0) > 0).astype(float)
     a["fault"] = np.maximum(excluded, data("nav_encoder_fault")[0])
-    calibration = data("nav_yaw_calibration")
-    a["est_gyro_bias_std"] = calibration[2]
-    a["est_radius_difference"], a["est_radius_difference_std"] = calibration[1], calibration[3]
-    a["gyro_bias_changes"] = calibration[6]

@@ -1,10 +1,12 @@
-"""``slipnav evaluate LOG --truth TRUTH [--model MODEL.yaml] [--out DIR]``: the fused estimate,
-odometry-only and Gyrodometry of a replayed sensor log against a ground truth (docs/robot-logs.md).
+"""``slipnav evaluate LOG --truth TRUTH [--model MODEL.yaml] [--out DIR] [--engine plain|diagram]``: the
+fused estimate, odometry-only and Gyrodometry of a replayed sensor log against a ground truth
+(docs/robot-logs.md).
 
-LOG is a sensor log (``.csv``: replayed first, as ``slipnav replay --no-figures`` does, its npz and
-summary written beside the evaluation) or a replay's or run's artifact (``.npz``). TRUTH is a ground-truth
-CSV (``t,x,y,yaw,quality``, t on the log's clock; ``slipnav import`` writes one). Per estimate, on the
-log's samples the truth covers (the truth linearly interpolated between seen rows, outages left out):
+LOG is a sensor log (``.csv``: replayed first, as ``slipnav replay --no-figures`` does, by the replay
+engine ``--engine``, its npz and summary written beside the evaluation) or a replay's or run's artifact
+(``.npz``). TRUTH is a ground-truth CSV (``t,x,y,yaw,quality``, t on the log's clock; ``slipnav import``
+writes one). Per estimate, on the log's samples the truth covers (the truth linearly interpolated
+between seen rows, outages left out):
 
 - the estimate is first aligned on its start pose (the rigid motion that puts its first pose on the
   truth's); nothing else is fitted;
@@ -37,6 +39,7 @@ from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.files import write_text_atomically
 from slipnav.scenarios.metrics import ESTIMATES
 from slipnav.scenarios.replay import replay_file, write_replay_artifacts
+from slipnav.scenarios.replay_engines import REPLAY_ENGINES
 
 TRUTH_COLUMNS = ("t", "x", "y", "yaw", "quality")
 RPE_DISTANCE = 1.0
@@ -290,13 +293,16 @@ def plot_evaluation(a: dict, truth: dict, title: str, path) -> FilePath:
     return save_figure_atomically(fig, path)
 
 
-def load_estimates(log, truth_path, model=None, out_dir="runs") -> tuple[str, dict, list]:
-    """(name, arrays, written files) of LOG: an npz's arrays, or a sensor log replayed (its npz and summary
-    written into ``out_dir``)."""
+def load_estimates(log, truth_path, model=None, out_dir="runs", engine=None) -> tuple[str, dict, list]:
+    """(name, arrays, written files) of LOG: an npz's arrays, or a sensor log replayed by ``engine`` (None:
+    the default, REPLAY_ENGINES[0]; its npz and summary written into ``out_dir``)."""
     path = FilePath(log)
     if path.suffix == ".npz":
-        if model is not None:
-            raise EvaluationError("--model applies to a sensor log (.csv), not to an npz: allowed no --model")
+        for option, value in (("--model", model), ("--engine", engine)):
+            if value is not None:
+                raise EvaluationError(
+                    f"{option} applies to a sensor log (.csv), not to an npz: allowed no {option}"
+                )
         try:
             with np.load(path) as data:
                 a = {k: data[k] for k in data.files}
@@ -311,20 +317,20 @@ def load_estimates(log, truth_path, model=None, out_dir="runs") -> tuple[str, di
     if path.suffix != ".csv":
         raise EvaluationError(f"LOG={str(path)!r}: allowed a sensor log (.csv) or a run or replay npz (.npz)")
 
-    result = replay_file(path, model)
+    result = replay_file(path, model, engine or REPLAY_ENGINES[0])
     written = write_replay_artifacts(result, out_dir, figures=False)
     return f"{result.name}-replay", result.arrays, written
 
 
-def evaluate_command(log, truth_path, out_dir="runs", model=None) -> dict:
-    """``slipnav evaluate``: check the inputs, replay where needed, evaluate, write, print one line per
-    estimate."""
+def evaluate_command(log, truth_path, out_dir="runs", model=None, engine=None) -> dict:
+    """``slipnav evaluate``: check the inputs, replay where needed (by ``engine``, load_estimates),
+    evaluate, write, print one line per estimate."""
 
     truth = read_truth(truth_path)
     out = check_output_directory(out_dir)
     if not FilePath(log).is_file():
         raise EvaluationError(f"LOG={str(log)!r} is not a file: allowed a sensor log (.csv) or an npz")
-    name, a, written = load_estimates(log, truth_path, model, out)
+    name, a, written = load_estimates(log, truth_path, model, out, engine)
     result = evaluate_arrays(a, truth)
     result.update(log=str(log), truth_file=str(truth_path))
     if result["truth"]["start_s"] is None:

@@ -2,12 +2,12 @@
 
 ``run_plain_loop`` takes the Truth, Belief and ControlSettings that
 ``diagrams.closed_loop.build_closed_loop_diagram`` takes and steps, every T_N, the discrete plant
-(plant_advance), the sensors (sensor_update), the navigation
-(systems.navigation.loop.NavigationLoop) and, every T_C, the control blocks (follower_step, the speed law,
-step_size, interpolate), in the order Drake's pre-update semantics imply: every block that updates at
-t_k reads the values all blocks held at t_k. With the seed's sensor noise (systems.robot.sensors.sensor_noise,
-which the diagram's sensors read too) it reproduces the diagram sample for sample
-(tests/test_plain_loop.py); it is also the baseline of ``slipnav bench``.
+(plant_advance), the sensors (sensor_update), the navigation and the perturbation monitor on it
+(scenarios/plain_navigation.py: NavigationLoop, PlainMonitor) and, every T_C, the control blocks
+(follower_step, the speed law, step_size, interpolate), in the order Drake's pre-update semantics imply:
+every block that updates at t_k reads the values all blocks held at t_k. With the seed's sensor noise
+(systems.robot.sensors.sensor_noise, which the diagram's sensors read too) it reproduces the diagram
+sample for sample (tests/test_plain_loop.py); it is also the baseline of ``slipnav bench``.
 """
 
 import math
@@ -16,6 +16,7 @@ import time
 import numpy as np
 from slipnav.diagrams.closed_loop import ControlSettings, control_offset
 from slipnav.diagrams.records import Belief, Truth
+from slipnav.scenarios.plain_navigation import PlainNavigation
 from slipnav.scenarios.run_plan import RunOptions, plan_run
 from slipnav.systems.control.path_follower import (
     bounded_speed,
@@ -25,16 +26,8 @@ from slipnav.systems.control.path_follower import (
     speed_law,
 )
 from slipnav.systems.control.slip_control import interpolate, step_size
-from slipnav.systems.health.perturbation import (
-    FORCE_CHANNELS,
-    PERTURBATION_CHANNELS,
-    PerturbationParameters,
-    force_model,
-    perturbation_initial_state,
-    perturbation_step,
-    sideways_push,
-)
-from slipnav.systems.navigation.loop import LOOP_KEYS, NavigationLoop
+from slipnav.systems.health.perturbation import FORCE_CHANNELS, PERTURBATION_CHANNELS
+from slipnav.systems.navigation.loop import LOOP_KEYS
 from slipnav.systems.rates import SampleRates
 from slipnav.systems.robot.contact import NO_DISTURBANCE
 from slipnav.systems.robot.dynamics import plant_advance, plant_derivatives, substeps_per
@@ -70,9 +63,6 @@ PLAIN_LOOP_KEYS = (
     + ["meas_current_R", "meas_current_L"]
 )
 """Columns of run_plain_loop's result, each the value at t_k (as a Drake logger at t_k records it)."""
-MIXED_ESTIMATE_COLUMNS = [
-    LOOP_KEYS.index(k) for k in ("est_v_t", "est_v_n", "est_omega", "est_a_t", "est_a_n")
-]
 
 
 def run_plain_loop(
@@ -106,13 +96,13 @@ def run_plain_loop(
         truth.robot(belief), truth.initial_pose, truth.initial_speed, rates.T_N, plant_steps, time_step
     )
     sensors = PlainSensors(truth.sensors, truth.seed, world.initial_wheel_speeds, rates.T_N)
-    nav = NavigationLoop(belief.navigation_belief(truth.initial_state))
+    # the navigation and the perturbation monitor on it (NavigationLoop, PlainMonitor)
+    navigation = PlainNavigation(belief.navigation_belief(truth.initial_state), belief.monitor)
     # Control (build_control_diagram): at t_K, or right after the navigation's sample k (control_offset).
     ctrl = PlainControl(control, robot, rates.T_C)
     faults = check_fault_events(truth.faults)
-    monitor = PlainMonitor(belief.monitor, robot, rates.T_N, nav.geometry.accelerometer_sets > 0)
     spent = dict.fromkeys(("plant", "sensors", "navigation", "control"), 0.0)
-    out = _step_plain_loop(world, sensors, nav, ctrl, monitor, faults, rates, noise, spent)
+    out = _step_plain_loop(world, sensors, navigation, ctrl, faults, rates, noise, spent)
     if timings is not None:
         timings.update(spent)
     return {key: out[:, i].copy() for i, key in enumerate(PLAIN_LOOP_KEYS)}
@@ -130,7 +120,7 @@ def checked_noise(noise, seed: int, num_steps: int) -> list:
 
 
 def _step_plain_loop(
-    world, sensors, nav, ctrl, monitor, faults, rates: SampleRates, noise, spent
+    world, sensors, navigation: PlainNavigation, ctrl, faults, rates: SampleRates, noise, spent
 ) -> np.ndarray:
     """Step the loop over the samples of ``noise``, in the order of Drake's pre-update semantics; returns
     the rows of PLAIN_LOOP_KEYS and adds each part's wall time to ``spent``."""
@@ -147,7 +137,7 @@ def _step_plain_loop(
         t0 = clock()
         if faulty:  # SensorFaultInjector: what the navigation reads at t_k
             sensors.apply_faults(k, faults)
-        nav_row = nav.step(sensors.acc, sensors.gyro, sensors.encoders, sensors.current, monitor.push())
+        nav_row = navigation.step(sensors.acc, sensors.gyro, sensors.encoders, sensors.current)
         t1 = clock()
         spent["navigation"] += t1 - t0
         if after and control_instant(k - 1, k_start, n) is not None:  # t_K + offset: the navigation after k
@@ -165,11 +155,11 @@ def _step_plain_loop(
             ctrl.delta,
             ctrl.progress,
             *nav_row,
-            *monitor.state[-4:],
-            *monitor.state[-6:-4],
+            *navigation.flags(),
+            *navigation.forces(),
             *sensors.current,
         )
-        monitor.step(command, nav, nav_row, sensors.current)
+        navigation.watch(command, nav_row, sensors.current)
         if not after and control_instant(k, k_start, n) is not None:  # control instant: pre-update values
             ctrl.step(control_instant(k, k_start, n), nav_row, world.x)
         t2 = clock()
@@ -244,43 +234,6 @@ class PlainSensors:
         )
         self.gyro = float(gyro[0])
         self.current = current_sense(world.currents, self.current_draws.row(k), self.params)
-
-
-class PlainMonitor:
-    """The PerturbationMonitor as plain state (``state``: perturbation_initial_state's layout)."""
-
-    def __init__(
-        self, parameters: PerturbationParameters, robot: RobotParameters, T_N: float, accelerations: bool
-    ):
-        self.params = parameters.validate()
-        self.state, self.radii, self.force = (
-            perturbation_initial_state(),
-            (robot.radius_R, robot.radius_L),
-            force_model(robot),
-        )
-        self.track_width, self.T_N, self.accelerations = robot.track_width, T_N, accelerations
-
-    def push(self):
-        """The sideways push the navigation reads (sideways_push)."""
-        return sideways_push(self.state)
-
-    def step(self, command, nav: NavigationLoop, nav_row, current) -> None:
-        """One T_N of the monitor on the ``command``, the navigation's checked encoders and estimate."""
-        mixed = [nav_row[i] for i in MIXED_ESTIMATE_COLUMNS]
-        self.state = perturbation_step(
-            self.state,
-            command,
-            nav.checked_encoders,
-            mixed,
-            self.params,
-            self.radii,
-            self.track_width,
-            self.T_N,
-            current,
-            self.force,
-            nav.slide_onset,
-            self.accelerations,
-        )
 
 
 class PlainControl:

@@ -1,12 +1,14 @@
 """``slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR]``: the navigation alone on a sensor log.
 
-The log's rows (scenarios/sensor_log.py) drive the navigation diagram through a log source in place of
-the plant and its sensors (diagrams/replay.py); the model (scenarios/model.py) is what the navigation
-believes. The result is a run artifact with the same keys (docs/artifacts.md: Replay): the navigation
-keys from the diagram, ``meas_*`` (``meas_current_*`` from ``cur_*``) from the log, ``cmd_*`` and
-``true_*`` where the log has those columns (NaN otherwise), and a summary that compares with the truth
-only where the log has it. Replaying the sensor log of a ``slipnav run`` with the model it wrote
-reproduces the run's estimates bit for bit.
+The log's rows (scenarios/sensor_log.py) drive the navigation in place of the plant and its sensors, by
+one of two engines that give the same arrays bit for bit (scenarios/replay_engines.py): ``plain``, the
+default, steps the navigation's pure functions row by row; ``diagram`` runs the navigation diagram fed by
+a log source (diagrams/replay.py). The model (scenarios/model.py) is what the navigation believes. The
+result is a run artifact with the same keys (docs/artifacts.md: Replay): the navigation keys, ``meas_*``
+(``meas_current_*`` from ``cur_*``) from the log, ``cmd_*`` and ``true_*`` where the log has those
+columns (NaN otherwise), and a summary that compares with the truth only where the log has it.
+Replaying the sensor log of a ``slipnav run`` with the model it wrote reproduces the run's estimates bit
+for bit.
 """
 
 from __future__ import annotations
@@ -19,14 +21,13 @@ import time
 from pathlib import Path as FilePath
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
-from slipnav.diagrams.replay import build_log_replay_diagram
-from slipnav.scenarios.artifact_arrays import SERIES_KEYS, collect_navigation, collect_perturbations
+from slipnav.scenarios.artifact_arrays import SERIES_KEYS
 from slipnav.scenarios.artifacts import check_output_directory, publish_artifacts
 from slipnav.scenarios.config import ScenarioError
 from slipnav.scenarios.interrupt import deferred_interrupt
 from slipnav.scenarios.model import ModelError, RobotModel, load_model
 from slipnav.scenarios.progress import TaskProgress
+from slipnav.scenarios.replay_engines import start_replay
 from slipnav.scenarios.run_summary import POSITION_ERROR_KEYS, position_error_summary
 from slipnav.scenarios.sensor_log import SensorLog, SensorLogError, read_metadata, read_sensor_log
 from slipnav.systems.checks import require_finite
@@ -95,10 +96,14 @@ def check_counts(log: SensorLog, model: RobotModel) -> int:
     return counts
 
 
-def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=None) -> ReplayResult:
-    """Run the navigation diagram on ``log`` with ``model``'s belief; returns arrays and summary.
+def replay_log(
+    log: SensorLog, model: RobotModel, name: str = "log", navigation=None, engine: str = "plain"
+) -> ReplayResult:
+    """Run the navigation on ``log`` with ``model``'s belief; returns arrays and summary.
 
     ``navigation``: NavigationParameters (default: the model's tuning over the defaults).
+    ``engine``: ``plain`` (the plain sequential loop) or ``diagram`` (the navigation diagram in a Drake
+    Simulator), scenarios/replay_engines.py: the same arrays bit for bit.
     """
     rates = model.rates()
     robot = model.robot_parameters()
@@ -110,32 +115,19 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         navigation, robot, rates, initial_state(log), model.sensor_parameters(), model.calibration
     )
     acc, gyro, enc = log.accelerometers, log.gyro, log.encoder_angles(counts)
-    diagram, loggers = build_log_replay_diagram(belief, acc, gyro, enc, log.currents, log.commands)
-    simulator = Simulator(diagram)
-    simulator.Initialize()
+    replay = start_replay(engine, belief, acc, gyro, enc, log.currents, log.commands)
     end = (len(log) - 1) * rates.T_N
     wall_start = time.perf_counter()
     with deferred_interrupt() as pending, TaskProgress(end, f"slipnav: replaying {name}", "s") as progress:
         t = 0.0
         while t < end - 1e-12:
             t = min(t + 0.1, end)
-            simulator.AdvanceTo(t)
+            replay.advance_to(t)
             progress.update(t)
             pending.raise_if_interrupted()
     wall = time.perf_counter() - wall_start
-    context = simulator.get_context()
-    logs = {key: logger.FindLog(context) for key, logger in loggers.items()}
-    n = len(log)
-
-    def data(key):
-        d = logs[key].data()
-        if d.shape[1] != n:
-            raise RuntimeError(f"logger {key} has {d.shape[1]} samples, the log has {n} rows")
-        return d.copy()  # Drake's log lives only as long as the context
-
     a = {"t": log.t.copy()}
-    collect_navigation(a, data)
-    collect_perturbations(a, logs, data)  # with the log's commands
+    a.update(replay.arrays())
     for i, key in enumerate(("meas_a_t1", "meas_a_n1", "meas_a_t2", "meas_a_n2")):
         a[key] = acc[:, i].copy()
     a["meas_gyro"] = gyro.copy()
@@ -147,6 +139,7 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
             a[key] = log.columns[key].copy()
     if "true_v_t" in a and "true_v_n" in a:
         a["true_alpha"] = np.arctan2(a["true_v_n"], a["true_v_t"])
+    n = len(log)
     for key in SERIES_KEYS:
         a.setdefault(key, np.full(n, np.nan))
     if log.has_truth:
@@ -161,16 +154,27 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         track_width=np.array(robot.track_width),
         start_time=np.array(log.metadata.get("start_time", math.nan)),  # the run's, if the log says
     )
+    summary = replay_summary(log, a, name, robot.name, engine, wall)
+    if replay.monitored:
+        summary["perturbations"] = perturbation_report(a["t"], a)
+    return ReplayResult(name=name, arrays=a, summary=summary)
+
+
+def replay_summary(log: SensorLog, a: dict, name: str, robot: str, engine: str, wall: float) -> dict:
+    """The replay's summary (docs/artifacts.md, Replay) of its arrays ``a``, but the perturbations;
+    ``wall``: the replay's wall time (s)."""
+    path_length = float(a["path_length"])
     if log.has_truth:
         errors = position_error_summary(a)
     else:
         errors = {key: dict.fromkeys(("fused", "odometry", "gyrodometry")) for key in POSITION_ERROR_KEYS}
-    summary = {
+    return {
         "scenario": name,
         "source": "replay",
+        "engine": engine,
         "seed": log.metadata.get("seed"),
-        "robot": robot.name,
-        "rows": n,
+        "robot": robot,
+        "rows": len(log),
         "has_truth": log.has_truth,
         "sensor_faults": int(np.nansum(a["fault"])),
         "path_length_m": path_length if math.isfinite(path_length) else None,
@@ -179,9 +183,6 @@ def replay_log(log: SensorLog, model: RobotModel, name: str = "log", navigation=
         "wall_time_s": wall,
         "realtime_factor": float((a["t"][-1] - a["t"][0]) / wall) if wall > 0 else None,
     }
-    if "perturbation" in logs:
-        summary["perturbations"] = perturbation_report(a["t"], a)
-    return ReplayResult(name=name, arrays=a, summary=summary)
 
 
 def check_log_metadata(log: SensorLog, model: RobotModel, path) -> None:
@@ -222,10 +223,10 @@ def read_log(log_path, model_path=None) -> tuple[SensorLog, RobotModel, str]:
     return log, model, described
 
 
-def replay_file(log_path, model_path=None) -> ReplayResult:
-    """Read the log and its model (read_log) and replay."""
+def replay_file(log_path, model_path=None, engine: str = "plain") -> ReplayResult:
+    """Read the log and its model (read_log) and replay (replay_log, by ``engine``)."""
     log, model, described = read_log(log_path, model_path)
-    result = replay_log(log, model, log_name(log_path))
+    result = replay_log(log, model, log_name(log_path), engine=engine)
     result.summary["sensor_log"] = str(log_path)
     result.summary["model"] = described
     return result

@@ -15,10 +15,11 @@
     slipnav sweep SCENARIO [--seeds N] [--set KEY=V1,V2 ...] [--duration S] [--open-loop] [ENGINE]
     slipnav diagram navigation|control|closed_loop [--out FILE.dot|.svg|.png] [--scenario SCENARIO]
     slipnav bench [SCENARIO] [--repeat N]
-    slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures]
+    slipnav replay LOG.csv [--model MODEL.yaml] [--out DIR] [--no-figures] [--engine plain|diagram]
     slipnav import phil-turtlebot|norlab-warthog DIR [--out DIR] [--model MODEL.yaml]
                    [--resample interpolate|hold]
     slipnav evaluate LOG.csv|RUN.npz --truth TRUTH.csv [--model MODEL.yaml] [--out DIR]
+                     [--engine plain|diagram]
     slipnav calibrate SESSION.yaml [--out DIR]
     slipnav calibrate LOG.csv --truth TRUTH.csv [--model MODEL] [--out DIR]
     slipnav calibrate --simulate ROBOT|SCENARIO.yaml [--seed N | --seeds N] [--logs] [--out DIR]
@@ -27,6 +28,8 @@
 ENGINE (studies/sweep.py): [--workers N] [--scheduler ADDRESS] [--out DIR] [--resume]: the runs go to a
 dask.distributed cluster of N worker processes (default one per core; 0: in this process) or to the
 cluster at ADDRESS, and each finished run is appended to DIR/<study>.csv, which --resume continues.
+``--engine`` of replay and evaluate is what steps the navigation over a sensor log
+(scenarios/replay_engines.py): the plain loop (default) or the navigation diagram, the same arrays.
 
 User mistakes print one line to stderr (``slipnav: error: ...`` naming the key and the allowed range) and
 exit with status 2, without a traceback, before any simulation starts. Ctrl-C prints ``slipnav:
@@ -55,6 +58,7 @@ from slipnav.scenarios.importers import LogImportError, write_import
 from slipnav.scenarios.model import ModelError
 from slipnav.scenarios.paper import paper_mode
 from slipnav.scenarios.replay import replay_file, sensor_columns_without_samples, write_replay_artifacts
+from slipnav.scenarios.replay_engines import REPLAY_ENGINES
 from slipnav.scenarios.run_plan import RunOptions, check_run_options
 from slipnav.scenarios.runner import run_scenario, write_artifacts
 from slipnav.scenarios.sensor_log import SensorLogError
@@ -313,7 +317,8 @@ def _replay(args) -> int:
     """slipnav replay: the navigation alone on a sensor log (scenarios/replay.py); 1 if --out cannot take
     the artifacts."""
     check_output_directory(args.out)
-    result = replay_file(args.log, args.model)  # every log or model mistake before the simulation
+    engine = args.engine or REPLAY_ENGINES[0]
+    result = replay_file(args.log, args.model, engine)  # every log or model mistake before the replay
     if not _write(write_replay_artifacts, result, args):
         return 1
     s = result.summary
@@ -353,7 +358,7 @@ def _import(args) -> int:
 
 def _evaluate(args) -> int:
     """slipnav evaluate: the estimates against a ground truth (scenarios/evaluate.py)."""
-    evaluate_command(args.log, args.truth, args.out, args.model)
+    evaluate_command(args.log, args.truth, args.out, args.model, args.engine)
     return 0
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from slipnav.scenarios.replay_engines import REPLAY_ENGINES
+
 EPILOG = (
     "Documentation in the repository: README.md (start here), docs/design.md, docs/artifacts.md (npz and "
     "summary keys, file names), docs/scenario-schema.md (every YAML key)."
@@ -32,6 +34,17 @@ def _engine_options(parser, study: str) -> None:
     )
     parser.add_argument(
         "--resume", action="store_true", help=f"keep the finished runs in {study}.csv and run only the rest"
+    )
+
+
+def _replay_engine_option(parser) -> None:
+    """--engine of a command that replays a sensor log (scenarios/replay_engines.py)."""
+    parser.add_argument(
+        "--engine",
+        choices=REPLAY_ENGINES,
+        default=None,
+        help="what steps the navigation over the log: plain (default), its functions in a plain loop; "
+        "diagram, the navigation diagram in a Drake simulator (the same arrays bit for bit, slower)",
     )
 
 
@@ -198,6 +211,7 @@ def _add_logs_commands(sub) -> None:
     )
     rep.add_argument("--out", default="runs", help="output directory (default: runs)")
     rep.add_argument("--no-figures", action="store_true", help="skip the figures")
+    _replay_engine_option(rep)
     imp = sub.add_parser("import", help="a real robot's logs as a sensor log, ground truth and model")
     imp.add_argument(
         "adapter",
@@ -221,6 +235,7 @@ def _add_logs_commands(sub) -> None:
     eva.add_argument("--truth", required=True, help="ground-truth CSV t,x,y,yaw,quality (slipnav import)")
     eva.add_argument("--model", default=None, help="model YAML of a sensor log (default as slipnav replay)")
     eva.add_argument("--out", default="runs", help="output directory (default: runs)")
+    _replay_engine_option(eva)
     cal = sub.add_parser("calibrate", help="identify the robot's parameters from calibration manoeuvres")
     cal.add_argument(
         "session",

@@ -138,14 +138,15 @@ class NavigationLoop:
 
     @property
     def L(self) -> np.ndarray:
-        """The Kalman gain S(7) in force (5 x 3); setting it also sets ``joseph``, S(9)'s
+        """The Kalman gain S(7) in force (5 x 3, row-major as the diagram's ``kalman_gain`` port holds it:
+        a matrix product rounds by its operands' layout); setting it also sets ``joseph``, S(9)'s
         joseph_factors of it, which update_estimate reads."""
         return self._L
 
     @L.setter
     def L(self, gain) -> None:
-        self._L = gain
-        self.joseph = joseph_factors(gain, self.R)
+        self._L = np.ascontiguousarray(gain)
+        self.joseph = joseph_factors(self._L, self.R)
 
     def velocity_mix(self, odo, inertial, c2: float, c3: float, previous, standing: bool) -> np.ndarray:
         """S(15)-(17) at sample ``self.k`` with the C1 in force (``c1_mixed``: 0 during a slide onset) and
