@@ -6,7 +6,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.health.analog import channel_present
-from slipnav.systems.health.check import health_check
+from slipnav.systems.health.check import health_check, health_constants
 from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
 from slipnav.systems.health.parameters import (
     HEALTH_CLASSES,
@@ -16,7 +16,6 @@ from slipnav.systems.health.parameters import (
     NUM_CHANNELS,
     HealthGeometry,
     SensorHealthParameters,
-    health_constants,
 )
 
 
