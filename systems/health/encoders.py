@@ -219,6 +219,10 @@ def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_
     increment = s[ENCODER_INCREMENT]
     code = s[ENCODER_CODE]
     lost = s[ENCODER_LOST]
+    block_count = s[ENCODER_BLOCK_COUNT]
+    block_difference = s[ENCODER_BLOCK_DIFFERENCE]
+    block_predicted = s[ENCODER_BLOCK_PREDICTED]
+    block_moved = s[ENCODER_BLOCK_MOVED]
     used = [0.0, 0.0]
     for w in range(2):
         c = FIRST_ENCODER + w
@@ -241,7 +245,6 @@ def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_
         code[w] = codes[c]
         increment[w] = increment[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         if not in_block[w]:  # judged, broken, or no block: the next one starts anew
-            s[ENCODER_BLOCK_COUNT][w] = s[ENCODER_BLOCK_DIFFERENCE][w] = 0.0
-            s[ENCODER_BLOCK_PREDICTED][w] = s[ENCODER_BLOCK_MOVED][w] = 0.0
+            block_count[w] = block_difference[w] = block_predicted[w] = block_moved[w] = 0.0
     s[TRAVEL_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     return used

@@ -71,7 +71,10 @@ def slip_detector_blind(codes, unusable: bool = False, accelerometer_sets: int =
     right, left = codes[5] > 0, codes[6] > 0
     if unusable or (right and left) or ((right or left) and codes[4] > 0):
         return True
-    return not any(codes[c] == 0 for c in (0, 2) if channel_present(c, accelerometer_sets))
+    for c in (0, 2):  # the tangential channels
+        if codes[c] == 0 and channel_present(c, accelerometer_sets):
+            return False
+    return True
 
 
 def odometry_unusable(state, sample) -> bool:
