@@ -116,17 +116,18 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
             codes[c] = RECOVERING if excluded[c] > 0 else JUMP
         elif hold[c] > 0:
             codes[c] = INCONSISTENT
-    for c in range(NUM_ANALOG):  # the ring of readings (clip_returns)
-        ring[CLIP_WINDOW_MAX * c + position] = raw[c]
+    for c in range(NUM_ANALOG):  # the ring of the readings' magnitudes (clip_returns)
+        ring[CLIP_WINDOW_MAX * c + position] = abs(raw[c])
     s[CLIP_POSITION] = (position + 1) % CLIP_WINDOW_MAX
 
 
 @jitable
 def clip_returns(ring, base: int, position: int, x: float, floor: float, p) -> int:
     """How many times reading ``x`` returned to its magnitude within the last clip_window readings (the
-    channel's ring ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since the last
-    larger one, counting this one and a run of repeats once. A clipped channel returns to its rail again
-    and again, the largest magnitude it reads; noise never repeats a value (within stuck_tolerance).
+    channel's ring of magnitudes ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since
+    the last larger one, counting this one and a run of repeats once. A clipped channel returns to its
+    rail again and again, the largest magnitude it reads; noise never repeats a value (within
+    stuck_tolerance).
     A quantised channel returns to its largest level by its own noise while its readings span few
     counts: 0 unless the magnitudes read since the last larger one reach ``floor`` below |x|
     (analog_constants' clip_floor: CLIP_MIN_COUNTS counts; 0 for a continuous channel)."""
@@ -136,7 +137,7 @@ def clip_returns(ring, base: int, position: int, x: float, floor: float, p) -> i
     lowest = magnitude
     runs, newer_at = 1, True  # this reading is at its own magnitude
     for j in range(1, p.clip_window):
-        y = abs(ring[base + (position - j) % CLIP_WINDOW_MAX])
+        y = ring[base + (position - j) % CLIP_WINDOW_MAX]
         if not math.isfinite(y):  # a gap does not split a run
             continue
         if y > larger:

@@ -146,7 +146,7 @@ def accelerometer_biases(state) -> list:
 def bias_free(state, accelerometers) -> list:
     """[a_t1 - b_t1, a_n1 - b_n1, a_t2 - b_t2, a_n2 - b_n2] with the state's biases."""
     b_t1, b_n1, b_t2, b_n2 = accelerometer_biases(state)
-    a_t1, a_n1, a_t2, a_n2 = (float(a) for a in accelerometers)
+    a_t1, a_n1, a_t2, a_n2 = [float(a) for a in accelerometers]
     return [a_t1 - b_t1, a_n1 - b_n1, a_t2 - b_t2, a_n2 - b_n2]
 
 
