@@ -208,7 +208,7 @@ class NavigationLoop:
         )
         self.encoder_fault = any(codes[5:7])  # the tyre peak learns nothing (velocity_mix)
         fault_enc = max(odometry_held, 1.0 if self.encoder_fault else 0.0)
-        cal, theta = self.params.yaw_calibration, self.calibration[0:2]
+        cal, theta = self.params.yaw_calibration, self.calibration[0:2].tolist()  # [b_g, D] as floats
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         gyro_calibrated = calibrated_gyro(g, theta, cal)
         measurement = ekf_measurement(acc, [gyro_calibrated])
