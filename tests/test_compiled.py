@@ -17,10 +17,13 @@ from slipnav.systems.health import (
 )
 from slipnav.systems.navigation.ekf import (
     EkfParameters,
-    _covariance_update,
     ekf_gain,
     ekf_inertial_estimate,
     ekf_prior_covariance,
+    joseph_factors,
+    joseph_form,
+    measured_inverse,
+    mixed_covariance,
 )
 from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
 from slipnav.systems.robot.contact import NO_DISTURBANCE
@@ -84,7 +87,11 @@ def test_ekf_functions_compiled_equal_python():
             gain = (float(rng.uniform(0, 1)), float(rng.uniform(-0.5, 1)))
             assert_same(*both(ekf_prior_covariance, P, x, Q, T_N))
             assert_same(*both(ekf_inertial_estimate, x, L, y, T_N))
-            assert_same(*both(_covariance_update, P, L, R, gain, (5e-6, 1e-4), 1.0))
+            A, noise = joseph_factors(L, R)
+            assert_same(*both(joseph_form, P, A, noise))
+            P_joseph = joseph_form(P, A, noise)
+            inverse = measured_inverse(P_joseph)
+            assert_same(*both(mixed_covariance, P_joseph, inverse, gain, (5e-6, 1e-4), 1.0))
 
 
 @needs_numba
@@ -165,7 +172,7 @@ def test_without_numba_the_functions_are_python():
         "from slipnav.systems.navigation import ekf\n"
         "from slipnav.systems.robot import dynamics\n"
         "assert not compiled.ENABLED\n"
-        "functions = (dynamics._plant_steps, dynamics.plant_substep, ekf._covariance_update)\n"
+        "functions = (dynamics._plant_steps, dynamics.plant_substep, ekf.mixed_covariance)\n"
         "functions += (health.health_check, ekf.ekf_prior_covariance, ekf.ekf_inertial_estimate)\n"
         "for f in functions:\n"
         "    assert type(f).__name__ == 'function' and compiled.pure(f) is f, f\n"

@@ -11,7 +11,7 @@ evidence that it agrees again.
 - monitor.py: the Drake block, the flags and the run's report.
 """
 
-from slipnav.systems.health.check import health_check, health_step
+from slipnav.systems.health.check import health_check, health_constants, health_step
 from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
 from slipnav.systems.health.monitor import (
     HEALTH_STEP_LAYOUT,
@@ -38,7 +38,6 @@ from slipnav.systems.health.parameters import (
     HealthConstants,
     HealthGeometry,
     SensorHealthParameters,
-    health_constants,
 )
 
 __all__ = [

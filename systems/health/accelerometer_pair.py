@@ -49,6 +49,25 @@ sample-to-sample difference (omega') puts into the fast average's rotational ter
 2 omega' x (n): Kurt3D's accelerometers sit at +-(0.1, 0.05) m, Tinyphoon's at +-(0.02, 0.015) m."""
 
 
+def pair_constants(c) -> dict:
+    """The pair tests' figures of the record ``c`` (HealthConstants): pair_offset_drift, the offset
+    variance's growth per sample (2 accel_drift_density^2 T_N, the two biases' random walk);
+    pair_offset_white, the disagreement's white noise variance (2 accel_noise_std^2) and pair_offset_phi,
+    the commotion's correlation from one sample to the next (pair_offset_update); per axis [t, n],
+    fast_rotation_allowance, FAST_ROTATION_SIGMAS of the noise the gyro's omega' puts into the fast
+    average's rotational term (fast_pair_ratio)."""
+    omega_dot_std = averaged_omega_dot_std(1.0 / c.fast_consistency_samples, c)
+    return {
+        "pair_offset_drift": 2.0 * c.accel_drift_density**2 * c.T_N,
+        "pair_offset_white": 2.0 * c.accel_noise_std**2,
+        "pair_offset_phi": math.exp(-c.T_N / c.accel_vibration_time_constant),
+        "fast_rotation_allowance": tuple(
+            FAST_ROTATION_SIGMAS * 2.0 * abs(c.accelerometer_position[1 - axis]) * omega_dot_std
+            for axis in (0, 1)  # the lever: t, y; n, x
+        ),
+    }
+
+
 @jitable
 def pair_rotational_difference(omega: float, position) -> tuple:
     """S(3)'s centripetal difference of the accelerometer pair at +-(x, y), (a_t1 - a_t2, a_n1 - a_n2)
@@ -140,10 +159,10 @@ def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: f
     weights."""
     offset = s[PAIR_OFFSET]
     variance = s[PAIR_OFFSET_VARIANCE]
-    phi = math.exp(-g.T_N / g.accel_vibration_time_constant)
+    phi = p.pair_offset_phi
     commotion = g.accel_vibration_per_speed * speed
     noise = (
-        2.0 * g.accel_noise_std**2
+        p.pair_offset_white
         + 2.0 * commotion**2 * (1.0 + phi) / (1.0 - phi)
         + (p.gain_cross_coupling * other) ** 2
     )
@@ -164,10 +183,7 @@ def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p
     55 rad/s^2 a sample on Tinyphoon)."""
     if not known or math.isinf(p.fast_consistency_factor):
         return 0.0
-    gain = 1.0 / p.fast_consistency_samples
-    omega_dot_std = averaged_omega_dot_std(gain, g)
-    lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
-    bound = p.fast_consistency_factor * limit + FAST_ROTATION_SIGMAS * 2.0 * lever * omega_dot_std
+    bound = p.fast_consistency_factor * limit + p.fast_rotation_allowance[axis]  # pair_constants
     return abs(fast_average) / bound * limit
 
 
@@ -182,8 +198,9 @@ def pair_check(s, raw, codes, rot, rot_dot, omega, a_force, v_o, moving, fast_kn
     limit = p.accel_consistency + p.accel_consistency_per_speed * abs(v_o)
     tangential = (v_o - s[PREVIOUS_ODOMETRIC_SPEED]) / g.T_N if math.isnan(a_force) else a_force
     kinematic = (tangential, v_o * omega)
+    offset_variance = s[PAIR_OFFSET_VARIANCE]
     for axis in (0, 1):  # the pair's offset drifts with the two biases (pair_offset_update)
-        s[PAIR_OFFSET_VARIANCE][axis] += 2.0 * g.accel_drift_density**2 * g.T_N
+        offset_variance[axis] += p.pair_offset_drift
     if not all_in(codes[0:4], (0, INCONSISTENT)):
         # an axis out of the pair for its own fault: the gain test's window is stale when it returns
         pair_gain_reset(s)

@@ -64,11 +64,27 @@ def checks_off(s, raw) -> tuple:
     return out, codes
 
 
+def analog_constants(c) -> dict:
+    """analog_checks' figures of the record ``c`` (HealthConstants), per channel of [a_t1, a_n1, a_t2, a_n2,
+    omega]: analog_present (channel_present), saturation_level (saturation_fraction x the data-sheet
+    range), max_step (the jump test's bound), clip_floor (CLIP_MIN_COUNTS counts of the converter:
+    clip_returns); and stuck_repeats, the repeats beyond which a channel is stuck (stuck_samples - 1 and
+    the stream's longest healthy hold, hold_samples)."""
+    ranges = (c.accel_range,) * 4 + (c.gyro_range,)
+    quanta = (c.accel_resolution,) * 4 + (c.gyro_resolution,)
+    return {
+        "analog_present": tuple(channel_present(k, c.accelerometer_sets) for k in range(NUM_ANALOG)),
+        "saturation_level": tuple(c.saturation_fraction * r for r in ranges),
+        "max_step": (c.accel_max_step,) * 4 + (c.gyro_max_step,),
+        "clip_floor": tuple(CLIP_MIN_COUNTS * q for q in quanta),
+        "stuck_repeats": c.stuck_samples - 1 + hold_samples(c.inertial_hold_time, c.T_N),
+    }
+
+
 @jitable
 def analog_checks(s, raw, bias: float, codes, p) -> None:
     """Writes codes[0:5] (module docstring, 1-4; ``inconsistent`` while a hold stands), the repeat counts,
     the last readings and the clip ring; ``bias``: the calibration's b_g; ``p``: HealthConstants."""
-    stuck_repeats = p.stuck_samples - 1 + hold_samples(p.inertial_hold_time, p.T_N)
     reference = s[ANALOG_REFERENCE]
     last = s[ANALOG_LAST]
     repeats = s[ANALOG_REPEATS]
@@ -76,13 +92,9 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
     excluded = s[ANALOG_EXCLUDED]
     ring = s[CLIP_RING]
     position = int(s[CLIP_POSITION])
-    ranges = (p.accel_range, p.accel_range, p.accel_range, p.accel_range, p.gyro_range)
-    steps = (p.accel_max_step, p.accel_max_step, p.accel_max_step, p.accel_max_step, p.gyro_max_step)
-    a_count = p.accel_resolution
-    quanta = (a_count, a_count, a_count, a_count, p.gyro_resolution)
     for c in range(NUM_ANALOG):
         x = raw[c]
-        if not channel_present(c, p.accelerometer_sets):  # not judged: analog_outputs replaces it
+        if not p.analog_present[c]:  # not judged: analog_outputs replaces it
             continue
         if not math.isfinite(x):
             codes[c] = NONFINITE
@@ -91,38 +103,41 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
         repeats[c] = repeats[c] + 1 if same else 0
         last[c] = x
         # at the data-sheet range, or at a rail below it (clip_returns: read only when needed)
-        if abs(x) >= p.saturation_fraction * ranges[c] or (
+        if abs(x) >= p.saturation_level[c] or (
             p.clip_samples > 0
-            and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, quanta[c], p) >= p.clip_samples
+            and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, p.clip_floor[c], p) >= p.clip_samples
         ):
             codes[c] = SATURATED
-        elif repeats[c] >= stuck_repeats:
+        elif repeats[c] >= p.stuck_repeats:
             codes[c] = STUCK
-        elif math.isfinite(reference[c]) and abs(x - (bias if c == GYRO else 0.0) - reference[c]) > steps[c]:
+        elif math.isfinite(reference[c]) and (
+            abs(x - (bias if c == GYRO else 0.0) - reference[c]) > p.max_step[c]
+        ):
             codes[c] = RECOVERING if excluded[c] > 0 else JUMP
         elif hold[c] > 0:
             codes[c] = INCONSISTENT
-    for c in range(NUM_ANALOG):  # the ring of readings (clip_returns)
-        ring[CLIP_WINDOW_MAX * c + position] = raw[c]
+    for c in range(NUM_ANALOG):  # the ring of the readings' magnitudes (clip_returns)
+        ring[CLIP_WINDOW_MAX * c + position] = abs(raw[c])
     s[CLIP_POSITION] = (position + 1) % CLIP_WINDOW_MAX
 
 
 @jitable
-def clip_returns(ring, base: int, position: int, x: float, quantum: float, p) -> int:
+def clip_returns(ring, base: int, position: int, x: float, floor: float, p) -> int:
     """How many times reading ``x`` returned to its magnitude within the last clip_window readings (the
-    channel's ring ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since the last
-    larger one, counting this one and a run of repeats once. A clipped channel returns to its rail again
-    and again, the largest magnitude it reads; noise never repeats a value (within stuck_tolerance).
-    A quantised channel (one count ``quantum`` > 0) returns to its largest level by its own noise while
-    its readings span few counts: 0 unless the magnitudes read since the last larger one reach
-    CLIP_MIN_COUNTS counts below |x|."""
+    channel's ring of magnitudes ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since
+    the last larger one, counting this one and a run of repeats once. A clipped channel returns to its
+    rail again and again, the largest magnitude it reads; noise never repeats a value (within
+    stuck_tolerance).
+    A quantised channel returns to its largest level by its own noise while its readings span few
+    counts: 0 unless the magnitudes read since the last larger one reach ``floor`` below |x|
+    (analog_constants' clip_floor: CLIP_MIN_COUNTS counts; 0 for a continuous channel)."""
     tol = p.stuck_tolerance
     magnitude = abs(x)
     larger = magnitude + tol  # a reading beyond it ends the search
     lowest = magnitude
     runs, newer_at = 1, True  # this reading is at its own magnitude
     for j in range(1, p.clip_window):
-        y = abs(ring[base + (position - j) % CLIP_WINDOW_MAX])
+        y = ring[base + (position - j) % CLIP_WINDOW_MAX]
         if not math.isfinite(y):  # a gap does not split a run
             continue
         if y > larger:
@@ -133,7 +148,7 @@ def clip_returns(ring, base: int, position: int, x: float, quantum: float, p) ->
         if at and not newer_at:
             runs += 1
         newer_at = at
-    return runs if magnitude - lowest >= CLIP_MIN_COUNTS * quantum else 0
+    return runs if magnitude - lowest >= floor else 0
 
 
 @jitable
@@ -151,20 +166,21 @@ def channel_present(c: int, accelerometer_sets: int) -> bool:
 
 
 @jitable
-def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation, sets: int, out) -> None:
+def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation, present, out) -> None:
     """Writes out[0:5]: the reading, else its replacement (module docstring), and the references; a
     frozen gyro's owed heading is paid back on out[4] (systems/health/gyro.py). ``gyro_replacement``:
     the excluded gyro's yaw rate from its witnesses (rad/s, without b_g); ``rotation``: the pair's
-    rotational difference per axis (t, n) with its angular-acceleration terms (m/s^2); ``sets``: the
-    accelerometer sets present (channel_present). An absent set 2 reads set 1's output moved across the
-    pair (the rotational difference), so that S(3)'s mean is the body centre's; without accelerometers
-    the four channels read 0 (the navigation then measures no acceleration: monitor.health_flags)."""
+    rotational difference per axis (t, n) with its angular-acceleration terms (m/s^2); ``present``: the
+    channels the robot has (analog_constants' analog_present). An absent set 2 reads set 1's output
+    moved across the pair (the rotational difference), so that S(3)'s mean is the body centre's; without
+    accelerometers the four channels read 0 (the navigation then measures no acceleration:
+    monitor.health_flags)."""
     reference = s[ANALOG_REFERENCE]
     excluded = s[ANALOG_EXCLUDED]
     offset = s[PAIR_OFFSET]
     for c in range(NUM_ANALOG):
-        if not channel_present(c, sets):
-            value = out[c ^ 2] - rotation[c % 2] - offset[c % 2] if channel_present(c ^ 2, sets) else 0.0
+        if not present[c]:
+            value = out[c ^ 2] - rotation[c % 2] - offset[c % 2] if present[c ^ 2] else 0.0
             out[c] = reference[c] = value if math.isfinite(value) else 0.0
             continue
         if codes[c] == 0:  # the reference is the gyro less b_g, as its replacement is
@@ -175,7 +191,7 @@ def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation
         excluded[c] += 1.0
         if c == GYRO:
             value = gyro_replacement
-        elif codes[c ^ 2] == 0 and channel_present(c ^ 2, sets):  # the partner's reading, plus the difference
+        elif codes[c ^ 2] == 0 and present[c ^ 2]:  # the partner's reading, plus the difference
             value = raw[c ^ 2] + (1.0 if c < 2 else -1.0) * (rotation[c % 2] + offset[c % 2])
         else:
             value = reference[c]

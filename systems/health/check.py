@@ -25,11 +25,13 @@ from slipnav.systems.compiled import compiled, element_view, jitable
 from slipnav.systems.health.accelerometer_pair import (
     force_reference,
     pair_check,
+    pair_constants,
     pair_omega_squared_update,
     pair_rotational_terms,
 )
-from slipnav.systems.health.analog import analog_checks, analog_outputs, checks_off
+from slipnav.systems.health.analog import analog_checks, analog_constants, analog_outputs, checks_off
 from slipnav.systems.health.encoders import (
+    encoder_constants,
     encoder_increments,
     encoder_outputs,
     encoder_stuck_test,
@@ -50,6 +52,7 @@ from slipnav.systems.health.layout import (
     PREVIOUS_ODOMETRIC_SPEED,
     YAW_WITNESS,
 )
+from slipnav.systems.health.pair_gain import gain_constants
 from slipnav.systems.health.parameters import (
     GYRO,
     NO_CURRENTS,
@@ -60,8 +63,20 @@ from slipnav.systems.health.parameters import (
     HealthConstants,
     HealthGeometry,
     SensorHealthParameters,
-    health_constants,
+    health_record,
 )
+from slipnav.systems.health.yaw_witness import yaw_constants
+
+
+def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> HealthConstants:
+    """The parameters and the geometry as the record health_check takes (health_record), with the
+    figures the checks derive from them once (parameters.DERIVED_FIELDS: analog_constants,
+    encoder_constants, pair_constants, gain_constants, yaw_constants)."""
+    record = health_record(p, g)
+    derived = {}
+    for constants in (analog_constants, encoder_constants, pair_constants, gain_constants, yaw_constants):
+        derived.update(constants(record))
+    return record._replace(**derived)
 
 
 def health_step(
@@ -104,10 +119,10 @@ def health_check(
     tyre_peak: float = math.nan,
     yaw_calibration: tuple = NO_YAW_CALIBRATION,
 ):
-    """health_step with the parameters and the geometry as health_constants' tuple, the sample, the
+    """health_step with the parameters and the geometry as health_constants' record, the sample, the
     currents, the velocity and the yaw calibration as tuples of floats and the tyre peak a float
     (compiled with numba when available: systems/compiled.py)."""
-    p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
+    p = g = constants  # the parameters (p) and the geometry (g), one record
     bias, radius_difference = yaw_calibration  # b_g, D: what the replacements add to the nominal figures
     checked = state.copy()
     s = element_view(checked)  # indexed element by element (systems/compiled.py)
@@ -123,12 +138,10 @@ def health_check(
     gyro = raw[GYRO] - bias
     previous_output = previous_encoder_output(s)
     inc, first, in_block = encoder_increments(s, raw, gyro, radius_difference, gyro_ok, codes, p, g)
-    predicted = [
-        predicted_increment(w, inc[1 - w], gyro, radius_difference, g)
-        if math.isfinite(inc[1 - w]) and gyro_ok
-        else math.nan
-        for w in range(2)
-    ]
+    predicted = [math.nan, math.nan]
+    for w in range(2):
+        if math.isfinite(inc[1 - w]) and gyro_ok:
+            predicted[w] = predicted_increment(w, inc[1 - w], gyro, radius_difference, g)
     missed = encoder_stuck_test(s, raw, inc, predicted, codes, p, g)
     previous_increments = (s[ENCODER_INCREMENT][0], s[ENCODER_INCREMENT][1])
     out = list(raw)
@@ -165,7 +178,7 @@ def health_check(
     else:
         replacement = s[ANALOG_REFERENCE][GYRO]
     rotation = (rot[0] + rot_dot[0], rot[1] + rot_dot[1])
-    analog_outputs(s, raw, bias, codes, replacement, rotation, p.accelerometer_sets, out)
+    analog_outputs(s, raw, bias, codes, replacement, rotation, p.analog_present, out)
     return checked, out, codes
 
 

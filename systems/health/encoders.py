@@ -26,7 +26,7 @@ v_R - v_L = b (gyro - b_g) - D v_o (systems/navigation/yaw_calibration.py).
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.health.analog import channel_present, hold_samples
+from slipnav.systems.health.analog import hold_samples
 from slipnav.systems.health.layout import (
     ENCODER_BLOCK_COUNT,
     ENCODER_BLOCK_DIFFERENCE,
@@ -54,6 +54,21 @@ any prediction, so the block goes on until the wheel has turned enough to tell. 
 non-finite reading comes back at rest."""
 
 
+def encoder_constants(c) -> dict:
+    """The encoder tests' figures of the record ``c`` (HealthConstants): encoder_jump_bound, per wheel
+    [R, L], the largest change of the increment (rad): max_wheel_acceleration over max(T_N,
+    encoder_hold_time) plus two counts per sample, for one T_N; encoder_stuck_samples, the still samples
+    that make a stuck count (stuck_samples beyond the stream's hold, hold_samples)."""
+    count_speed = 2.0 * c.encoder_step / c.T_N
+    return {
+        "encoder_jump_bound": tuple(
+            (c.max_wheel_acceleration * max(c.T_N, c.encoder_hold_time) / r + count_speed) * c.T_N
+            for r in (c.radius_R, c.radius_L)
+        ),
+        "encoder_stuck_samples": c.stuck_samples + hold_samples(c.encoder_hold_time, c.T_N),
+    }
+
+
 @jitable
 def predicted_increment(w: int, other_increment: float, gyro: float, radius_difference: float, g) -> float:
     """Wheel w's increment (rad) from the other wheel's and the gyro less b_g (rad/s): v_R - v_L =
@@ -70,7 +85,7 @@ def previous_encoder_output(s) -> list:
     """The angles the encoders output on the previous sample (rad; NaN: none yet)."""
     last = s[ENCODER_LAST_RAW]
     offset = s[ENCODER_OUTPUT_OFFSET]
-    return [last[w] + offset[w] for w in range(2)]
+    return [last[0] + offset[0], last[1] + offset[1]]
 
 
 @jitable
@@ -96,7 +111,6 @@ def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: b
         x = raw[FIRST_ENCODER + w]
         if code[w] == 0 and lost[w] == 0 and math.isfinite(x) and math.isfinite(last[w]):
             candidate[w] = x - last[w]
-    count_speed = 2.0 * g.encoder_step / g.T_N
     for w in range(2):
         x = raw[FIRST_ENCODER + w]
         if not math.isfinite(x):
@@ -109,7 +123,7 @@ def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: b
             continue
         d, last[w] = x - last[w], x
         d_prev, raw_increment[w] = raw_increment[w], d
-        bound = (p.max_wheel_acceleration * max(g.T_N, g.encoder_hold_time) / radii[w] + count_speed) * g.T_N
+        bound = p.encoder_jump_bound[w]
         if lost[w] > 0:
             codes[FIRST_ENCODER + w] = RECOVERING  # this increment spans the exclusion
         elif abs(d) * radii[w] / g.T_N > g.max_wheel_speed:
@@ -158,8 +172,8 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
     suspect = s[ENCODER_SUSPECT]
     radii = (g.radius_R, g.radius_L)
     # the body's deceleration from the healthy tangential accelerometers present (NaN if none is)
-    first_ok = codes[0] == 0 and channel_present(0, g.accelerometer_sets)
-    second_ok = codes[2] == 0 and channel_present(2, g.accelerometer_sets)
+    first_ok = codes[0] == 0 and p.analog_present[0]
+    second_ok = codes[2] == 0 and p.analog_present[2]
     a_body = math.nan
     if first_ok and second_ok:
         a_body = 0.5 * (raw[0] + raw[2])
@@ -179,7 +193,7 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
             v_other = abs(inc[1 - w]) * radii[1 - w] / g.T_N
             mean_predicted = still_predicted_abs[w] * radii[w] / (still[w] * g.T_N)
             if (
-                still[w] >= p.stuck_samples + hold_samples(g.encoder_hold_time, g.T_N)
+                still[w] >= p.encoder_stuck_samples
                 and mean_predicted > p.stuck_min_speed + p.stuck_speed_fraction * v_other
             ):
                 codes[FIRST_ENCODER + w], suspect[w] = STUCK, 1.0
@@ -205,6 +219,10 @@ def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_
     increment = s[ENCODER_INCREMENT]
     code = s[ENCODER_CODE]
     lost = s[ENCODER_LOST]
+    block_count = s[ENCODER_BLOCK_COUNT]
+    block_difference = s[ENCODER_BLOCK_DIFFERENCE]
+    block_predicted = s[ENCODER_BLOCK_PREDICTED]
+    block_moved = s[ENCODER_BLOCK_MOVED]
     used = [0.0, 0.0]
     for w in range(2):
         c = FIRST_ENCODER + w
@@ -227,7 +245,6 @@ def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_
         code[w] = codes[c]
         increment[w] = increment[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         if not in_block[w]:  # judged, broken, or no block: the next one starts anew
-            s[ENCODER_BLOCK_COUNT][w] = s[ENCODER_BLOCK_DIFFERENCE][w] = 0.0
-            s[ENCODER_BLOCK_PREDICTED][w] = s[ENCODER_BLOCK_MOVED][w] = 0.0
+            block_count[w] = block_difference[w] = block_predicted[w] = block_moved[w] = 0.0
     s[TRAVEL_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     return used

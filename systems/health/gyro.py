@@ -178,7 +178,7 @@ def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: f
         witness = raw[GYRO] - bias
     s[YAW_WITNESS] = yaw_witness_step(witness, v_R, v_L, v_t, v_n, g, grip) if gripping else math.nan
     smooth = s[YAW_WITNESS_SMOOTH] if math.isfinite(s[YAW_WITNESS_SMOOTH]) else s[YAW_WITNESS]
-    s[YAW_WITNESS_SMOOTH] = smooth + (s[YAW_WITNESS] - smooth) * min(1.0, g.T_N / p.yaw_witness_lag)
+    s[YAW_WITNESS_SMOOTH] = smooth + (s[YAW_WITNESS] - smooth) * p.yaw_smoothing  # yaw_constants
     witness_rate = (s[YAW_WITNESS_SMOOTH] - smooth) / g.T_N if math.isfinite(s[YAW_WITNESS_SMOOTH]) else 0.0
     test = s[YAW_TEST]
     if codes[GYRO] == 0 and gripping and abs(s[YAW_WITNESS]) > p.bias_step_yaw_rate:  # a turn: the scale's

@@ -22,7 +22,8 @@ GAIN_WINDOW_MAX = 50
 HEALTH_LAYOUT = (
     # analog channels: the reference (the last accepted value, the gyro's less b_g, or the replacement),
     # the last raw reading, its repeat count, the inconsistency hold (1; the gain test's: GAIN_HOLD) and
-    # the samples excluded; the last CLIP_WINDOW_MAX readings of each (NaN: none) and the ring's position
+    # the samples excluded; the magnitudes of the last CLIP_WINDOW_MAX readings of each (NaN: none) and the
+    # ring's position
     ("analog_reference", 5),
     ("analog_last", 5),
     ("analog_repeats", 5),

@@ -6,7 +6,7 @@ import math
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.health.analog import channel_present
-from slipnav.systems.health.check import health_check
+from slipnav.systems.health.check import health_check, health_constants
 from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
 from slipnav.systems.health.parameters import (
     HEALTH_CLASSES,
@@ -16,7 +16,6 @@ from slipnav.systems.health.parameters import (
     NUM_CHANNELS,
     HealthGeometry,
     SensorHealthParameters,
-    health_constants,
 )
 
 
@@ -72,7 +71,10 @@ def slip_detector_blind(codes, unusable: bool = False, accelerometer_sets: int =
     right, left = codes[5] > 0, codes[6] > 0
     if unusable or (right and left) or ((right or left) and codes[4] > 0):
         return True
-    return not any(codes[c] == 0 for c in (0, 2) if channel_present(c, accelerometer_sets))
+    for c in (0, 2):  # the tangential channels
+        if codes[c] == 0 and channel_present(c, accelerometer_sets):
+            return False
+    return True
 
 
 def odometry_unusable(state, sample) -> bool:

@@ -43,13 +43,34 @@ def averaged_omega_dot_std(gain: float, g) -> float:
     return gain * g.gyro_noise_std / g.T_N * math.sqrt(1.0 + gain / (2.0 - gain))
 
 
+def gain_constants(c) -> dict:
+    """The gain test's figures of the record ``c`` (HealthConstants) for pair_gain_block_variance:
+    gain_block_gain, the block average's gain b = 1 / gain_block_samples; gain_block_white, the white
+    noise's variance as the block average leaves it (2 accel_noise_std^2 b / (2 - b)); gain_block_coloured,
+    the commotion's share, per unit of its variance (b / (2 - b) (1 + phi) / (1 - phi), phi its
+    correlation over a sample times 1 - b); per axis [t, n], gain_block_rotation, the variance omega' from
+    the gyro's difference puts into the averaged rotational term on the lever (2 y for t, 2 x for n)."""
+    b = 1.0 / c.gain_block_samples
+    phi = math.exp(-c.T_N / c.accel_vibration_time_constant) * (1.0 - b)
+    white = b / (2.0 - b)  # an exponential average's variance over its input's
+    omega_dot_std = averaged_omega_dot_std(b, c)
+    return {
+        "gain_block_gain": b,
+        "gain_block_white": 2.0 * c.accel_noise_std**2 * white,
+        "gain_block_coloured": white * (1.0 + phi) / (1.0 - phi),  # the same for the commotion (first order)
+        "gain_block_rotation": tuple(
+            (2.0 * abs(c.accelerometer_position[1 - axis]) * omega_dot_std) ** 2 for axis in (0, 1)
+        ),
+    }
+
+
 @jitable
 def pair_gain_block_variance(s, axis: int, disagreement, mean, rotation, other, speed, p, g) -> float:
     """Averages the disagreement and the regressors' parts over gain_block_samples (exponential) and
     returns the noise variance of the averaged disagreement: white and commotion at ``speed`` as the
-    block average leaves them, omega' from the gyro's difference on the lever, the other axis's
-    acceleration times gain_cross_coupling ((m/s^2)^2)."""
-    b = 1.0 / p.gain_block_samples
+    block average leaves them, omega' from the gyro's difference on the lever (gain_constants), the
+    other axis's acceleration times gain_cross_coupling ((m/s^2)^2)."""
+    b = p.gain_block_gain
     block_disagreement = s[GAIN_BLOCK_DISAGREEMENT]
     block_mean = s[GAIN_BLOCK_MEAN]
     block_half_rotation = s[GAIN_BLOCK_HALF_ROTATION]
@@ -58,17 +79,12 @@ def pair_gain_block_variance(s, axis: int, disagreement, mean, rotation, other, 
     block_mean[axis] += (mean - block_mean[axis]) * b
     block_half_rotation[axis] += (0.5 * rotation - block_half_rotation[axis]) * b
     block_other[axis] += (other - block_other[axis]) * b
-    phi = math.exp(-g.T_N / g.accel_vibration_time_constant) * (1.0 - b)
-    white = b / (2.0 - b)  # an exponential average's variance over its input's
-    coloured = white * (1.0 + phi) / (1.0 - phi)  # the same for the commotion (first order)
-    omega_dot_std = averaged_omega_dot_std(b, g)
-    lever = abs(g.accelerometer_position[1 - axis])  # t: y, n: x
     commotion = g.accel_vibration_per_speed * speed
     return (
         (p.gain_cross_coupling * block_other[axis]) ** 2
-        + 2.0 * g.accel_noise_std**2 * white
-        + 2.0 * commotion**2 * coloured
-        + (2.0 * lever * omega_dot_std) ** 2
+        + p.gain_block_white
+        + 2.0 * commotion**2 * p.gain_block_coloured
+        + p.gain_block_rotation[axis]
     )
 
 

@@ -1,5 +1,5 @@
 """What the sensor checks know: their thresholds (SensorHealthParameters), the nominal robot and its
-sensors' data sheets (HealthGeometry), both as one plain record (HealthConstants, health_constants), and
+sensors' data sheets (HealthGeometry), both as one plain record (HealthConstants, health_record), and
 the health codes they report."""
 
 import collections
@@ -304,8 +304,7 @@ class HealthGeometry:
     slip_speed_floor: float = 0.3
 
 
-HealthConstants = collections.namedtuple(
-    "HealthConstants",
+_RECORD_FIELDS = (
     "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
     "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
     "accel_consistency "
@@ -321,12 +320,23 @@ HealthConstants = collections.namedtuple(
     "mass wheel_inertia motor_constant motor_current_limit "
     "bearing_drag shoe_offset "
     "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
-    "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor",
-)
+    "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor"
+).split()
+DERIVED_FIELDS = (
+    "analog_present saturation_level max_step clip_floor stuck_repeats "
+    "encoder_jump_bound encoder_stuck_samples "
+    "pair_offset_drift pair_offset_white pair_offset_phi fast_rotation_allowance "
+    "gain_block_gain gain_block_white gain_block_coloured gain_block_rotation "
+    "yaw_residual_floor yaw_smoothing"
+).split()
+"""The figures the checks derive from the parameters and the geometry once, in check.health_constants,
+instead of every sample; each is defined by the function that derives it (analog_constants,
+encoder_constants, pair_constants, gain_constants, yaw_constants)."""
+HealthConstants = collections.namedtuple("HealthConstants", _RECORD_FIELDS + DERIVED_FIELDS)
 """What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
-is the bound in force)."""
-_GEOMETRY_FIELDS = HealthConstants._fields[HealthConstants._fields.index("radius_R") :]
-FORCE_REFERENCE_FIELDS = HealthConstants._fields[HealthConstants._fields.index("mass") :]
+is the bound in force), then the DERIVED_FIELDS."""
+_GEOMETRY_FIELDS = _RECORD_FIELDS[_RECORD_FIELDS.index("radius_R") :]
+FORCE_REFERENCE_FIELDS = tuple(_RECORD_FIELDS[_RECORD_FIELDS.index("mass") :])
 """HealthGeometry's figures of the nominal robot for the force reference and the yaw dynamics
 (RobotParameters' names)."""
 NO_VELOCITY = (math.nan, math.nan)
@@ -335,11 +345,12 @@ NO_YAW_CALIBRATION = (0.0, 0.0)
 """health_check's ``yaw_calibration`` without a calibration: gyro bias 0, rolling-radius difference 0."""
 
 
-def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
-    """The parameters and the geometry as one plain tuple in HealthConstants' order (bool, int or float;
-    accelerometer_position a pair of floats), as health_check takes them."""
+def health_record(p: SensorHealthParameters, g: HealthGeometry) -> HealthConstants:
+    """The parameters and the geometry as one record in HealthConstants' order (bool, int or float;
+    accelerometer_position a pair of floats), the DERIVED_FIELDS None (check.health_constants fills
+    them)."""
     values = []
-    for name in HealthConstants._fields:
+    for name in _RECORD_FIELDS:
         if name == "yaw_threshold":  # the yaw test's CUSUM threshold (systems/health/yaw_witness.py)
             values.append(yaw_test_threshold(p.yaw_false_alarm_time, g.T_N))
             continue
@@ -365,4 +376,4 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
         else:
             value = float(value)
         values.append(value)
-    return tuple(values)
+    return HealthConstants(*values, *([None] * len(DERIVED_FIELDS)))

@@ -135,14 +135,23 @@ def count_yaw_rate(g) -> float:
     return g.encoder_step * 0.5 * (g.radius_R + g.radius_L) / (g.track_width * g.T_N)
 
 
+def yaw_constants(c) -> dict:
+    """The yaw test's figures of the record ``c`` (HealthConstants): yaw_residual_floor, the residual's
+    variance without a turn, sigma_g^2 + q^2 / 3 (yaw_residual_variance); yaw_smoothing, the gain of the
+    witness's PT1 over yaw_witness_lag, min(1, T_N / yaw_witness_lag) (gyro.gyro_yaw_check)."""
+    return {
+        "yaw_residual_floor": c.gyro_noise_std**2 + count_yaw_rate(c) ** 2 / 3.0,
+        "yaw_smoothing": min(1.0, c.T_N / c.yaw_witness_lag),
+    }
+
+
 @jitable
 def yaw_residual_variance(witness: float, witness_rate: float, c) -> float:
     """S of the residual (gyro - b_g) - witness (rad^2/s^2; module docstring, 2.) at the witness's rate
     of change ``witness_rate`` (rad/s^2); ``c``: HealthConstants (or anything with their
-    yaw_slip_fraction, yaw_witness_lag and sensor figures)."""
+    yaw_slip_fraction, yaw_witness_lag and yaw_residual_floor, yaw_constants)."""
     return (
-        c.gyro_noise_std**2
-        + count_yaw_rate(c) ** 2 / 3.0
+        c.yaw_residual_floor
         + (c.yaw_slip_fraction * witness) ** 2
         + (c.yaw_witness_lag * witness_rate) ** 2
     )

@@ -20,6 +20,7 @@ The measured block (omega, a_t, a_n) and the gain S(7) stay at their steady valu
 """
 
 import dataclasses as dc
+import functools
 import math
 
 import numpy as np
@@ -137,33 +138,58 @@ def joseph_factors(L, R) -> tuple:
     return A, L @ R @ L.T
 
 
-@jitable
+@compiled
 def joseph_form(P_prior, A, noise) -> np.ndarray:
     """S(9) from joseph_factors' (A, noise): A P_{k|k-1} A^T + noise, symmetrised."""
     P = A @ P_prior @ A.T + noise
     return 0.5 * (P + P.T)
 
 
+def measured_inverse(P) -> np.ndarray:
+    """P_mm^-1 (m: omega, a_t, a_n) of the covariance P, as numpy's inv computes it (LAPACK gesv on the
+    identity; numba's inv rounds otherwise), remembered by P_mm's value (read-only). S(6)-(9) never feed
+    the velocities into P_mm, so it runs through the same values on every run with the same EkfParameters
+    and settles on a fixed point within some 50 samples: the inverse is solved only while it moves."""
+    return _inverse_of(P[2:5, 2:5].tobytes())
+
+
+@functools.lru_cache(maxsize=256)
+def _inverse_of(measured_block: bytes) -> np.ndarray:
+    inverse = np.linalg.solve(np.frombuffer(measured_block).reshape(3, 3), IDENTITY_3)
+    inverse.flags.writeable = False
+    return inverse
+
+
 @jitable
-def _velocity_split(P):
-    """(B P_mm B^T, S): the velocity block P_vv = B P_mm B^T + S split into the part explained by the
-    measured states' errors (B = P_vm P_mm^-1, v: v_t, v_n; m: omega, a_t, a_n) and the Schur complement S,
-    the velocities' covariance given the measured states."""
+def _velocity_split(P, measured_inverse) -> tuple:
+    """(E, S): the velocity block P_vv = E + S (v: v_t, v_n) split into the part explained by the measured
+    states' errors, E = B P_mm B^T with B = P_vm P_mm^-1, and the Schur complement S, the velocities'
+    covariance given the measured states; each 2 x 2 block element by element, (tt, tn, nt, nn).
+    ``measured_inverse``: P_mm^-1 (measured_inverse)."""
     P_vm = P[0:2, 2:5].copy()  # contiguous, as numba's @ prefers
-    # P_mm^-1 as numpy's inv computes it (LAPACK gesv on the identity; numba's inv rounds otherwise)
-    explained = P_vm @ np.linalg.solve(P[2:5, 2:5], IDENTITY_3) @ P_vm.T
-    return explained, P[0:2, 0:2] - explained
+    E = P_vm @ measured_inverse @ P_vm.T
+    explained = (float(E[0, 0]), float(E[0, 1]), float(E[1, 0]), float(E[1, 1]))
+    S = (
+        float(P[0, 0]) - explained[0],
+        float(P[0, 1]) - explained[1],
+        float(P[1, 0]) - explained[2],
+        float(P[1, 1]) - explained[3],
+    )
+    return explained, S
 
 
 @jitable
 def _with_velocity_block(P, explained, S) -> np.ndarray:
+    """P with the velocity block E + S (_velocity_split's order), symmetrised."""
     P = P.copy()
-    block = explained + S
-    P[0:2, 0:2] = 0.5 * (block + block.T)
+    tt, tn, nt, nn = (explained[0] + S[0], explained[1] + S[1], explained[2] + S[2], explained[3] + S[3])
+    P[0, 0] = 0.5 * (tt + tt)
+    P[0, 1] = 0.5 * (tn + nt)
+    P[1, 0] = 0.5 * (nt + tn)
+    P[1, 1] = 0.5 * (nn + nn)
     return P
 
 
-@jitable
 def ekf_mixing_covariance(P, gain, R_mixing) -> np.ndarray:
     """The mixing S(15), S(17) as pseudo-measurement updates of P (after S(9)).
 
@@ -185,40 +211,38 @@ def ekf_mixing_covariance(P, gain, R_mixing) -> np.ndarray:
     Args:
         P: 5 x 5 covariance after S(9). gain: [C1, w_n]. R_mixing: [R_t, R_n].
     """
-    explained, S = _velocity_split(P)
+    explained, S = _velocity_split(P, measured_inverse(P))
     return _with_velocity_block(P, explained, _mixing_update(S, gain, R_mixing))
 
 
 @jitable
-def _mixing_update(S, gain, R_mixing):
-    """(I - W) S (I - W) + W diag(R_mixing) W, W = diag(gain) (2 x 2)."""
+def _mixing_update(S, gain, R_mixing) -> tuple:
+    """(I - W) S (I - W) + W diag(R_mixing) W, W = diag(gain) (2 x 2, _velocity_split's order)."""
     a_t, a_n = 1.0 - gain[0], 1.0 - gain[1]
-    cross = a_t * a_n * S[0, 1]
-    return np.array(
-        [
-            [a_t * a_t * S[0, 0] + gain[0] * gain[0] * R_mixing[0], cross],
-            [cross, a_n * a_n * S[1, 1] + gain[1] * gain[1] * R_mixing[1]],
-        ]
+    cross = a_t * a_n * S[1]
+    return (
+        a_t * a_t * S[0] + gain[0] * gain[0] * R_mixing[0],
+        cross,
+        cross,
+        a_n * a_n * S[3] + gain[1] * gain[1] * R_mixing[1],
     )
 
 
 @jitable
-def _bound(S, limit: float):
-    """D S D, D = diag(min(1, sqrt(limit / S_ii))) (2 x 2)."""
-    s_t, s_n = float(S[0, 0]), float(S[1, 1])
-    if s_t <= limit and s_n <= limit:
+def _bound(S, limit: float) -> tuple:
+    """D S D, D = diag(min(1, sqrt(limit / S_ii))) (2 x 2, _velocity_split's order)."""
+    if S[0] <= limit and S[3] <= limit:
         return S
-    d = np.array([min(1.0, math.sqrt(limit / s_t)), min(1.0, math.sqrt(limit / s_n))])
-    return S * np.outer(d, d)
+    d_t, d_n = min(1.0, math.sqrt(limit / S[0])), min(1.0, math.sqrt(limit / S[3]))
+    return (S[0] * (d_t * d_t), S[1] * (d_t * d_n), S[2] * (d_n * d_t), S[3] * (d_n * d_n))
 
 
-@jitable
 def ekf_bound_velocity_variance(P, limit: float) -> np.ndarray:
     """Caps the variances of v_t and v_n given the measured states (S of ekf_mixing_covariance) at
     ``limit``: S <- D S D with D = diag(min(1, sqrt(limit / S_ii))), a congruence that keeps S positive
     definite and the correlation of v_t and v_n as it was (EkfParameters.velocity_variance_limit); P_vm
     and P_mm, and so the gain S(7), untouched."""
-    explained, S = _velocity_split(P)
+    explained, S = _velocity_split(P, measured_inverse(P))
     return _with_velocity_block(P, explained, _bound(S, limit))
 
 
@@ -229,24 +253,16 @@ def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters, factors=No
     holds them (None: computed here)."""
     R_mixing = (float(params.R_mixing[0]), float(params.R_mixing[1]))
     gain = (float(gain[0]), float(gain[1]))
-    limit = float(params.velocity_variance_limit)
-    if factors is None:
-        return _covariance_update(P_prior, L, R, gain, R_mixing, limit)
-    return _factored_covariance_update(P_prior, factors[0], factors[1], gain, R_mixing, limit)
-
-
-@compiled
-def _covariance_update(P_prior, L, R, gain, R_mixing, limit: float) -> np.ndarray:
-    """ekf_covariance_update with the parameters it reads (compiled with numba when available)."""
-    A, noise = joseph_factors(L, R)
-    return _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit)
-
-
-@compiled
-def _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit: float) -> np.ndarray:
-    """_covariance_update with S(9)'s joseph_factors (A, noise) of the gain."""
+    A, noise = joseph_factors(L, R) if factors is None else factors
     P = joseph_form(P_prior, A, noise)
-    explained, S = _velocity_split(P)
+    return mixed_covariance(P, measured_inverse(P), gain, R_mixing, float(params.velocity_variance_limit))
+
+
+@compiled
+def mixed_covariance(P, measured_inverse, gain, R_mixing, limit: float) -> np.ndarray:
+    """ekf_covariance_update after S(9): the mixing (ekf_mixing_covariance), the velocity limit
+    (ekf_bound_velocity_variance, _bound_cross_covariance) on P with P_mm^-1 ``measured_inverse``."""
+    explained, S = _velocity_split(P, measured_inverse)
     S = _bound(_mixing_update(S, gain, R_mixing), limit)
     return _with_velocity_block(*_bound_cross_covariance(P, explained, S, limit))
 
@@ -263,17 +279,19 @@ def _bound_cross_covariance(P, explained, S, limit: float):
     c = min_i sqrt((limit - S_ii) / E_ii) where the whole variance E_ii + S_ii (E = P_vm P_mm^-1 P_mv)
     exceeds ``limit``. P_vm grows as S(5)'s rotation when the odometry is not trusted for long in a fast
     spin (C1 = 0: no pseudo-measurement). The Schur complement stays S, so P stays positive definite;
-    inactive below the limit (every built-in run: the gains S(7) are the paper's there)."""
+    inactive below the limit (every built-in run: the gains S(7) are the paper's there). The 2 x 2 blocks
+    in _velocity_split's order."""
     c = math.inf
-    for i in range(2):
-        if explained[i, i] + S[i, i] > limit and explained[i, i] > 0.0:
-            c = min(c, math.sqrt(max(limit - S[i, i], 0.0) / explained[i, i]))
+    for i in (0, 3):  # tt, nn
+        if explained[i] + S[i] > limit and explained[i] > 0.0:
+            c = min(c, math.sqrt(max(limit - S[i], 0.0) / explained[i]))
     if c == math.inf:
         return P, explained, S
     P = P.copy()
     P[0:2, 2:5] *= c
     P[2:5, 0:2] *= c
-    return P, explained * (c * c), S
+    scale = c * c
+    return P, (explained[0] * scale, explained[1] * scale, explained[2] * scale, explained[3] * scale), S
 
 
 class InertialEkf(LeafSystem):

@@ -180,6 +180,7 @@ class NavigationLoop:
         the values the blocks output at t_k, in LOOP_KEYS order (the covariance P_k-1 is ``self.P``
         before the call)."""
         mp, T_N = self.params.mixing, self.T_N
+        previous = tuple(self.x.tolist())  # x_k-1 as floats (the EKF unpacks it, the mixer reads it)
         raw, sample, codes, acc, g, corrected = self.checked_sensors(accelerometers, gyro, encoders, currents)
         unusable = odometry_unusable(self.health, sample)
         fault_imu, _, blind = health_flags(codes, unusable, self.geometry.accelerometer_sets)
@@ -190,7 +191,7 @@ class NavigationLoop:
         )
         self.encoder_fault = any(codes[5:7])  # the tyre peak learns nothing (velocity_mix)
         fault_enc = max(odometry_held, 1.0 if self.encoder_fault else 0.0)
-        cal, theta = self.yaw_calibration, self.calibration[0:2]
+        cal, theta = self.yaw_calibration, self.calibration[0:2].tolist()  # [b_g, D] as floats
         odo = calibrated_odometry(odo_raw, theta, self.track_width, cal)
         gyro_calibrated = calibrated_gyro(g, theta, cal)
         measurement = ekf_measurement(acc, [gyro_calibrated])
@@ -201,15 +202,15 @@ class NavigationLoop:
             self.checked_encoders,
             self.standstill_constants,
         )
-        inertial = ekf_inertial_estimate(self.x, self.L, measurement, T_N).tolist()  # floats for the mixing
-        P_prior = ekf_prior_covariance(self.P, self.x, self.Q, T_N)
+        inertial = ekf_inertial_estimate(previous, self.L, measurement, T_N).tolist()  # floats for the mixing
+        P_prior = ekf_prior_covariance(self.P, previous, self.Q, T_N)
         excluded = blind > 0.5
         det_next, _ = slip_detector_step(
             self.det_state, odo[0], acc, T_N, mp.delta_v_running_integral, excluded
         )
         c2, c3, residual, turn = self.mixing_weights(odo, inertial, acc)
         tyre_state = self.tyre_model_state
-        mixed = self.velocity_mix(odo, inertial, c2, c3, self.x.tolist(), standing)
+        mixed = self.velocity_mix(odo, inertial, c2, c3, list(previous), standing)
         row = self.output_row(mixed, c2, c3, odo_raw, max(fault_imu, fault_enc), theta[0], standing, codes)
         self.update_estimate(mixed, P_prior, c2, standing, tyre_state)
         baselines_step(

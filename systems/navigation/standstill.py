@@ -136,13 +136,14 @@ def standstill_initial_state(c: StandstillConstants) -> np.ndarray:
 
 def accelerometer_biases(state) -> list:
     """[b_t1, b_n1, b_t2, b_n2] of a standstill state (m/s^2)."""
-    return [float(b) for b in state[_BIASES]]
+    return np.asarray(state, float)[_BIASES].tolist()
 
 
 def bias_free(state, accelerometers) -> list:
     """[a_t1 - b_t1, a_n1 - b_n1, a_t2 - b_t2, a_n2 - b_n2] with the state's biases."""
-    biases = state[_BIASES]
-    return [float(accelerometers[i]) - float(biases[i]) for i in range(4)]
+    b_t1, b_n1, b_t2, b_n2 = accelerometer_biases(state)
+    a_t1, a_n1, a_t2, a_n2 = [float(a) for a in accelerometers]
+    return [a_t1 - b_t1, a_n1 - b_n1, a_t2 - b_t2, a_n2 - b_n2]
 
 
 def standstill_test(state, free_accelerometers, gyro: float, encoders, c):
@@ -175,20 +176,20 @@ def standstill_test(state, free_accelerometers, gyro: float, encoders, c):
 def standstill_step(state, accelerometers, encoders, standing: bool, test, c) -> np.ndarray:
     """The state after this sample: ``test`` (standstill_test's second value), the encoders' angles and
     the biases' Kalman filter (predict; update from the raw ``accelerometers`` while ``standing``)."""
-    next_state = np.array(state, dtype=float)
-    next_state[_STILL] = test[0]
-    next_state[_AVERAGES] = test[1:4]
+    next_state = np.asarray(state, float).tolist()  # element by element, as floats
+    next_state[_STILL] = float(test[0])
+    next_state[_AVERAGES] = [float(a) for a in test[1:4]]
     next_state[_THETA_R], next_state[_THETA_L] = float(encoders[0]), float(encoders[1])
     # predict step: each bias a random walk of the data sheet's drift
-    variances = next_state[_VARIANCES] + c.bias_drift_variance
+    variances = [v + c.bias_drift_variance for v in next_state[_VARIANCES]]
     biases = next_state[_BIASES]
     if standing:
         # update step: at rest each axis reads its bias plus white noise
-        gains = variances / (variances + c.accel_variance)
-        biases = biases + gains * (np.asarray(accelerometers, float) - biases)
-        variances = (1.0 - gains) * variances
+        gains = [v / (v + c.accel_variance) for v in variances]
+        biases = [b + k * (float(a) - b) for b, k, a in zip(biases, gains, accelerometers, strict=True)]
+        variances = [(1.0 - k) * v for k, v in zip(gains, variances, strict=True)]
     next_state[_BIASES], next_state[_VARIANCES] = biases, variances
-    return next_state
+    return np.array(next_state)
 
 
 def zero_velocity_update(mixed, check_state):
