@@ -100,7 +100,7 @@ def _add_simulation_commands(sub) -> None:
 
 
 def _add_studies_commands(sub) -> None:
-    """The subcommands accuracy, error-budget, robustness, faults, sweep, reproduce: benchmarks over
+    """The subcommands accuracy, error-budget, robustness, faults, sweep, reproduce, results: benchmarks over
     seeds on the sweep engine."""
     acc = sub.add_parser("accuracy", help="navigation accuracy over seeds (benchmark)")
     acc.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
@@ -182,6 +182,34 @@ def _add_studies_commands(sub) -> None:
     rpr.add_argument("--out", default="runs", help="writes DIR/reproduce/index.html and PNGs (default runs)")
     rpr.add_argument(
         "--quick", action="store_true", help="default mode only, the long runs cut short (a smoke test)"
+    )
+    res = sub.add_parser(
+        "results", help="measure the page of figures, docs/results.md, section by section (benchmark)"
+    )
+    res.add_argument(
+        "--only",
+        nargs="+",
+        action="extend",
+        default=None,
+        metavar="SECTION",
+        help="measure these sections only and keep the others' text (default: every section but the "
+        "on-demand ones; the names: docs/results.md)",
+    )
+    res.add_argument(
+        "--seeds", type=int, default=None, help="seeds 0..N-1 of every section (default: each its own)"
+    )
+    res.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local dask worker processes of the studies (default: one per core; 0: run in this process)",
+    )
+    res.add_argument("--out", default="docs/results.md", help="the page (default docs/results.md)")
+    res.add_argument(
+        "--datasets",
+        default=None,
+        metavar="DIR",
+        help="the recorded datasets (default: shared/datasets beside the repository; docs/robot-logs.md)",
     )
 
 
