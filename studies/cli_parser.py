@@ -100,7 +100,7 @@ def _add_simulation_commands(sub) -> None:
 
 
 def _add_studies_commands(sub) -> None:
-    """The subcommands accuracy, error-budget, robustness, faults, sweep, reproduce, results: benchmarks over
+    """The subcommands accuracy, error-budget, robustness, faults, sweep, reproduce: benchmarks over
     seeds on the sweep engine."""
     acc = sub.add_parser("accuracy", help="navigation accuracy over seeds (benchmark)")
     acc.add_argument("scenarios", nargs="*", default=["corner", "square"], help="default: corner square")
@@ -183,6 +183,10 @@ def _add_studies_commands(sub) -> None:
     rpr.add_argument(
         "--quick", action="store_true", help="default mode only, the long runs cut short (a smoke test)"
     )
+
+
+def _add_results_command(sub) -> None:
+    """The subcommand results: the page of measured figures (studies/results_page.py)."""
     res = sub.add_parser(
         "results", help="measure the page of figures, docs/results.md, section by section (benchmark)"
     )
@@ -289,5 +293,6 @@ def build_parser(description: str) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _add_simulation_commands(sub)
     _add_studies_commands(sub)
+    _add_results_command(sub)
     _add_logs_commands(sub)
     return parser
