@@ -313,9 +313,11 @@ def _reproduce(args) -> int:
 
 
 def _results(args) -> int:
-    """slipnav results: measure the page of figures, docs/results.md (studies/results_page.py); prints it."""
-    print(write_results(SECTIONS, args.only, args.seeds, args.workers, args.out, args.datasets))
-    return 0
+    """slipnav results: measure the page of figures, docs/results.md (studies/results_page.py); prints it;
+    1 if a section failed (its old text kept)."""
+    path, failed = write_results(SECTIONS, args.only, args.seeds, args.workers, args.out, args.datasets)
+    print(path)
+    return 1 if failed else 0
 
 
 def _replay(args) -> int:

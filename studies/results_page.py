@@ -12,7 +12,8 @@ Each section sits between HTML comments, ``<!-- section: NAME -->`` and ``<!-- e
 named ones. Every other section keeps its text and stamp from the page as it was, byte for byte; a
 section the page does not hold yet reads "not measured yet". The page is written after each measured
 section (atomically), so an interrupted run keeps the sections it finished. A section that cannot be
-measured here (SectionSkipped, e.g. its dataset is absent) states why in place of its figures.
+measured here (SectionSkipped, e.g. its dataset is absent) states why in place of its figures; one whose
+measure fails keeps its text, its traceback goes to stderr and the command's exit status is 1.
 
 Progress goes to stderr: a line as each section starts and ends; the studies' own progress (the sweep
 engine's per run, scenarios/progress.py's per long task) in between: bars on a terminal, plain lines
@@ -26,6 +27,7 @@ import re
 import subprocess
 import sys
 import time
+import traceback
 from pathlib import Path as FilePath
 
 from slipnav.scenarios.config import ScenarioError, check_seed_count
@@ -174,8 +176,9 @@ def measure(section: Section, context: Context) -> tuple[str, str, float]:
 
 def write_results(
     registry, only=None, seeds=None, workers=None, out=DEFAULT_OUT, datasets=None, stream=None
-) -> FilePath:
-    """Measure the selected sections (module docstring) and write the page ``out``; returns its path."""
+) -> tuple[FilePath, list]:
+    """Measure the selected sections (module docstring) and write the page ``out``; returns its path and
+    the sections whose measure raised (each one's traceback printed to ``stream``, its old text kept)."""
     stream = stream or sys.stderr
     selected = check_options(registry, only, seeds, workers, out)
     path = FilePath(out)
@@ -184,6 +187,7 @@ def write_results(
     if dropped:
         print(f"slipnav results: dropped from the page (no such section): {', '.join(dropped)}", file=stream)
     commit = commit_text(path)  # the code the figures are measured with
+    failed = []
     for i, section in enumerate(selected, 1):
         n = section_seeds(section, seeds)
         note = seeds_text(n) if n is not None else section.fixed
@@ -191,9 +195,17 @@ def write_results(
         context = Context(
             seeds=n, workers=workers, datasets=FilePath(datasets or DEFAULT_DATASETS), stream=stream
         )
-        verb, body, wall = measure(section, context)
-        line = stamp(verb, commit, note, wall, workers)
-        blocks[section.name] = block(section, body, line, seeds)
+        try:
+            verb, body, wall = measure(section, context)
+        except Exception:  # the other sections still run; this one keeps its text
+            print(
+                f"slipnav results: {section.name} failed:\n{traceback.format_exc()}", file=stream, flush=True
+            )
+            failed.append(section.name)
+            continue
+        blocks[section.name] = block(section, body, stamp(verb, commit, note, wall, workers), seeds)
         write_text_atomically(path, [page_text(registry, blocks)])
         print(f"slipnav results: {section.name}: {verb.lower()} in {wall:.0f} s", file=stream, flush=True)
-    return path
+    if failed:
+        print(f"slipnav results: failed, their text kept: {', '.join(failed)}", file=stream, flush=True)
+    return path, failed

@@ -5,6 +5,8 @@ run function is module-level (the engine's workers import it by name) and return
 from __future__ import annotations
 
 import math
+import tempfile
+from pathlib import Path as FilePath
 
 import numpy as np
 from slipnav.scenarios.config import load_scenario, scenario_from_yaml
@@ -14,6 +16,7 @@ from slipnav.studies.engine import run_jobs
 from slipnav.studies.fault_cases import PERTURBATIONS as PERTURBATION_CASES
 from slipnav.studies.fault_cases import perturbation_cases
 from slipnav.studies.faults import run_perturbation
+from slipnav.studies.long_run import SPIN_RATE, run_child, spin
 from slipnav.studies.results_text import Section, mean_worst, number, paragraph, table
 
 ESTIMATE_KEYS = ("fused", "odometry", "gyrodometry")
@@ -333,4 +336,53 @@ CALIBRATION = Section(
         "slipnav calibrate --simulate tinyphoon --seeds {seeds}",
         "slipnav calibrate --simulate kurt3d --seeds {seeds}",
     ),
+)
+
+LONG_RUN_SECONDS = 600.0
+"""Simulated time of the long run's laps and of its spin (studies/long_run.py measures an hour of each)."""
+
+
+def long_run_section(context) -> str:
+    """square_laps for LONG_RUN_SECONDS in a child process, and a spin on the spot as long."""
+    with tempfile.TemporaryDirectory() as out:
+        s = run_child("square_laps", LONG_RUN_SECONDS, FilePath(out))
+    r = spin(LONG_RUN_SECONDS)
+    if s.get("duration_s") is None:
+        raise RuntimeError(f"slipnav run square_laps failed (exit status {s['exit_status']}): {s['stderr']}")
+    rows = [
+        [
+            f"`square_laps`, {s['duration_s']:.0f} s closed loop",
+            f"{s['peak_rss_MB']:.0f} MB, {s['total_wall_s']:.0f} s",
+            f"{s['covariance_min_eigenvalue']:.2g} … {s['covariance_max_eigenvalue']:.2g}",
+            f"{s['covariance_max_asymmetry']:.2g}",
+            " / ".join(f"{100 * s['final_position_error_m'][k]:.1f}" for k in ESTIMATE_KEYS),
+        ],
+        [
+            f"spin at {SPIN_RATE:g} rad/s, {r['duration_s']:.0f} s, plain loop",
+            f"{r['wall_s']:.0f} s; finite: {'yes' if r['finite'] else 'no'}",
+            f"{r['min_eigenvalue']:.2g} … {r['max_eigenvalue']:.2g}",
+            f"{r['max_asymmetry']:.2g}",
+            f"largest velocity variance {r['max_velocity_variance']:.2g} m²/s²",
+        ],
+    ]
+    intro = paragraph(
+        f"{LONG_RUN_SECONDS / 60:g} minutes of Seyr's square laps with 5 s at rest between them (`slipnav "
+        f"run square_laps --duration {LONG_RUN_SECONDS:g}` in a child process: its peak resident memory and "
+        "wall time, the EKF covariance P's extreme eigenvalues and largest asymmetry over the run, checked "
+        "every 0.1 s, and the final position errors of fused / odometry-only / Gyrodometry), and as long a "
+        "spin on the spot through the plain navigation loop on synthetic sensors (P checked every 0.1 s)."
+    )
+    header = ("run", "memory, wall", "P's eigenvalues", "P's asymmetry", "final error, cm")
+    return intro + "\n\n" + table(header, rows)
+
+
+LONG_RUN = Section(
+    "long-run",
+    "Long runs",
+    "command-line.md",
+    long_run_section,
+    study=(
+        f"python -m slipnav.studies.long_run --duration {LONG_RUN_SECONDS:g} --spin {LONG_RUN_SECONDS:g}",
+    ),
+    fixed="seed 0",
 )

@@ -337,6 +337,7 @@ SECTIONS = (
         study=("slipnav error-budget corner square --seeds {seeds} [--open-loop]",),
     ),
     results_runs.REST,
+    results_runs.LONG_RUN,
     Section(
         "robustness",
         "Truth and belief: toleranced robots against the baselines",
