@@ -146,7 +146,7 @@ CONTROL = Section(
     study=("slipnav run NAME --seed S [--no-slip-control] [--speed-law constant] [--localisation L]",),
 )
 
-REST_SECONDS = 60.0
+REST_SECONDS = 30.0
 REST_YAML = """description: "At rest: the robot stands still for {seconds:g} s"
 robot: {robot}
 mode: trajectory
@@ -218,7 +218,7 @@ REST = Section(
     "Drift at rest",
     "navigation.md",
     rest_section,
-    seeds=3,
+    seeds=2,
 )
 
 PERTURBATION_NAMES = {
