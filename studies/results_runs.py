@@ -257,7 +257,8 @@ def perturbations_section(context) -> str:
             sel = [r for r in rows if (r["scenario"], r["kind"], r["channel"]) == (name, kind, channel)]
             latency = np.array([1000 * r["perturbation_latency_s"] for r in sel], float)
             flagged = latency[np.isfinite(latency)]
-            flag = f"{flagged.min():.0f}–{flagged.max():.0f} ms" if len(flagged) else "not flagged"
+            span = f"{flagged.min():.0f}" + (f"–{flagged.max():.0f}" if np.ptp(flagged) >= 0.5 else "")
+            flag = f"{span} ms" if len(flagged) else "not flagged"
             errors = " / ".join(f"{100 * _mean(sel, f'{k}_error_m'):.1f}" for k in ESTIMATE_KEYS)
             done = sum(bool(r["completed"]) for r in sel)
             cells.append(f"{errors} cm; {flag}; {done}/{len(sel)} completed")
