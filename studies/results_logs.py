@@ -174,7 +174,7 @@ def warthog_section(context) -> str:
         for label, name in ESTIMATES
     ]
     intro = paragraph(
-        f"The Clearpath Warthog's doughnuts on snow (no accelerometers, wheel readings at 5 Hz, RTK GNSS "
+        f"The Clearpath Warthog's doughnuts on grass (a four-wheel skid steer; no accelerometers, wheel readings at 5 Hz, RTK GNSS "
         f"truth; {row['samples']} samples) imported with the data sheet's model (`slipnav import "
         f"norlab-warthog`) and evaluated (`slipnav evaluate`): the ATE over windows of 30 s, each estimate "
         f"aligned afresh at the window's start. The fused estimate is at most Gyrodometry's in {better} of "
