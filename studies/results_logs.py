@@ -174,12 +174,12 @@ def warthog_section(context) -> str:
         for label, name in ESTIMATES
     ]
     intro = paragraph(
-        f"The Clearpath Warthog's doughnuts on grass (a four-wheel skid steer; no accelerometers, wheel readings at 5 Hz, RTK GNSS "
-        f"truth; {row['samples']} samples) imported with the data sheet's model (`slipnav import "
-        f"norlab-warthog`) and evaluated (`slipnav evaluate`): the ATE over windows of 30 s, each estimate "
-        f"aligned afresh at the window's start. The fused estimate is at most Gyrodometry's in {better} of "
-        f"the {len(windows['fused'])} windows; a sensor check flags {100 * row['flagged_share']:.1f} % of "
-        "the samples."
+        f"The Clearpath Warthog's doughnuts on grass (a four-wheel skid steer; no accelerometers, wheel "
+        f"readings at 5 Hz, RTK GNSS truth; {row['samples']} samples) imported with the data sheet's model "
+        f"(`slipnav import norlab-warthog`) and evaluated (`slipnav evaluate`): the ATE over windows of 30 "
+        f"s, each estimate aligned afresh at the window's start. The fused estimate is at most Gyrodometry's "
+        f"in {better} of the {len(windows['fused'])} windows; a sensor check flags "
+        f"{100 * row['flagged_share']:.1f} % of the samples."
     )
     return intro + "\n\n" + table(("estimate", "median (m)", "90th percentile (m)", "final error (m)"), lines)
 
