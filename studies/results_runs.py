@@ -69,19 +69,8 @@ def _option_text(options: dict) -> str:
     )
 
 
-def control_section(context) -> str:
-    """The controller's figures: slip control on and off, the two speed laws, the localisations."""
-    runs = [(name, o) for name, o in CONTROL_RUNS] + [("square", {"localisation": k}) for k in LOCALISATIONS]
-    jobs = [
-        {
-            "scenario": name,
-            "seed": seed,
-            **{k: options.get(k) for k in ("slip_control", "speed_law", "localisation")},
-        }
-        for name, options in runs
-        for seed in range(context.seeds)
-    ]
-    rows = run_jobs(run_control, jobs, workers=context.workers, label="control")
+def _control_rows(jobs, rows) -> tuple[list, list]:
+    """The controller's table's rows and the localisation table's, one per run, means over the seeds."""
     by_run = {}
     for job, row in zip(jobs, rows, strict=True):
         key = f"`{job['scenario']}{' ' if _option_text(job) else ''}{_option_text(job)}`"
@@ -108,6 +97,23 @@ def control_section(context) -> str:
                 " / ".join(f"{100 * _mean(sel, f'{k}_m'):.1f}" for k in ESTIMATE_KEYS),
             ]
         )
+    return control, localisation
+
+
+def control_section(context) -> str:
+    """The controller's figures: slip control on and off, the two speed laws, the localisations."""
+    runs = [(name, o) for name, o in CONTROL_RUNS] + [("square", {"localisation": k}) for k in LOCALISATIONS]
+    jobs = [
+        {
+            "scenario": name,
+            "seed": seed,
+            **{k: options.get(k) for k in ("slip_control", "speed_law", "localisation")},
+        }
+        for name, options in runs
+        for seed in range(context.seeds)
+    ]
+    rows = run_jobs(run_control, jobs, workers=context.workers, label="control")
+    control, localisation = _control_rows(jobs, rows)
     intro = paragraph(
         "The closed loop's figures from each run's summary (docs/artifacts.md), mean over the seeds: the "
         "controller's completion time (`controller_completion_time_s`, the 1 s standstill included), the "
