@@ -24,6 +24,7 @@
     slipnav calibrate LOG.csv --truth TRUTH.csv [--model MODEL] [--out DIR]
     slipnav calibrate --simulate ROBOT|SCENARIO.yaml [--seed N | --seeds N] [--logs] [--out DIR]
     slipnav reproduce [--out DIR] [--quick]
+    slipnav results [--only SECTION ...] [--seeds N] [--workers N] [--out docs/results.md] [--datasets DIR]
 
 ENGINE (studies/sweep.py): [--workers N] [--scheduler ADDRESS] [--out DIR] [--resume]: the runs go to a
 dask.distributed cluster of N worker processes (default one per core; 0: in this process) or to the
@@ -71,6 +72,8 @@ from slipnav.studies.error_budget import error_budget
 from slipnav.studies.faults import faults, select_cases
 from slipnav.studies.random_faults import random_faults
 from slipnav.studies.reproduce import reproduce
+from slipnav.studies.results_page import write_results
+from slipnav.studies.results_sections import SECTIONS
 from slipnav.studies.robustness import robustness, robustness_calibrated
 from slipnav.studies.sweep import parse_set_options, sweep
 from slipnav.studies.truth_calibration import calibrate_truth_command
@@ -313,6 +316,14 @@ def _reproduce(args) -> int:
     return 0
 
 
+def _results(args) -> int:
+    """slipnav results: measure the page of figures, docs/results.md (studies/results_page.py); prints it;
+    1 if a section failed (its old text kept)."""
+    path, failed = write_results(SECTIONS, args.only, args.seeds, args.workers, args.out, args.datasets)
+    print(path)
+    return 1 if failed else 0
+
+
 def _replay(args) -> int:
     """slipnav replay: the navigation alone on a sensor log (scenarios/replay.py); 1 if --out cannot take
     the artifacts."""
@@ -434,6 +445,7 @@ COMMANDS = {
     "faults": _faults,
     "sweep": _sweep,
     "reproduce": _reproduce,
+    "results": _results,
     "replay": _replay,
     "import": _import,
     "evaluate": _evaluate,

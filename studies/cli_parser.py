@@ -198,6 +198,38 @@ def _add_studies_commands(sub) -> None:
     )
 
 
+def _add_results_command(sub) -> None:
+    """The subcommand results: the page of measured figures (studies/results_page.py)."""
+    res = sub.add_parser(
+        "results", help="measure the page of figures, docs/results.md, section by section (benchmark)"
+    )
+    res.add_argument(
+        "--only",
+        nargs="+",
+        action="extend",
+        default=None,
+        metavar="SECTION",
+        help="measure these sections only and keep the others' text (default: every section but the "
+        "on-demand ones; the names: docs/results.md)",
+    )
+    res.add_argument(
+        "--seeds", type=int, default=None, help="seeds 0..N-1 of every section (default: each its own)"
+    )
+    res.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local dask worker processes of the studies (default: one per core; 0: run in this process)",
+    )
+    res.add_argument("--out", default="docs/results.md", help="the page (default docs/results.md)")
+    res.add_argument(
+        "--datasets",
+        default=None,
+        metavar="DIR",
+        help="the recorded datasets (default: shared/datasets beside the repository; docs/robot-logs.md)",
+    )
+
+
 def _add_logs_commands(sub) -> None:
     """The subcommands replay, import, evaluate, calibrate: sensor logs, real robots' recordings and
     calibration sessions."""
@@ -276,5 +308,6 @@ def build_parser(description: str) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _add_simulation_commands(sub)
     _add_studies_commands(sub)
+    _add_results_command(sub)
     _add_logs_commands(sub)
     return parser
