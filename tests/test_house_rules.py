@@ -1,7 +1,11 @@
 """The house rules of the code (issue 46): no module over MODULE_LINES lines, no function over
-FUNCTION_LINES lines, and no import cycle among the slipnav modules (their module-level imports)."""
+FUNCTION_LINES lines, no import cycle among the slipnav modules (their module-level imports), and the
+linter's rules in pyproject.toml."""
 
 import ast
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -86,3 +90,14 @@ def test_no_import_cycles_among_slipnav_modules():
     for name in sorted(graph):
         if name not in state:
             visit(name)
+
+
+def test_the_linter_holds_the_statement_and_complexity_limits():
+    """pyproject.toml's ruff rules (style, imports, and per function at most 70 statements, 15 branches
+    and McCabe complexity 15) hold on every folder."""
+    ruff = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
+    if ruff is None:
+        pytest.skip("ruff is not installed (pip install -e '.[test]' installs it)")
+    folders = [str(ROOT / folder) for folder in (*PACKAGES, "tests")]
+    result = subprocess.run([ruff, "check", *folders], cwd=ROOT, capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout[-2000:]

@@ -100,10 +100,6 @@ def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: b
     lost = s[ENCODER_LOST]
     raw_increment = s[ENCODER_RAW_INCREMENT]
     suspect = s[ENCODER_SUSPECT]
-    block_count = s[ENCODER_BLOCK_COUNT]
-    block_difference = s[ENCODER_BLOCK_DIFFERENCE]
-    block_predicted = s[ENCODER_BLOCK_PREDICTED]
-    block_moved = s[ENCODER_BLOCK_MOVED]
     radii = (g.radius_R, g.radius_L)
     inc, first, in_block = [math.nan, math.nan], [False, False], [False, False]
     candidate = [math.nan, math.nan]  # the healthy wheels' raw increments, for re-admission
@@ -137,20 +133,7 @@ def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: b
             other = candidate[1 - w]
             if math.isfinite(other) and gyro_ok:
                 expected = predicted_increment(w, other, gyro, radius_difference, g)
-                ok = abs(d - expected) <= bound
-                suspect[w] = suspect[w] if ok else 1.0
-                if ok:  # and over a block of samples, where the counts' quantisation telescopes
-                    block_count[w] += 1.0
-                    block_difference[w] += d - expected
-                    block_predicted[w] += abs(expected)
-                    block_moved[w] += abs(d)
-                    moved = block_moved[w] >= READMISSION_TRAVEL_COUNTS * g.encoder_step
-                    if block_count[w] >= p.encoder_readmission_samples and (moved or suspect[w] == 0.0):
-                        tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * block_predicted[w]
-                        ok = abs(block_difference[w]) <= tolerance
-                        suspect[w] = suspect[w] if ok else 1.0
-                    else:
-                        ok, in_block[w] = False, True
+                ok, in_block[w] = readmission_block(s, w, d, expected, bound, p, g)
             else:
                 ok = abs(d - d_prev) <= bound
             if ok:
@@ -158,6 +141,33 @@ def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: b
             else:
                 codes[FIRST_ENCODER + w] = RECOVERING
     return inc, first, in_block
+
+
+@jitable
+def readmission_block(s, w: int, d: float, expected: float, bound: float, p, g) -> tuple:
+    """One sample of wheel ``w``'s re-admission: its increment ``d`` agrees with the ``expected`` one
+    within ``bound`` (else the wheel is suspect), and over a block of encoder_readmission_samples, where
+    the counts' quantisation telescopes, their summed difference stays within two counts plus
+    encoder_readmission_fraction of the predicted travel. Returns (re-admitted, the block goes on)."""
+    suspect = s[ENCODER_SUSPECT]
+    if abs(d - expected) > bound:
+        suspect[w] = 1.0
+        return False, False
+    block_count = s[ENCODER_BLOCK_COUNT]
+    block_difference = s[ENCODER_BLOCK_DIFFERENCE]
+    block_predicted = s[ENCODER_BLOCK_PREDICTED]
+    block_moved = s[ENCODER_BLOCK_MOVED]
+    block_count[w] += 1.0
+    block_difference[w] += d - expected
+    block_predicted[w] += abs(expected)
+    block_moved[w] += abs(d)
+    moved = block_moved[w] >= READMISSION_TRAVEL_COUNTS * g.encoder_step
+    if block_count[w] >= p.encoder_readmission_samples and (moved or suspect[w] == 0.0):
+        tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * block_predicted[w]
+        ok = abs(block_difference[w]) <= tolerance
+        suspect[w] = suspect[w] if ok else 1.0
+        return ok, False
+    return False, True
 
 
 @jitable
