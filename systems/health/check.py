@@ -21,7 +21,7 @@ carries b_g back, which the navigation removes.
 import math
 
 import numpy as np
-from slipnav.systems.compiled import compiled, element_view, jitable
+from slipnav.systems.compiled import compiled, element_view, jitable, record_maker
 from slipnav.systems.health.accelerometer_pair import (
     force_reference,
     pair_check,
@@ -80,6 +80,10 @@ def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
     return tuple(record._replace(**derived))
 
 
+_health_record = record_maker(HealthConstants)
+"""health_check's constants tuple as the HealthConstants named tuple."""
+
+
 def health_step(
     state,
     raw,
@@ -123,7 +127,7 @@ def health_check(
     """health_step with the parameters and the geometry as health_constants' tuple, the sample, the
     currents, the velocity and the yaw calibration as tuples of floats and the tyre peak a float
     (compiled with numba when available: systems/compiled.py)."""
-    p = g = HealthConstants(*constants)  # the parameters (p) and the geometry (g), one record
+    p = g = _health_record(constants)  # the parameters (p) and the geometry (g), one record
     bias, radius_difference = yaw_calibration  # b_g, D: what the replacements add to the nominal figures
     checked = state.copy()
     s = element_view(checked)  # indexed element by element (systems/compiled.py)
