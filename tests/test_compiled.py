@@ -17,6 +17,8 @@ from slipnav.systems.health import (
 )
 from slipnav.systems.navigation.ekf import (
     EkfParameters,
+    _covariance_update,
+    _factored_covariance_update,
     ekf_gain,
     ekf_inertial_estimate,
     ekf_prior_covariance,
@@ -92,6 +94,9 @@ def test_ekf_functions_compiled_equal_python():
             P_joseph = joseph_form(P, A, noise)
             inverse = measured_inverse(P_joseph)
             assert_same(*both(mixed_covariance, P_joseph, inverse, gain, (5e-6, 1e-4), 1.0))
+            compiled_update = _factored_covariance_update(P, A, noise, gain, (5e-6, 1e-4), 1.0)
+            assert_same(compiled_update, mixed_covariance(P_joseph, inverse, gain, (5e-6, 1e-4), 1.0))
+            assert_same(_covariance_update(P, L, R, gain, (5e-6, 1e-4), 1.0), compiled_update)
 
 
 @needs_numba

@@ -21,7 +21,7 @@ carries b_g back, which the navigation removes.
 import math
 
 import numpy as np
-from slipnav.systems.compiled import compiled, element_view, jitable
+from slipnav.systems.compiled import compiled, element_view, jitable, record_maker
 from slipnav.systems.health.accelerometer_pair import (
     force_reference,
     pair_check,
@@ -68,15 +68,20 @@ from slipnav.systems.health.parameters import (
 from slipnav.systems.health.yaw_witness import yaw_constants
 
 
-def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> HealthConstants:
-    """The parameters and the geometry as the record health_check takes (health_record), with the
-    figures the checks derive from them once (parameters.DERIVED_FIELDS: analog_constants,
-    encoder_constants, pair_constants, gain_constants, yaw_constants)."""
+def health_constants(p: SensorHealthParameters, g: HealthGeometry) -> tuple:
+    """The parameters and the geometry (health_record), with the figures the checks derive from them once
+    (parameters.DERIVED_FIELDS: analog_constants, encoder_constants, pair_constants, gain_constants,
+    yaw_constants), as one plain tuple in HealthConstants' order, as health_check takes them (a plain
+    tuple crosses numba's boundary faster than a named tuple)."""
     record = health_record(p, g)
     derived = {}
     for constants in (analog_constants, encoder_constants, pair_constants, gain_constants, yaw_constants):
         derived.update(constants(record))
-    return record._replace(**derived)
+    return tuple(record._replace(**derived))
+
+
+_health_record = record_maker(HealthConstants)
+"""health_check's constants tuple as the HealthConstants named tuple."""
 
 
 def health_step(
@@ -119,10 +124,10 @@ def health_check(
     tyre_peak: float = math.nan,
     yaw_calibration: tuple = NO_YAW_CALIBRATION,
 ):
-    """health_step with the parameters and the geometry as health_constants' record, the sample, the
+    """health_step with the parameters and the geometry as health_constants' tuple, the sample, the
     currents, the velocity and the yaw calibration as tuples of floats and the tyre peak a float
     (compiled with numba when available: systems/compiled.py)."""
-    p = g = constants  # the parameters (p) and the geometry (g), one record
+    p = g = _health_record(constants)  # the parameters (p) and the geometry (g), one record
     bias, radius_difference = yaw_calibration  # b_g, D: what the replacements add to the nominal figures
     checked = state.copy()
     s = element_view(checked)  # indexed element by element (systems/compiled.py)

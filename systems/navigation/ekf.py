@@ -26,7 +26,7 @@ import math
 import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import LeafSystem
-from slipnav.systems.compiled import compiled, jitable
+from slipnav.systems.compiled import ENABLED, compiled, jitable
 from slipnav.systems.ranges import require_in
 
 EkfState = namedview("EkfState", ["v_t", "v_n", "omega", "a_t", "a_n"])
@@ -130,7 +130,7 @@ def ekf_joseph(P_prior, L, R) -> np.ndarray:
     return joseph_form(P_prior, A, noise)
 
 
-@jitable
+@compiled
 def joseph_factors(L, R) -> tuple:
     """(I - L C, L R L^T): S(9)'s factors of the gain L, which hold while L does (a T_C period)."""
     A = IDENTITY_5.copy()
@@ -253,9 +253,29 @@ def ekf_covariance_update(P_prior, L, R, gain, params: EkfParameters, factors=No
     holds them (None: computed here)."""
     R_mixing = (float(params.R_mixing[0]), float(params.R_mixing[1]))
     gain = (float(gain[0]), float(gain[1]))
+    limit = float(params.velocity_variance_limit)
+    if ENABLED and factors is None:  # one compiled call: it solves for P_mm^-1 as cheaply as it looks it up
+        return _covariance_update(P_prior, L, R, gain, R_mixing, limit)
     A, noise = joseph_factors(L, R) if factors is None else factors
+    if ENABLED:
+        return _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit)
     P = joseph_form(P_prior, A, noise)
-    return mixed_covariance(P, measured_inverse(P), gain, R_mixing, float(params.velocity_variance_limit))
+    return mixed_covariance(P, measured_inverse(P), gain, R_mixing, limit)
+
+
+@compiled
+def _covariance_update(P_prior, L, R, gain, R_mixing, limit: float) -> np.ndarray:
+    """_factored_covariance_update of the gain L itself (joseph_factors inside)."""
+    A, noise = joseph_factors(L, R)
+    return _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit)
+
+
+@compiled
+def _factored_covariance_update(P_prior, A, noise, gain, R_mixing, limit: float) -> np.ndarray:
+    """ekf_covariance_update with S(9)'s joseph_factors (A, noise) of the gain, P_mm^-1 solved (as
+    measured_inverse solves it) rather than looked up: the compiled path's."""
+    P = joseph_form(P_prior, A, noise)
+    return mixed_covariance(P, np.linalg.solve(P[2:5, 2:5], IDENTITY_3), gain, R_mixing, limit)
 
 
 @compiled
