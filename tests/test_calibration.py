@@ -55,9 +55,9 @@ def test_gyro_scale_and_bias_are_recovered(calibrated):
 
 
 def test_peak_acceleration_within_five_percent(calibrated):
-    """a_peak = mu g f_w = 5.49 m/s^2 within the issue's 5 % (10 seeds: -3.9 .. -0.8 %, docs/results.md,
-    Calibration) and within 3 of its standard errors: the spirals' scatter with the lumped tyre model's
-    type-B 2 % (A_PEAK_MODEL_UNCERTAINTY; on the felt-shoed Tinyphoon it reads ~3 % low, which no
+    """a_peak = mu g f_w = 5.49 m/s^2 within the issue's 5 % (docs/results.md, section calibration, has
+    the spread over seeds) and within 3 of its standard errors: the spirals' scatter with the lumped tyre
+    model's type-B 2 % (A_PEAK_MODEL_UNCERTAINTY; on the felt-shoed Tinyphoon it reads ~3 % low, which no
     scatter shows)."""
     calibration, truth = calibrated
     value, true, error, z = compare(calibration, truth)["tyre_peak_acceleration"]
@@ -68,9 +68,8 @@ def test_peak_acceleration_within_five_percent(calibrated):
 
 def test_accelerometer_scale_and_misalignment_are_recovered(calibrated):
     """Each accelerometer's scale error and misalignment from the spins, within 4 standard errors (the
-    spin segments' scatter; 10 seeds: up to 4.3 and 2.9) and 1 % / 0.6 deg (10 seeds: 0.90 %, 0.36 deg;
-    the issue's 0.5 % and 0.1 deg are not met on every seed: docs/results.md). The written model
-    carries them."""
+    spin segments' scatter) and 1 % / 0.6 deg (the issue's 0.5 % and 0.1 deg do not hold on every robot
+    drawn: docs/results.md, section calibration). The written model carries them."""
     calibration, truth = calibrated
     errors = compare(calibration, truth)
     for i in (1, 2):

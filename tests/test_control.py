@@ -459,7 +459,7 @@ def test_long_path_bounded_speed_law_is_faster_and_respects_V_m():
         assert np.max(np.maximum(np.abs(a["cmd_R"]), np.abs(a["cmd_L"]))) <= V_m + 1e-12
     assert bounded.summary["completion_time_s"] is not None and completion is not None
     ratio = bounded.summary["completion_time_s"] / completion
-    assert ratio <= 0.56  # the paper: "about 50 %"; measured 0.53-0.55 (docs/results.md)
+    assert ratio <= 0.56  # the paper: "about 50 %" (docs/results.md, section control)
     assert np.max(bounded.arrays["cmd_R"]) == pytest.approx(V_m)  # really drives at the bound
 
 
