@@ -106,11 +106,10 @@ def integrated_gyro_fit(columns: dict, truth: dict, T_N: float) -> tuple:
     use = covered & np.isfinite(gyro)
     angle = np.cumsum(np.where(np.isfinite(gyro), gyro, 0.0)) * T_N
     design = np.column_stack([pose[:, 2] - pose[use, 2][0], t, np.ones_like(t)])[use]
-    theta, *_ = np.linalg.lstsq(design, angle[use], rcond=None)
+    theta, errors = _fit(design, angle[use], 1.0)
     residual = angle[use] - design @ theta
     rho = float(np.clip(np.corrcoef(residual[:-1], residual[1:])[0, 1], 0.0, 1.0 - 1e-9))
-    theta, errors = _fit(design, angle[use], (1.0 + rho) / (1.0 - rho))
-    return theta[:2], errors[:2]
+    return theta[:2], errors[:2] * math.sqrt((1.0 + rho) / (1.0 - rho))
 
 
 def calibrate_from_truth(columns: dict, truth: dict, model: RobotModel) -> TruthCalibration:
