@@ -41,6 +41,7 @@ from slipnav.systems.health import (
     travel_restored,
 )
 from slipnav.systems.health.accelerometer_pair import fast_pair_ratio, pair_omega_squared
+from slipnav.systems.health.layout import PAIR_OFFSET, PAIR_OFFSET_VARIANCE
 from slipnav.systems.health.pair_gain import pair_gain_ratio, pair_gain_reset, pair_gain_upper_bound
 from slipnav.systems.health.yaw_witness import yaw_follow_step
 from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
@@ -694,8 +695,10 @@ def test_an_accelerometer_clipped_within_its_noise_is_flagged_at_its_plateau():
 def test_a_replaced_accelerometer_axis_carries_the_pairs_learned_offset():
     """The two accelerometers' lateral axes differ by 0.1 m/s^2 (a bias difference) in a steady turn:
     while both agree the checks learn the offset (pair_offset_update: a scalar Kalman filter from the
-    prior 2 x 0.05^2, drifting by 2 x 0.0065^2 T_N a sample, each sample weighed by 2 x 0.062^2 of white
-    noise and 2 (0.3 v)^2 (1 + phi) / (1 - phi) of commotion at 1 m/s, phi = exp(-T_N / 5 ms)), and when
+    prior 2 x 0.05^2, drifting by 2 x 0.0065^2 T_N a sample, whose measurement is the mean of a block of
+    15 samples, weighed by 2 x 0.062^2 of white noise and 2 (0.3 v)^2 (1 + phi) / (1 - phi) of commotion
+    at 1 m/s per sample, phi = exp(-T_N / 5 ms), and by the gyro's 2 (2 x 0.014 / T_N)^2 at the block's
+    ends, all over 15^2; the gyro's omega' is known from the second sample on), and when
     accel1_n is lost after 5 s its replacement is a_n2 plus the rotational terms plus that offset, so the
     pair's mean keeps its level (without the offset it would move by 0.05 m/s^2, half the difference)."""
     n, v, omega, position = 3000, 1.0, 2.0, (0.02, 0.015)
@@ -710,11 +713,15 @@ def test_a_replaced_accelerometer_axis_carries_the_pairs_learned_offset():
     assert np.all(codes[2500:2600, 1] == NONFINITE) and not codes[:, [0, 2, 3, 4, 5, 6]].any()
     phi = math.exp(-T_N / 0.005)
     noise = 2 * 0.062**2 + 2 * (0.3 * v) ** 2 * (1 + phi) / (1 - phi)
-    learned, variance = 0.0, 2 * 0.05**2
-    for _ in range(2500):
+    rotation = 2 * (2 * position[0] * 0.014 / T_N) ** 2
+    learned, variance, count = 0.0, 2 * 0.05**2, 0
+    for sample in range(2500):
         variance += 2 * 0.0065**2 * T_N
-        gain = variance / (variance + noise)
-        learned, variance = learned + gain * (0.1 - learned), variance * (1 - gain)
+        count += sample >= 1
+        if count == 15:
+            count, block_noise = 0, (15 * noise + rotation) / 15**2
+            gain = variance / (variance + block_noise)
+            learned, variance = learned + gain * (0.1 - learned), variance * (1 - gain)
     assert 0.09 < learned < 0.095  # the commotion it expects at 1 m/s (none here) slows it
     np.testing.assert_allclose(out[2500:2600, 1], truth[3] + 2 * (-(omega**2) * 0.015) + learned, atol=1e-3)
     mean = 0.5 * (out[2500:2600, 1] + out[2500:2600, 3])
@@ -739,9 +746,10 @@ def driving_off(seed, n=1500, rest=500, v=1.6, difference=0.1):
 def test_the_pairs_offset_is_learned_at_rest_and_kept_at_speed():
     """A bias difference of 0.1 m/s^2 between the lateral axes, 1 s at rest, then 1.8 s of driving with
     the commotion of 1.6 m/s: pair_offset_update learns the difference at rest, where the disagreement
-    is white noise, and the commotion moves it little, so that accel1_n lost at 2.8 s is replaced with
-    an offset within 0.01 m/s^2 of 0.1 on 5 seeds. A PT1 of 1 s (this module's rule before it) on the
-    same disagreements ends 0.06 m/s^2 off in RMS over these seeds."""
+    is the sensors' white noise and the gyro's omega' (which telescopes over each block), and the
+    commotion moves it little, so that accel1_n lost at 2.8 s is replaced with an offset within
+    0.01 m/s^2 of 0.1 on 5 seeds. A PT1 of 1 s on the same disagreements ends 0.06 m/s^2 off in RMS over
+    these seeds."""
     errors, pt1_errors = [], []
     for seed in range(5):
         rows = driving_off(seed)
@@ -761,6 +769,24 @@ def test_the_pairs_offset_is_learned_at_rest_and_kept_at_speed():
         pt1_errors.append(pt1 - 0.1)
     assert max(np.abs(errors)) < 0.01, errors
     assert np.sqrt(np.mean(np.square(pt1_errors))) > 0.03, pt1_errors
+
+
+def test_a_long_lever_at_rest_keeps_the_pairs_offset_and_raises_no_flag():
+    """Kurt3D's accelerometers at +-(0.1, 0.05) m, 20 s at rest: the gyro's noise (0.014 rad/s) puts
+    2 x 0.1 x 0.014 sqrt(2) / T_N = 2 m/s^2 of omega' noise into each sample's n-axis disagreement, which
+    the offset's blocks telescope (pair_offset_update). No sample is flagged, and the learned offsets stay
+    within 4 of their standard deviations of the true 0 (the sensors' biases are equal)."""
+    geometry = HealthGeometry(R, R, B, T_N, STEP, (0.1, 0.05), 6.3)
+    state = health_initial_state(geometry, 0.0)
+    params = SensorHealthParameters()
+    for row in stream(10_000, 0.0, 0.0, seed=4):
+        state, _, codes = health_step(state, row, params, geometry)
+        assert not np.any(codes), codes
+    offset, variance = state[PAIR_OFFSET], state[PAIR_OFFSET_VARIANCE]
+    assert np.all(np.abs(offset) < 4.0 * np.sqrt(variance)) and np.all(np.sqrt(variance) < 0.02), (
+        offset,
+        variance,
+    )
 
 
 def test_encoder_spike_is_excluded_and_the_angle_stays_continuous():

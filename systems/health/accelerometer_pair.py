@@ -29,6 +29,9 @@ from slipnav.systems.health.layout import (
     PAIR_FAST_AVERAGE,
     PAIR_LEVEL,
     PAIR_OFFSET,
+    PAIR_OFFSET_BLOCK_COUNT,
+    PAIR_OFFSET_BLOCK_NOISE,
+    PAIR_OFFSET_BLOCK_SUM,
     PAIR_OFFSET_VARIANCE,
     PAIR_OMEGA_SQUARED,
     PREVIOUS_ODOMETRIC_SPEED,
@@ -41,8 +44,11 @@ from slipnav.systems.health.pair_gain import (
     pair_gain_upper_bound,
 )
 from slipnav.systems.health.parameters import INCONSISTENT, PLAUSIBLE_CURRENT
+from slipnav.systems.residual_test import chi_square_gate
 from slipnav.systems.robot.contact import shoe_drag
 
+PAIR_OFFSET_FALSE_ALARM = 1e-4
+"""The share of a healthy pair's offset blocks that pair_offset_update's gate refuses to learn from."""
 FAST_ROTATION_SIGMAS = 5.0
 """The fast pair test's bound allows this many standard deviations of the noise that the gyro's
 sample-to-sample difference (omega') puts into the fast average's rotational terms, 2 omega' y (t) and
@@ -52,15 +58,22 @@ sample-to-sample difference (omega') puts into the fast average's rotational ter
 def pair_constants(c) -> dict:
     """The pair tests' figures of the record ``c`` (HealthConstants): pair_offset_drift, the offset
     variance's growth per sample (2 accel_drift_density^2 T_N, the two biases' random walk);
-    pair_offset_white, the disagreement's white noise variance (2 accel_noise_std^2) and pair_offset_phi,
-    the commotion's correlation from one sample to the next (pair_offset_update); per axis [t, n],
-    fast_rotation_allowance, FAST_ROTATION_SIGMAS of the noise the gyro's omega' puts into the fast
+    pair_offset_white, the disagreement's white noise variance (2 accel_noise_std^2), pair_offset_phi,
+    the commotion's correlation from one sample to the next, pair_offset_gate, the chi-square gate of
+    PAIR_OFFSET_FALSE_ALARM, and per axis [t, n] pair_offset_rotation, the variance of a block's summed
+    omega' terms (2 (2 lever gyro_noise_std / T_N)^2, the lever y for t, x for n: pair_offset_update);
+    per axis, fast_rotation_allowance, FAST_ROTATION_SIGMAS of the noise the gyro's omega' puts into the fast
     average's rotational term (fast_pair_ratio)."""
     omega_dot_std = averaged_omega_dot_std(1.0 / c.fast_consistency_samples, c)
     return {
         "pair_offset_drift": 2.0 * c.accel_drift_density**2 * c.T_N,
         "pair_offset_white": 2.0 * c.accel_noise_std**2,
         "pair_offset_phi": math.exp(-c.T_N / c.accel_vibration_time_constant),
+        "pair_offset_gate": chi_square_gate(PAIR_OFFSET_FALSE_ALARM),
+        "pair_offset_rotation": tuple(
+            2.0 * (2.0 * abs(c.accelerometer_position[1 - axis]) * c.gyro_noise_std / c.T_N) ** 2
+            for axis in (0, 1)
+        ),
         "fast_rotation_allowance": tuple(
             FAST_ROTATION_SIGMAS * 2.0 * abs(c.accelerometer_position[1 - axis]) * omega_dot_std
             for axis in (0, 1)  # the lever: t, y; n, x
@@ -149,28 +162,58 @@ def force_reference(currents, used, previous_increments, first, v_o: float, yaw_
 
 @jitable
 def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: float, p, g):
-    """Learns the pair's offset a_1 - a_2 beyond the rotational terms on ``axis`` (the bias difference)
-    from one sample's ``disagreement``: a scalar Kalman filter (pair_offset, its variance in
-    pair_offset_variance: from 2 accel_initial_bias_std^2, plus 2 accel_drift_density^2 T_N every sample,
-    the two biases' random walk). The sample weighs by the disagreement's noise: white, the commotion at
-    ``speed`` (S(3)'s Gauss-Markov process, its correlation counted as (1 + phi)/(1 - phi) samples) and
-    gain_cross_coupling of the ``other`` axis's acceleration (misalignment). The omega' noise of the
-    rotational terms (the gyro's difference) is left out: it telescopes over the filter's near-equal
-    weights."""
-    offset = s[PAIR_OFFSET]
-    variance = s[PAIR_OFFSET_VARIANCE]
+    """Learns the pair's offset a_1 - a_2 beyond the rotational terms on ``axis`` (the bias difference):
+    a scalar Kalman filter (pair_offset, its variance in pair_offset_variance: from 2
+    accel_initial_bias_std^2, plus 2 accel_drift_density^2 T_N every sample, the two biases' random walk)
+    whose measurement is the mean ``disagreement`` over a block of consistency_samples contiguous samples.
+
+    # measurement: the block's mean; its omega' terms 2 x (omega_k - omega_k-1) / T_N telescope to the
+    # block's ends, variance pair_offset_rotation / n^2; each sample adds its white noise, the commotion at
+    # ``speed`` (S(3)'s Gauss-Markov process, its correlation counted as (1 + phi)/(1 - phi) samples) and
+    # gain_cross_coupling of the ``other`` axis's acceleration (misalignment), over n^2
+    # gate: a block whose innovation is beyond pair_offset_gate of its variance is a change of the pair,
+    # which the pair's tests judge, and is not learned (the variance keeps growing meanwhile)."""
+    count = s[PAIR_OFFSET_BLOCK_COUNT]
+    block_sum = s[PAIR_OFFSET_BLOCK_SUM]
+    block_noise = s[PAIR_OFFSET_BLOCK_NOISE]
     phi = p.pair_offset_phi
     commotion = g.accel_vibration_per_speed * speed
-    noise = (
+    block_sum[axis] += disagreement
+    block_noise[axis] += (
         p.pair_offset_white
         + 2.0 * commotion**2 * (1.0 + phi) / (1.0 - phi)
         + (p.gain_cross_coupling * other) ** 2
     )
-    if not variance[axis] + noise > 0.0:  # a noiseless data sheet and no motion: nothing to weigh
+    count[axis] += 1.0
+    n = count[axis]
+    if n < p.consistency_samples:
         return
-    gain = variance[axis] / (variance[axis] + noise)
-    offset[axis] += gain * (disagreement - offset[axis])
+    measurement = block_sum[axis] / n
+    noise = (block_noise[axis] + p.pair_offset_rotation[axis]) / (n * n)
+    pair_offset_block_reset(s, axis)
+    offset = s[PAIR_OFFSET]
+    variance = s[PAIR_OFFSET_VARIANCE]
+    # update step, behind the gate
+    innovation = measurement - offset[axis]
+    innovation_variance = variance[axis] + noise
+    if not innovation_variance > 0.0:  # a noiseless data sheet and no motion: nothing to weigh
+        return
+    if innovation * innovation > p.pair_offset_gate * innovation_variance:
+        return
+    gain = variance[axis] / innovation_variance
+    offset[axis] += gain * innovation
     variance[axis] *= 1.0 - gain
+
+
+@jitable
+def pair_offset_block_reset(s, axis: int) -> None:
+    """Starts the offset's block of ``axis`` afresh (a sample not learned from breaks its contiguity)."""
+    count = s[PAIR_OFFSET_BLOCK_COUNT]
+    block_sum = s[PAIR_OFFSET_BLOCK_SUM]
+    block_noise = s[PAIR_OFFSET_BLOCK_NOISE]
+    count[axis] = 0.0
+    block_sum[axis] = 0.0
+    block_noise[axis] = 0.0
 
 
 @jitable
@@ -236,9 +279,11 @@ def pair_axis_evidence(s, axis, raw, codes, rot, rot_dot, limit, speed, moving, 
     fast = fast_pair_ratio(fast_average[axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
     mean = 0.5 * (raw[axis] + raw[axis + 2])
     other = 0.5 * (raw[1 - axis] + raw[3 - axis])
-    # learned with the gyro's omega' on this sample (fast_known), both axes healthy and agreeing
-    if fast_known and codes[axis] == 0 and codes[axis + 2] == 0 and abs(average[axis]) < 0.25 * limit:
+    # learned with the gyro's omega' on this sample (fast_known) and both axes healthy
+    if fast_known and codes[axis] == 0 and codes[axis + 2] == 0:
         pair_offset_update(s, axis, disagreement, speed, other, p, g)
+    else:
+        pair_offset_block_reset(s, axis)
     rotation = rot[axis] + rot_dot[axis]
     gain = pair_gain_ratio(s, axis, offset_free, mean, rotation, other, speed, moving, fast_known, p, g)
     return fast, gain

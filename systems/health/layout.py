@@ -56,7 +56,8 @@ HEALTH_LAYOUT = (
     ("previous_odometric_speed", 1),
     # the accelerometer pair: the averages of its disagreement (slow and fast), each sensor's averaged
     # distance from the kinematic reference and its level while the pair agreed, the pair's averaged
-    # omega^2, the pair's learned offset a_1 - a_2 beyond the rotational terms and its variance
+    # omega^2, the pair's learned offset a_1 - a_2 beyond the rotational terms and its variance, and the
+    # offset's block: its samples, their summed disagreement and their summed noise variance
     ("pair_average", 2),
     ("pair_fast_average", 2),
     ("pair_deviation", 4),
@@ -64,6 +65,9 @@ HEALTH_LAYOUT = (
     ("pair_omega_squared", 1),
     ("pair_offset", 2),
     ("pair_offset_variance", 2),
+    ("pair_offset_block_count", 2),
+    ("pair_offset_block_sum", 2),
+    ("pair_offset_block_noise", 2),
     # the pair's gain test per axis: block averages of the disagreement, of the pair's mean, of half the
     # rotational difference and of the other axis's mean; the GAIN_SERIES sums; the samples numbered,
     # the entries in the window and the ring's position; the ring of products (axis, series, entry) and
@@ -127,6 +131,9 @@ PAIR_AVERAGE, PAIR_FAST_AVERAGE = _SLICES["pair_average"], _SLICES["pair_fast_av
 PAIR_DEVIATION, PAIR_LEVEL = _SLICES["pair_deviation"], _SLICES["pair_level"]
 PAIR_OMEGA_SQUARED = _SLICES["pair_omega_squared"]
 PAIR_OFFSET, PAIR_OFFSET_VARIANCE = _SLICES["pair_offset"], _SLICES["pair_offset_variance"]
+PAIR_OFFSET_BLOCK_COUNT = _SLICES["pair_offset_block_count"]
+PAIR_OFFSET_BLOCK_SUM = _SLICES["pair_offset_block_sum"]
+PAIR_OFFSET_BLOCK_NOISE = _SLICES["pair_offset_block_noise"]
 GAIN_BLOCK_DISAGREEMENT, GAIN_BLOCK_MEAN = _SLICES["gain_block_disagreement"], _SLICES["gain_block_mean"]
 GAIN_BLOCK_HALF_ROTATION = _SLICES["gain_block_half_rotation"]
 GAIN_BLOCK_OTHER, GAIN_SUMS = _SLICES["gain_block_other"], _SLICES["gain_sums"]

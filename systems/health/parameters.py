@@ -242,7 +242,8 @@ class HealthGeometry:
         T_N: period (s). encoder_step: rad per count. accelerometer_position: (x, y) of accelerometer 1
         (m; accelerometer 2 at (-x, -y)). max_wheel_speed: plausible circumferential bound (m/s).
         gyro_noise_std: the gyro's white noise per sample (rad/s, data sheet): the fast pair test's
-            allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS).
+            allowance for the noise its rotational terms carry (FAST_ROTATION_SIGMAS) and the pair
+            offset's (pair_offset_update).
         accel_noise_std, accel_vibration_per_speed, accel_vibration_time_constant: the accelerometers'
             white noise and commotion (data sheet and S(3)'s model, systems/robot/sensors.py): the gain test's
             noise (pair_gain_ratio) and the pair offset's (pair_offset_update).
@@ -325,7 +326,8 @@ _RECORD_FIELDS = (
 DERIVED_FIELDS = (
     "analog_present saturation_level max_step clip_floor stuck_repeats "
     "encoder_jump_bound encoder_stuck_samples "
-    "pair_offset_drift pair_offset_white pair_offset_phi fast_rotation_allowance "
+    "pair_offset_drift pair_offset_white pair_offset_phi pair_offset_rotation pair_offset_gate "
+    "fast_rotation_allowance "
     "gain_block_gain gain_block_white gain_block_coloured gain_block_rotation "
     "yaw_residual_floor yaw_smoothing"
 ).split()
