@@ -63,12 +63,12 @@ from slipnav.systems.navigation.parameters import NavigationParameters
 
 A_PEAK_MODEL_UNCERTAINTY = 0.02
 """Relative standard uncertainty of a_peak from the lumped tyre model (type B, added to the spirals'
-scatter): the identified a_peak's errors against the simulated tyres over 10 seeds (README.md:
-Calibration), which the four spirals' scatter does not show."""
+scatter): the identified a_peak's errors against the simulated tyres (docs/results.md, section
+calibration), which the four spirals' scatter does not show."""
 DRAG_MODEL_UNCERTAINTY = 0.002
-"""Relative standard uncertainty of each drag term from the coasting model (type B): against the
-simulated shoes the drag is within 0.13 % over 10 seeds, while the fit's statistics (encoder
-quantisation) give 10-50 times less."""
+"""Relative standard uncertainty of each drag term from the coasting model (type B): the drag's errors
+against the simulated shoes (docs/results.md, section calibration), which the fit's statistics (encoder
+quantisation) understate."""
 
 
 @dc.dataclass

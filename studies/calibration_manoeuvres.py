@@ -76,9 +76,8 @@ COAST_TIME = 3.0
 
 COAST_PLANT_TIME_STEP = 0.0
 """The plant step of the simulated coasting runs: 0, the continuous plant. The semi-implicit steps lag the
-free wheel's stiff slip mode (tests/test_plant.py: 0.5 ms coasts ~3.5 % slower): the drag identified on
-seed 3 is off by -2.5 % / +4.3 % (d0 / d1) at 0.1 ms, -0.5 % / +0.9 % at 0.02 ms, -0.07 % / +0.10 %
-continuous."""
+free wheel's stiff slip mode (tests/test_plant.py: 0.5 ms coasts ~3.5 % slower), and the drag identified
+from their coasts takes the lag up, the less the smaller the step; the continuous plant has none."""
 
 
 @dc.dataclass
@@ -184,10 +183,9 @@ def spiral_speed(robot) -> float:
     the friction limit the wheels' kinematic speed difference is at most SPIRAL_WHEEL_SPREAD of the speed
     ((b/2) a_peak / v^2: both tyres then slide alike and their forces add up to the lumped tyre's peak;
     at 1.5 m/s Kurt3D's inner wheel stands still there, the two forces' directions differ, the true net
-    force peaks 4 % below mu g and a_peak read 3.5 % low), at most SPIRAL_SPEED_LIMIT of the wheel-speed
+    force peaks 4 % below mu g and a_peak reads low), at most SPIRAL_SPEED_LIMIT of the wheel-speed
     limit (the commotion grows with speed and biases the peak of its noisy reading up). Tinyphoon 1.5 m/s
-    (spread 0.08; at 0.97 m/s its a_peak read +1.4 .. +4.3 % over 10 seeds, at 1.5 m/s -3.0 .. +0.2 %);
-    Kurt3D 2.46 m/s, at the cap (spread 0.26)."""
+    (spread 0.08); Kurt3D 2.46 m/s, at the cap (spread 0.26)."""
     b, a_limit = robot.track_width, robot.traction_limit_acceleration
     spread_speed = math.sqrt(0.5 * b * a_limit / SPIRAL_WHEEL_SPREAD)
     return min(max(SPIRAL_MIN_SPEED, spread_speed), SPIRAL_SPEED_LIMIT * robot.wheel_speed_limit)

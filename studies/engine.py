@@ -42,8 +42,8 @@ WORKER_CONFIG = {
     "distributed.worker.memory.monitor-interval": "1s",
 }
 """dask settings of the local workers: no statistical profiler (it samples the running thread's stack
-every 10 ms) and the event loop's housekeeping every second instead of every 20-500 ms; every wake-up
-takes the GIL from the simulation (corner, one worker: 0.72 -> 0.68 s per run; in process 0.64 s)."""
+every 10 ms) and the event loop's housekeeping every second instead of every 20-500 ms: every wake-up
+takes the GIL from the simulation."""
 
 
 class Progress:

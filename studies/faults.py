@@ -12,15 +12,15 @@ run reports
 - beside the issue's final-error ratio, the ratio of the fused position error's RMS over the run to the
   fault-free run's (metrics.rms_position_error against the truth POSE_DELAY_SAMPLES back, the estimation
   error without the pipeline's lag, which would dilute both): a closed-loop fault also changes the path,
-  and the final braking then meets another error (the square's fault-free final error spreads over
-  3-30 mm from seed to seed), while an error the fault causes counts in the RMS from then on (a heading
-  error as the distance it costs).
+  and the final braking then meets another error (the square's fault-free final error varies by an
+  order of magnitude between seeds), while an error the fault causes counts in the RMS from then on (a
+  heading error as the distance it costs).
 
 Null faults: per scenario and seed, the gyro and accel1_t get a bias step of NULL_FAULT_BIAS for
 FAULT_DURATION at their usual start, far below any noise, so that their final-error ratio is what chance
-alone gives the issue's ratio. Closed loop it is not 1: the path follows the estimate, and a change in
-the last bit of a reading moves it by millimetres (square seed 0: a 1e-9 m/s^2 bias moves the true path
-by 2 mm, a 1e-6 rad/s gyro bias ends 3.6 x the fault-free run's 1.3 mm); open loop it is 1.
+alone gives the issue's ratio. Closed loop it is not 1: the path follows the estimate, and the square's
+spinning and locking wheels turn a change in the last bit of a reading into millimetres of path; open
+loop it is 1.
 
 Targets (issue 18): every fault detected within 0.1 s; no false flags; error ratio <= 3; bias within
 3 sigma. Last line: ``faults detected=<n>/<m> worst_error_ratio=<f>``. With ``--perturbations`` it also
@@ -57,8 +57,8 @@ from slipnav.systems.robot.faults import SENSOR_CHANNELS, FaultEvent
 
 def seed_mean_ratios(rows: list, clean_rows: list) -> list:
     """Per scenario, channel and fault class over two or more seeds: the faulted runs' mean fused final
-    error over the fault-free runs' mean, as (ratio, scenario, channel, kind, seeds); a lucky fault-free
-    seed (the open corner's seed 1 ends 1.5 mm off, its seeds 0-9 1.5-9.3 mm) weighs as one of them."""
+    error over the fault-free runs' mean, as (ratio, scenario, channel, kind, seeds): a fault-free seed
+    whose final error is far below the others' weighs as one of them, not as a ratio's denominator."""
     groups = {}
     for r in rows:
         groups.setdefault((r["scenario"], r["channel"], r["kind"]), []).append(r)

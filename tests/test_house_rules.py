@@ -1,11 +1,15 @@
 """The house rules of the code (issue 46): no module over MODULE_LINES lines, no function over
-FUNCTION_LINES lines, no import cycle among the slipnav modules (their module-level imports), and the
-linter's rules in pyproject.toml."""
+FUNCTION_LINES lines, no import cycle among the slipnav modules (their module-level imports), the
+linter's rules in pyproject.toml, and docs that state behaviour: no "before -> after" figure in a
+docstring, a comment, the README or docs/ (measured figures: docs/results.md)."""
 
 import ast
+import io
+import re
 import shutil
 import subprocess
 import sys
+import tokenize
 from pathlib import Path
 
 import pytest
@@ -101,3 +105,74 @@ def test_the_linter_holds_the_statement_and_complexity_limits():
     folders = [str(ROOT / folder) for folder in (*PACKAGES, "tests")]
     result = subprocess.run([ruff, "check", *folders], cwd=ROOT, capture_output=True, text=True)
     assert result.returncode == 0, result.stdout[-2000:]
+
+
+BEFORE_AFTER = re.compile(r"\d[\d.,]*\s*(?:%|[a-zA-Z/°]+)?\s*(?:->|→)\s*\d")
+"""A measured "before -> after" figure: a number (a unit may follow), an arrow, a number. A mapping has
+no number on both sides of its arrow ("fault class -> its schema kind"), and a parameter's effect reads
+as behaviour ("0.99: a time constant of 0.2 s")."""
+GENERATED_DOCS = ("docs/results.md", "docs/scenario-schema.md")
+"""Pages written by commands (slipnav results; python -m slipnav.scenarios.schema from the field docs)."""
+
+
+def _prose(text: str):
+    """(first line, text) of every docstring and comment of a module's source: the strings that stand
+    alone as statements (module, class, function and attribute docstrings, the field docs in them),
+    whole, so that a figure wrapped over two lines counts, and the comments."""
+    for node in ast.walk(ast.parse(text)):
+        if (
+            isinstance(node, ast.Expr)
+            and isinstance(node.value, ast.Constant)
+            and isinstance(node.value.value, str)
+        ):
+            yield node.value.lineno, node.value.value
+    for token in tokenize.generate_tokens(io.StringIO(text).readline):
+        if token.type == tokenize.COMMENT:
+            yield token.start[0], token.string
+
+
+def _before_after(name: str, prose) -> list[str]:
+    """``name:line: the line`` of every line with a BEFORE_AFTER match in ``prose``'s (first line, text)
+    pairs."""
+    found = set()
+    for first, text in prose:
+        for match in BEFORE_AFTER.finditer(text):
+            offset = text.count("\n", 0, match.start())
+            found.add((first + offset, text.split("\n")[offset].strip()))
+    return [f"{name}:{line}: {text}" for line, text in sorted(found)]
+
+
+def _module_before_after(module: str) -> list[str]:
+    text = (ROOT / module).read_text()
+    if not (BEFORE_AFTER.search(text) or "\\u2192" in text or "\\N{" in text):
+        return []  # no candidate in the source, whose docstrings are its text (escapes aside)
+    return _before_after(module, _prose(text))
+
+
+def test_the_before_after_check_finds_measured_history_and_spares_mappings():
+    """The check names the line of each measured figure, one wrapped over two lines of a docstring too,
+    and none of the arrows that map: a type hint, equations, a chain of blocks, an effect as behaviour."""
+    source = (
+        '"""Tuned (closed loop 78/83 -> 78/78 episodes); open loop 1.17 -> 0.49 deg."""\n'
+        "GAIN = 0.7  # error 26 -> 8 mm/s, 10 seeds\n"
+        'LIMIT = 2\n"""The long path 0.9-2.3 % -> 0.1-0.5 %, side slip 2.82 → 2.07 deg."""\n\n\n'
+        "def kind(fault: str, n: int = 3) -> int:\n"
+        '    """Fault class -> its schema kind; S(11) -> S(12); 0.99: a time constant of 0.2 s.\n\n'
+        '    On the square 1.2 ->\n    0.5 %: wrapped."""\n'
+        '    return {"bias": 1}[fault] + n  # navigation -> follower -> plant\n'
+    )
+    hits = _before_after("m.py", _prose(source))
+    assert [hit.split(":")[1] for hit in hits] == ["1", "2", "4", "10"], hits
+    assert hits[-1] == "m.py:10: On the square 1.2 ->"
+
+
+def test_docstrings_comments_and_docs_state_behaviour_not_before_after_figures():
+    """The house rule: docs and comments state behaviour, units and ranges in the present tense; measured
+    figures live in docs/results.md (slipnav results) and their history in the commit messages."""
+    found = [hit for module in MODULES for hit in _module_before_after(module)]
+    documents = ["README.md", *(path.relative_to(ROOT).as_posix() for path in (ROOT / "docs").glob("*.md"))]
+    for document in sorted(set(documents) - set(GENERATED_DOCS)):
+        found += _before_after(document, [(1, (ROOT / document).read_text())])
+    assert not found, (
+        "a before -> after figure (state the behaviour; figures: docs/results.md):\n" + "\n".join(found)
+    )

@@ -37,12 +37,12 @@ class PathFollowerParameters:
         k2: heading-error gain of I(15) (1/s); 3.
         k3: approach-angle amplitude of delta (rad); 0.5 (~29 deg approach from far away).
             Linearised on a straight line (y1' = u theta, theta' = -(k3 u + k2) theta - (gamma u + k2 k3) y1)
-            omega_n = 3.7 rad/s, zeta = 0.67 at u = 4 m/s; gamma = 2, k3 = 0.8 (zeta 0.48) made Kurt3D
-            weave at V_m once the T_C hold and the 100 Hz speed loop were in the loop.
+            omega_n = 3.7 rad/s, zeta = 0.67 at u = 4 m/s; gamma = 2, k3 = 0.8 (zeta 0.48) makes Kurt3D
+            weave at V_m with the T_C hold and the 100 Hz speed loop in the loop.
         epsilon: speed-law threshold on V1 of I(24) (m^2); 0.05, tuned as the paper suggests by watching
-            the wheel speeds: with 0.01 the navigation noise kept V1 above epsilon half of the time, and
-            each crossing switches u between V_m/2 and full speed (long path: 0.01 -> 78 % of the constant
-            law's time, 0.03 -> 57 %, 0.05 -> 53 % with a smaller path error).
+            the wheel speeds: a smaller epsilon lets the navigation noise hold V1 above it much of the
+            time, and each crossing switches u between V_m/2 and full speed, which slows the run (the long
+            path's time against the constant law: docs/results.md, section claims).
         use_estimated_speed: I(15)-(16) read the robot's speed (the localisation's v_t), the speed of
             I(11)-(12), under which I(17) holds (module docstring); false: the command u of I(24), the
             same u as I(18)-(19) (the print's one symbol read as one signal).

@@ -13,8 +13,7 @@ the interpolated reference point. delta < 1 slows the robot along the same path;
 
 S(25) is evaluated at i = 0 only: the reference pose at Pi_K. Seyr feeds the points i = 0 .. H - 1 (a
 prediction horizon) to the predictive tracker of their reference [9]; Indiveri's follower needs only the
-path and the point at Pi_K, so the horizon output (``reference_horizon``), which nothing read, was removed
-(issue 19).
+path and the point at Pi_K, so the block has no horizon output (issue 19).
 """
 
 import dataclasses as dc
@@ -31,13 +30,14 @@ class StepSizeParameters:
     """Tuning of S(22)-(23) (§V's list).
 
     Args:
-        delta_min: minimum step size (< 1): the speed reduction under slip; 0.75. A deeper cut brakes
-            hard inside the corner and saturates the friction circle (corner: delta_min 0.4 slid more than
-            no slip control at all; 0.75 halves the peak side-slip angle).
+        delta_min: minimum step size (< 1): the speed reduction under slip; 0.75. A deeper cut (0.4) brakes
+            hard inside the corner and saturates the friction circle, so that the robot slides more than
+            without slip control (the corner's peak side slip with and without it: docs/results.md,
+            section claims).
         delta_max: maximum step size (> 1): how fast the trajectory is recovered; 1.4.
         q_delta: geometric growth factor of the step size after a reduction; 1.05 per T_C (too large
             gives the limit cycle the paper warns of).
-        a4: steepness of the side-slip switch (1/rad); 150 -> 10 %-90 % over 1.7 deg.
+        a4: steepness of the side-slip switch (1/rad); 150 gives a 10 %-90 % transition over 1.7 deg.
         b4: side-slip threshold (rad); 1.5 deg: react early, while braking is still cheap. False triggers
             on straights are excluded by S(20), which zeroes alpha below c_alpha.
         delta_rem: step size after overshooting the trajectory (< 1); 0.9.

@@ -32,7 +32,7 @@ class SensorHealthParameters:
     square).
 
     Args:
-        enabled: check (False: only NaN/inf are replaced, by the last value, as before).
+        enabled: check (False: only NaN/inf are replaced, by the last value).
         gyro_range: data-sheet full scale (rad/s): ADXRS300 300 deg/s.
         accel_range: data-sheet full scale (m/s^2): ADXL210E 10 g.
         saturation_fraction: a reading at this fraction of the full scale counts as saturated.
@@ -56,7 +56,7 @@ class SensorHealthParameters:
         accel_consistency, accel_consistency_per_speed: the two accelerometers may disagree, in the
             moving average over consistency_samples and beyond the rotational terms, by
             accel_consistency + accel_consistency_per_speed |v_o| (m/s^2; the commotion grows with the
-            speed: 4 seeds of each built-in, matched and toleranced, peak at 0.59 of it, on the long
+            speed: the fault-free built-ins, matched and toleranced, peak at 0.59 of it, on the long
             path at 4 m/s; Tinyphoon's at 0.39).
         consistency_samples: samples of that average, in [2, 50].
         fast_consistency_samples, fast_consistency_factor: a second, shorter average of the same
@@ -65,11 +65,10 @@ class SensorHealthParameters:
             FAST_ROTATION_SIGMAS of its rotational terms' noise (fast_pair_ratio; inf: off), while the
             gyro is trusted on this and the previous sample. 3 and 1.6: the built-ins' fault-free fast
             averages (matched, tolerance draws, friction 0.5 and 0.9, mass +25 %, accelerometer scale
-            and misalignment; 3 seeds) peak at 0.60 of the bound with factor 1 on Tinyphoon and 0.90 on
+            and misalignment) peak at 0.60 of the bound with factor 1 on Tinyphoon and 0.90 on
             Kurt3D's long path at 4 m/s (its commotion); the allowance does not scale with the factor,
-            so 1.6 keeps about 1.6 x of margin there and more on Tinyphoon. A 5 m/s^2 bias step is
-            flagged after 3-4 samples instead of 7-11 (open corner, seed 1: a lateral axis's bias,
-            20 -> 10 ms, 12.2 -> 8.7 x the fault-free error).
+            so 1.6 keeps about 1.6 x of margin there and more on Tinyphoon. The short average flags a
+            large bias step (5 m/s^2) within a few samples, before the long one fills.
         bias_step_samples: an excluded gyro's residual against its replacement is judged over blocks
             of this many samples for a new bias (gyro_bias_step_block), in [2, 500]: 25 (50 ms).
         bias_step_yaw_rate: the block measures a bias only while its replacement stays within this
@@ -89,26 +88,24 @@ class SensorHealthParameters:
             summed difference from it stays within two counts plus
             encoder_readmission_fraction of the predicted travel. One sample's bound
             (max_wheel_acceleration T_N, 0.3 m/s) lets a doubled encoder through below 0.3 m/s; the
-            quantisation telescopes over the block, a scale error does not (the square's final braking:
-            a x2 encoder re-admitted at 0.33 m/s read v_t 0.15 m/s fast). Like every channel it is
+            quantisation telescopes over the block, a scale error does not (a doubled encoder re-admitted
+            at 0.3 m/s reads v_t 0.15 m/s fast, half its wheel's excess). Like every channel it is
             kept out until a block agrees.
         encoder_readmission_fraction: the block's tolerance beyond two counts, as a fraction of the
             predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
         gyro_readmission_samples: an excluded gyro is re-admitted only after this many consecutive
             samples (in [1, 50]; 1: the first within the bound) within gyro_max_step of its replacement.
-            Measured when the replacement was the odometric yaw rate, which reads 15-20 % high in a
-            skidding turn: a gyro with a 1 rad/s bias step met it within the bound for a sample (corner,
-            bias from 2.19 s: re-admitted after 60 ms and trusted for the rest of the step, 26 deg of
-            heading, 0.47 m). 5 (10 ms): 3 already kept that gyro out (2.2 deg, as an outage); an outage
-            ending in the skid cost 6.8 -> 7.2 mm with 5, 8.2 with 10. Like every channel it is
-            kept out until a block agrees.
+            A replacement departs from the true rate in a skid (the odometric yaw rate reads 15-20 % high
+            in a skidding turn), so a gyro with a bias step can meet it within the bound for one sample,
+            and re-admitted then it is trusted for the rest of its fault. 5 (10 ms): several samples
+            against such a chance meeting, few enough that an outage ending in a skid is not held out
+            much longer than the outage. Like every channel it is kept out until a block agrees.
         gyro_readmission_fraction: the gyro's block must also agree in sum: its summed difference from
             the replacement within 3 noise sigmas sqrt(n), two counts of each wheel's heading and this
             fraction (in [0, 1]) of the replacement's summed magnitude. A gyro's doubled scale passes the
-            sample bound as a turn slows below gyro_max_step (the open corner, seed 1: re-admitted at
-            0.36 rad/s, 0.5 deg of heading, 7.3 mm against 1.5 fault-free; with the block 2.1 mm). In the
-            faults benchmark every other gyro fault (outages ending in the skid too) is re-admitted as
-            with the sample bound alone.
+            sample bound as a turn slows below gyro_max_step (its excess is the turn's own rate), while
+            its sum over the block carries the whole excess. In the faults benchmark every other gyro
+            fault (outages ending in the skid too) is re-admitted as with the sample bound alone.
         clip_samples, clip_window: a reading that returns to its magnitude for the clip_samples-th time
             (runs of repeats count once) within the last clip_window readings (both in [2, 50]), with no
             larger one between, sits at a rail: saturated, though below the data-sheet range (an
@@ -117,10 +114,9 @@ class SensorHealthParameters:
             within it, and quantised noise needs a larger clip_samples (a quantum of the gyro's noise
             sigma: 399 of 1000 healthy samples flagged at 3, 43 at 10, none at 20) or 0 (off).
         gain_threshold: the pair's gain test (pair_gain.pair_gain_ratio) flags the pair when
-            its statistic exceeds this (in (0, inf]; inf: off). 4: over 104 fault-free runs of the
-            built-ins (corner and square 10 seeds, long path and circle 3, matched and toleranced, open
-            and closed loop) the statistic peaks at 2.76; the open corner's x2 scales of a tangential
-            axis, which the averages above miss, are flagged 38-118 ms after their onset.
+            its statistic exceeds this (in (0, inf]; inf: off). 4: above the statistic's peak over the
+            built-ins' fault-free runs (matched and toleranced, open and closed loop), 2.76; it flags the
+            open corner's x2 scales of a tangential axis, which the averages above miss.
         gain_tolerance: the relative gain between the two accelerometers of an axis that the test allows
             (in [0, 1)): 0.1, the preset's sensitivity tolerances (+-2 % each) and the misalignment's
             cross-coupling with margin; a x2 scale on one of them is 0.67, a x0.5 one -0.67.
@@ -133,17 +129,17 @@ class SensorHealthParameters:
         gain_offset_allowance: an error of the learned offset between the two sensors (m/s^2, in
             [0, inf)) that the test allows for: it puts offset / |r| into the gain. 0 (default): the
             offset is trusted; the built-ins stand still for their first second, where the offset is
-            learned and the test learns nothing (at rest the pair's mean is the sensors' biases: the
-            tolerance preset's corner seed 6 flagged accel2_t there). For a robot that drives off at
+            learned and the test learns nothing (at rest the pair's mean is the sensors' biases, which a
+            test there would read as a healthy sensor's gain). For a robot that drives off at
             once, the two sensors' initial biases (0.05 m/s^2 each, data sheet) differ by up to 0.2.
         gain_release: a pair the gain test alone flagged is cleared once its statistic is below half
             the threshold and |beta| plus GAIN_RELEASE_SIGMAS of its standard deviations below this (in
             (gain_tolerance, 1]): the evidence of a healthy gain. Cleared on the statistic alone, a
-            doubled sensor came back at a dip of its evidence (beta 0.38 for 0.67, two sigmas low on
-            40 samples) in the middle of its fault; on the bound alone, a well-measured gain of 0.25
-            was flagged and cleared on alternate samples (the square's clipped accel2_t: accel1_t
-            blamed). A pair the averages flagged is cleared on their evidence as before (a bias's
-            regression on a weak signal can hold the bound above this for seconds).
+            doubled sensor comes back at a dip of its evidence (a beta two sigmas low) in the middle of
+            its fault; on the bound alone, a well-measured moderate gain (a clipped axis's) is
+            flagged and cleared on alternate samples. A pair the averages flagged is cleared on the
+            averages' evidence (a bias's regression on a weak signal can hold the bound above this for
+            seconds).
     """
 
     enabled: bool = True

@@ -3,10 +3,10 @@ heading from the gyro while the odometry reports a rotation or the gyro disagree
 odometry while the gyro drift e is learned; position by dead reckoning of the odometric speed.
 
 Algorithm 1 tests the odometric rotation of each sample against c1. At 2 ms one encoder count between
-the wheels is a yaw rate of 0.11 rad/s (Tinyphoon) or 0.15 rad/s (Kurt3D), above c1, so driving straight
-looked like turning on every other sample: the gyro had the heading nearly always and its drift was
-never learned (Kurt3D long path: 6 deg heading error in 20 s). The test therefore reads the odometric
-rate's PT1 (rate_time_constant); the increments themselves are still the sample's."""
+the wheels is a yaw rate of 0.11 rad/s (Tinyphoon) or 0.15 rad/s (Kurt3D), above c1, so on single
+samples driving straight looks like turning on every other sample: the gyro has the heading nearly always
+and its drift is never learned. The test therefore reads the odometric rate's PT1 (rate_time_constant);
+the increments themselves are still the sample's."""
 
 import dataclasses as dc
 import math
@@ -28,8 +28,7 @@ class GyrodometryParameters:
             T_N averages over ~2 s.
         rate_time_constant: PT1 of the odometric yaw rate that the c1 test reads (s): 0.05, which filters
             the quantisation to < 0.01 rad/s (one count x T_N / tau) and keeps the turns' onsets within a
-            few samples (seeds 0-9, final position: Kurt3D long path 2.5 -> 0.3 %, square closed loop
-            1.2 -> 0.5 %; 0.02-0.2 s alike); 0: the sample's rate, as in Algorithm 1.
+            few samples; 0: the sample's rate, as in Algorithm 1.
     """
 
     c1: float = 0.05

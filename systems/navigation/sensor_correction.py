@@ -10,8 +10,8 @@ The biases are not removed: they change at every power-up (the data sheets' turn
 simulated sensors draw them anew for every run), so the calibration day's b_g and b_i are a record of
 that day, and the navigation learns the gyro's at every run's standstill
 (systems/navigation/yaw_calibration.py). Removing a stale bias adds the turn-on repeatability to the bias
-error (sqrt(2) times the data sheet's residual in expectation; corner, one seed, happened to end 2.4 mm with
-it removed and 3.3 mm without).
+error (sqrt(2) times the data sheet's residual in expectation: the day's bias and the run's are
+independent draws of the same spread).
 
 Where the navigation sits in Seyr & Jakubek's Fig. 3: between the sensor checks (systems/health/,
 which judge the readings in the sensors' own units: their data-sheet range, a stuck value) and every

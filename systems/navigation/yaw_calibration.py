@@ -21,8 +21,7 @@ straight or standing still), and an innovation within innovation_gate sigmas. At
 [1, 0]: the bias alone, the data sheet's way to learn it; driving at varying speed separates the two.
 At constant speed they cannot be told apart, so every run begins with a standstill (the scenario's
 standstill_time, 1 s) that pins the bias before D is learned, and D, a constant of the robot, has no
-random walk that would let it soak up the bias's later drift (matched robot, 3 seeds: long path
-0.9-2.3 % -> 0.1-0.5 %, corner 0.15-0.22 % -> 0.07-0.25 %).
+random walk that would let it soak up the bias's later drift.
 
 The yaw-rate scale (track width, gyro sensitivity) is not learned: in turns the odometric yaw rate leads
 the gyro by the wheels' differential slip that every yaw acceleration and the shoes' scrub need

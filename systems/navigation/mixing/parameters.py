@@ -20,7 +20,7 @@ class MixingParameters:
         dv_memory: weight of the earlier batches in the accumulated speed difference that C1 also sees
             (accumulate_delta_v, an extension of S(12)): a wheel lock that builds up over several batches,
             each below b1, sums up to the slip speed itself. 0.7 (~3 batches): long enough to catch the
-            square's gradual locks (closed loop 78/83 -> 78/78 episodes, all within 1 T_C, 10 seeds),
+            square's gradual locks within one T_C (docs/results.md, section paper-effects, row dv_memory),
             short enough that the inertial v_t taken meanwhile hardly drifts (accelerometer bias sums to
             3.3 x its ~0.4 mm/s per batch, far below b1). 0: the paper's S(12).
         delta_v_running_integral: S(11)'s acceleration term is the running integral of the mean
@@ -34,8 +34,7 @@ class MixingParameters:
             odometric yaw rate is quantised in steps of 0.11 rad/s (7.7 mm/s / 68 mm); filtered over one
             T_C its error is < 0.011 rad/s and the gyro's noise 0.003 rad/s, while the felt shoes' 1-2 %
             scrub in a 3 rad/s spot turn gives 0.03-0.06 rad/s: with the gyro's bias estimated
-            (systems/navigation/yaw_calibration.py) the turn is the gyro's (square, 10 seeds: fused heading
-            error RMS 1.5 -> 0.3 deg open loop).
+            (systems/navigation/yaw_calibration.py) the turn is the gyro's.
         c3_residual_time_constant: PT1 of ^O omega - ^I omega before S(14) (s): 0.02 (one T_C, the
             batch of S(11)); 0: the paper's per-sample residual. The turn rate below is filtered alike.
         gyro_turn_rate: |^I omega| (PT1-filtered as the residual) above which the yaw rate is the gyro's
@@ -46,21 +45,20 @@ class MixingParameters:
             steps set b3 above a 3 % track error); inf: S(14) alone (default: Tinyphoon's scrub already
             hands its turns to the gyro).
         q2: geometric relaxation of v_n towards the tyre model per T_N while |a_n| < b2, S(17): as small
-            as possible but large enough for consistent velocity (0.99 -> 0.2 s time constant).
+            as possible but large enough for consistent velocity (0.99: a time constant of 0.2 s).
         q2_inertial: the same for the inertial v_n, weighted 1 - C2 (|a_n| > b2), at zero tyre force;
             the pull fades with the tyre curve's slope factor sqrt(1 - (|a|/a_peak)^2) to nothing at the
             friction limit, where any slip angle past the peak gives about the same force. Below 1 so that
             the side slip of a hard turn is held to the tyre curve rather than integrated with the
             accelerometers' commotion and bias (0.3 m/s^2 rms at 1.6 m/s: ~0.03 m/s, 1 deg, over a 0.5 s
-            turn); close to 1 because the tyre curve is quasi-static (0.95 -> 40 ms at small |a|). 1: the
-            paper's S(17).
+            turn); close to 1 because the tyre curve is quasi-static (0.95: a time constant of 40 ms at
+            small |a|). 1: the paper's S(17).
         side_slip_from_accelerations: the inertial branch's pull targets the side slip at the tyre force
             the accelerometers measure (side_slip_from_accelerations), rather than the steady-turn slip at
             v_t omega (lateral_velocity_model). The force follows the slip angle, not v_t omega: it lags
             v_t omega while the slip builds up, overshoots while it decays, and drops when the tyres
-            brake or drive (the friction circle), which v_t omega cannot know (corner alpha RMS, 10
-            seeds: open loop 1.17 -> 0.49 deg, closed loop 0.52 -> 0.34 deg). False: the steady-turn
-            slip.
+            brake or drive (the friction circle), which v_t omega cannot know (docs/results.md, section
+            error-budget, row "S(17) pulled to the steady-turn slip"). False: the steady-turn slip.
         tyre_peak_acceleration: the tyres' largest lateral acceleration mu g f_w (m/s^2), identified with
             the two shape factors below from steady turns. Default: Tinyphoon, 0.7 * 9.81 * 0.8 = 5.49.
             inf: no side slip (the paper's S(17) relaxes v_n to zero).
@@ -68,9 +66,9 @@ class MixingParameters:
         tyre_shape_factor: Pacejka C, in (1, 2). Default: Tinyphoon, 1.3.
         odometry_slip_compensation: take the tyres' steady longitudinal slip off ^O v_t in S(15)
             (longitudinal_slip_speed). Rubber tyres creep ahead of the body whenever they push: 1.5 % at
-            1.6 m/s^2, 0.04 m/s at the end of the corner's launch, 0.08 m/s in its sliding turn (v_t rms
-            error 26 -> 8 mm/s and its mean 15 -> 0 mm/s on the open corner, 10 seeds). False: the paper's
-            S(15).
+            1.6 m/s^2, 0.04 m/s at the end of the corner's launch, 0.08 m/s in its sliding turn, which the
+            odometric v_t otherwise carries as a speed error (docs/results.md, section error-budget, row
+            "paper's S(15): odometric v_t with the creep"). False: the paper's S(15).
         drag_acceleration: the resistance the tyres push against at any speed, per unit mass (m/s^2):
             Tinyphoon's felt shoes, mu_shoe (1 - f_w) g = 0.25 * 0.2 * 9.81 = 0.49; 0 without shoes.
         drag_per_speed: the resistance's growth with speed (1/s): Tinyphoon's shoes, 2 * 0.05 N s/m /
@@ -82,9 +80,9 @@ class MixingParameters:
             branch trusts the integral instead of the curve (tyre_model_check; weight 0.48 there). The
             nominal curve does not know the floor: at friction 0.5 the corner's body slides to 7 deg where
             the curve says 2.7, and the integral, anchored before the slide, departs from the curve by 4-5
-            deg; on the matched robot it stays within 1.5 deg (its drift). 2.5: between the two (10
-            seeds, closed loop, friction 0.5: side slip RMS 2.82 -> 2.07 deg on the corner, 6.5 -> 1.7
-            deg on the long path; the matched corner bit for bit as without). inf: the curve alone.
+            deg; on the matched robot it stays within 1.5 deg (its drift). 2.5: between the two, so that
+            the floor's slide hands the inertial branch to the integral while the matched robot keeps the
+            curve. inf: the curve alone.
         tyre_model_gate_steepness: steepness of that weight's logsig (1/deg): 3 gives 10 %-90 % from
             1.9 to 3.25 deg (the logsig rescaled to 0 at 1 deg below the gate).
         tyre_model_gate_speed: the slowest speed the gate's degrees refer to (m/s): the disagreement is
@@ -102,8 +100,8 @@ class MixingParameters:
             left the body (a lock or a spin: 0.05 m/s in 2 ms is 25 m/s^2, four times the tyres' peak),
             and S(15) takes v_t from the inertial estimate alone (C1 = 0) from this sample on, while
             S(11)'s batch of T_C still fills. inf (default): off, S(12)'s C1 alone. 0.05 suits Tinyphoon
-            (6.5 of its 7.7 mm/s encoder quanta per sample; README, Navigation: why it is not the
-            default yet); at least 3 quanta (check_slide_onset).
+            (6.5 of its 7.7 mm/s encoder quanta per sample; docs/navigation.md, A slide's onset: why it is
+            off by default); at least 3 quanta (check_slide_onset).
         slide_onset_release: the test releases when the odometric v_t has agreed with ^I v_t within
             this (m/s) for slide_onset_release_samples samples in a row: 0.03.
         slide_onset_release_samples: 5 (10 ms).

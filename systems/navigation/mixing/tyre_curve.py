@@ -28,7 +28,7 @@ def lateral_velocity_model(v_t: float, omega: float, p: MixingParameters) -> flo
     In the linear range tan(alpha) = -a_n/K_alpha with K_alpha = a_peak B C (Tinyphoon: 107 m/s^2/rad).
     The two tyres are lumped at the axle centre, which holds while |omega| track/2 << |v_t|. v_t omega,
     from odometry and gyro, is used rather than the EKF's a_n: it carries none of the accelerometers'
-    commotion (2.0 -> 0.5 mm/s rms v_n noise on the corner's straights)."""
+    commotion, which would otherwise reach v_n as noise on the straights."""
     ratio = tyre_utilisation(v_t, omega, p)
     tan_alpha = tyre_slip(ratio, p)
     return -abs(v_t) * math.copysign(tan_alpha, v_t * omega)

@@ -108,9 +108,7 @@ def tyre_peak_step(
     is learnt from a non-finite sample or while ``learn`` is False: mix_checked passes False while a
     sensor check excludes a channel or the wheels are at rest (wheels_at_rest: a standstill, where the
     force is the accelerometers' bias, or both wheels locked).
-    The drag is taken at the wheels' speed, as S(15)'s creep takes it (at the body's speed v_t the
-    matched square's braking locks read 4 % low instead of 3 %, and the built-ins' matched errors grew
-    on 3 seeds).
+    The drag is taken at the wheels' speed, as S(15)'s creep takes it.
 
     Args:
         state: (a_peak, PT1 of |a|, its held value) after the previous sample (initial: nominal, 0, 0).
