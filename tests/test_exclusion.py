@@ -1,6 +1,6 @@
 """Exclusion ends on evidence (systems/health/): a channel stays out until its readings agree
 with the other witnesses again, and a gyro that comes back at a new level hands that level to the
-calibration as a bias step (gyro_bias_step_block, yaw_calibration.bias_step_update); numbers by hand."""
+calibration as a bias step (gyro_bias_step_block, bias_change.bias_step_update); numbers by hand."""
 
 import numpy as np
 import pytest
@@ -16,13 +16,20 @@ from slipnav.systems.health import (
     health_step,
 )
 from slipnav.systems.health.gyro import BIAS_STEP_SIGMAS
+from slipnav.systems.navigation.bias_change import (
+    CHANGE_STATE_SIZE,
+    bias_change_update,
+    bias_step_update,
+    change_points_age,
+    change_points_step,
+)
 from slipnav.systems.navigation.yaw_calibration import (
     YawCalibrationParameters,
-    bias_step_update,
     calibration_parameters,
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
+from slipnav.systems.residual_test import CusumState
 from slipnav.systems.robot.faults import FaultEvent
 
 from tests.test_faults import GEOMETRY, STEP, T_N, B, R, stream
@@ -90,6 +97,28 @@ def test_a_sign_flipped_encoder_stays_out_to_the_end():
     rows[300:, 6] = 2.0 * clean[299, 6] - clean[300:, 6]
     codes, _ = check_with_bias(rows)
     assert np.all(codes[300:, 6] > 0) and not codes[:300].any()
+
+
+def test_bias_change_update_measures_from_the_change_point_by_hand():
+    """The lower side counted 3 tested batches since its change point, 4 batches ago, where theta was
+    [0.01, 0.002] and P diag(1e-6, 4e-6); their mean measurement y = 0.08 rad/s at h = v / b = 10 1/s
+    gives the shift 0.08 - 0.01 - 10 x 0.002 = 0.05; P there plus 4 batches of the walk diag(1e-8, 0),
+    widened by 0.05^2, takes it with R / 3."""
+    change = np.zeros(CHANGE_STATE_SIZE)
+    cusum = CusumState([0.0, 12.0, 0.0, 3.0, 0.0, -0.1])
+    change_points_step(
+        change, CusumState([0.0, 1.0, 0.0, 1.0, 0.0, 0.0]), [0.01, 0.002], np.diag([1e-6, 4e-6]), 0.07, 10.0
+    )
+    for y in (0.09, 0.08):
+        change_points_age(change, cusum)
+        change_points_step(change, CusumState([0.0, 5.0, 0.0, 2.0, 0.0, 0.0]), [9.0, 9.0], np.eye(2), y, 10.0)
+    change_points_age(change, cusum)
+    change_points_age(change, cusum)
+    theta, P = bias_change_update(change, cusum, -1, 1e-4, np.diag([1e-8, 0.0]))
+    P00 = 1e-6 + 4e-8 + 0.05**2
+    gain = P00 / (P00 + 1e-4 / 3)
+    np.testing.assert_allclose(theta, [0.01 + gain * 0.05, 0.002], rtol=1e-12)
+    np.testing.assert_allclose(P, np.diag([(1 - gain) * P00, 4e-6]), rtol=1e-9)
 
 
 def test_bias_step_update_by_hand():

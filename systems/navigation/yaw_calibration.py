@@ -37,10 +37,12 @@ not confirm is neither learned from nor tested: the counts lag a turn's start or
 uncertainty adds less to the innovation than the noise does ((v/b)^2 P_DD <= R: until the radius
 difference is learned, a residual at speed may be D's). The innovation is
 normalised by the larger of its predicted S and the variance the healthy tested batches show
-(noise_batches), and clipped at change_clip. On an alarm the N batches since the CUSUM's change point
-measure the change (their mean residual m): b_g's variance widens by m^2 and the mean updates it with
-R / N (bias_change_update). The learning gate (straight_yaw_rate, innovation_gate) keeps reading the gyro
-less the new b_g. A healthy stream raises one false alarm per change_run_length tested batches.
+(noise_batches), and clipped at change_clip. On an alarm the estimate returns to the CUSUM's change
+point, where the N batches since measure the change (their mean residual m against theta there; what
+was learned from them meanwhile, mostly by D at speed, is set aside): b_g's variance widens by m^2 and
+the mean updates it with R / N (systems/navigation/bias_change.py). The learning gate (straight_yaw_rate,
+innovation_gate) keeps reading the gyro less the new b_g.
+A healthy stream raises one false alarm per change_run_length tested batches.
 
 The navigation reads the calibrated gyro gyro - b_g and the calibrated odometric yaw rate
 omega_o + D v_o / b; the baselines (odometry-only, Gyrodometry) keep the raw signals.
@@ -51,8 +53,17 @@ import math
 
 import numpy as np
 from pydrake.systems.framework import LeafSystem
+from slipnav.systems.navigation.bias_change import (
+    CHANGE_STATE_SIZE,
+    NUM_THETA,
+    bias_change_test,
+    bias_change_update,
+    bias_step_update,
+    change_points_age,
+    change_points_step,
+)
 from slipnav.systems.ranges import out_of_range, require_flag, require_in
-from slipnav.systems.residual_test import CusumState, CusumTest, cusum_shift, cusum_step
+from slipnav.systems.residual_test import CusumState, cusum_step
 from slipnav.systems.robot.sensors import SensorParameters
 from slipnav.systems.state_layout import layout_size, layout_slices
 
@@ -179,13 +190,14 @@ CALIBRATION_LAYOUT = (
     ("previous_gyro", 1),
     ("standing", 1),
     ("residual_variance", 1),
+    ("change_points", CHANGE_STATE_SIZE),
 )
 """The calibration's state, in order (name, size): theta = [b_g, D], its covariance P (row-major), the
 batch's sums of (gyro, omega_o, v_o, |v_o| + |omega_o|), its sample count, 1 while every sample of the
 batch passed its checks, the learned and rejected batches, the bias-change CUSUM (CusumState), the bias
 changes detected, the previous batch's calibrated odometric yaw rate and gyro mean (NaN: none), the
 batch's samples the standstill detector called standing, the observed variance of the tested batches'
-innovations (rad^2/s^2; 0: none yet)."""
+innovations (rad^2/s^2; 0: none yet), the bias-change test's change points (bias_change.CHANGE_LAYOUT)."""
 
 
 _SLICES = layout_slices(CALIBRATION_LAYOUT)
@@ -193,13 +205,8 @@ _THETA, _P, _SUMS, _COUNT, _OK = (_SLICES[k] for k in ("theta", "covariance", "s
 _LEARNED, _REJECTED, _CUSUM, _CHANGES = (_SLICES[k] for k in ("learned", "rejected", "cusum", "changes"))
 _PREVIOUS_WHEELS, _PREVIOUS_GYRO = _SLICES["previous_wheels"], _SLICES["previous_gyro"]
 _STANDING, _RESIDUAL_VARIANCE = _SLICES["standing"], _SLICES["residual_variance"]
+_CHANGE_POINTS = _SLICES["change_points"]
 STATE_SIZE = layout_size(CALIBRATION_LAYOUT)
-NUM_THETA = 2
-
-
-def bias_change_test(p: YawCalibrationParameters) -> CusumTest:
-    """The CUSUM that judges the calibration's normalised innovations for a change of the gyro bias."""
-    return CusumTest.from_run_length(p.change_run_length, p.change_drift, p.change_clip)
 
 
 def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
@@ -289,7 +296,9 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     theta, P = state[_THETA].copy(), state[_P].reshape(NUM_THETA, NUM_THETA)
     # predict step: the random walks over the batch
     p = believed_gyro(p)
-    P = P + np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * (n * T_N)
+    walk = np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * (n * T_N)
+    P = P + walk
+    change_points_age(state[_CHANGE_POINTS], CusumState(state[_CUSUM]))
     wheels = omega_mean + theta[1] * v_mean / track_width  # the calibrated odometric yaw rate
     change = p.steady_yaw_acceleration * n * T_N  # both witnesses' yaw rates steady since the last batch
     steady = (
@@ -315,8 +324,9 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
                 state[_RESIDUAL_VARIANCE] += (innovation**2 - state[_RESIDUAL_VARIANCE]) / p.noise_batches
             cusum, alarm = cusum_step(CusumState(state[_CUSUM]), z, bias_change_test(p), innovation)
             state[_CUSUM] = cusum[:]
-            if alarm:
-                theta, P = bias_change_update(theta, P, cusum, alarm, R)
+            change_points_step(state[_CHANGE_POINTS], cusum, theta, P, gyro_mean - omega_mean, H[1])
+            if alarm:  # measured from the change point (systems/navigation/bias_change.py)
+                theta, P = bias_change_update(state[_CHANGE_POINTS], cusum, alarm, R, walk)
                 state[_CUSUM] = 0.0
                 state[_CHANGES] += 1.0
                 state[_LEARNED] += 1.0
@@ -336,27 +346,6 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     state[_COUNT] = state[_STANDING] = 0.0
     state[_OK] = 1.0
     return state
-
-
-def bias_change_update(theta, P, cusum: CusumState, side: int, R: float) -> tuple:
-    """A detected change of b_g: the N batches since the CUSUM's change point say the residual moved by
-    their mean m: bias_step_update with m and R / N. Returns the new (theta, P)."""
-    count, shift = cusum_shift(cusum, side)
-    return bias_step_update(theta, P, shift, R / count)
-
-
-def bias_step_update(theta, P, shift: float, variance: float) -> tuple:
-    """A measured change ``shift`` of b_g (rad/s) with ``variance`` (rad^2/s^2): b_g's variance widens
-    by shift^2 (the change's size), and the shift is the measurement y = m of b_g's change
-    (H = [1, 0], R = variance). Returns the new (theta, P)."""
-    P = np.array(P, dtype=float)
-    P[0, 0] += shift * shift
-    H = np.array([1.0, 0.0])
-    S = H @ P @ H + variance
-    gain = P @ H / S
-    theta = np.asarray(theta, dtype=float) + gain * shift
-    I_KH = np.eye(NUM_THETA) - np.outer(gain, H)
-    return theta, I_KH @ P @ I_KH.T + np.outer(gain, gain) * variance
 
 
 def batch_selection(gyro: float, wheels: float, moving: bool, steady: bool, p) -> tuple:
