@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 GRAVITY = 9.80665
 """Standard gravity (m/s^2): one g of an accelerometer that reads in g."""
@@ -62,6 +61,8 @@ def smooth(x, step: float, window: float, deriv: int = 0) -> np.ndarray:
     n = max(5, int(round(window / step)) | 1)
     if n > len(x):
         n = len(x) if len(x) % 2 else len(x) - 1
+    from scipy.signal import savgol_filter  # scipy.signal's import time only where a signal is smoothed
+
     return savgol_filter(x, n, 2, deriv=deriv, delta=step, axis=0)
 
 

@@ -4,22 +4,28 @@ from __future__ import annotations
 
 from pathlib import Path as FilePath
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from slipnav.scenarios.metrics import moving_alpha  # noqa: E402
+import numpy as np
+from slipnav.scenarios.metrics import moving_alpha
 
 
 def _has(a, key) -> bool:
     return key in a and np.any(np.isfinite(a[key]))
 
 
-def save_figure_atomically(fig, path) -> FilePath:
-    """Write ``fig`` to ``path`` via a temporary file and a rename (no half-written figure), close it."""
+def agg_pyplot():
+    """matplotlib.pyplot with the Agg backend (files only), imported where a figure is drawn: a command
+    that draws none does not spend matplotlib's import time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    return plt
+
+
+def save_figure_atomically(fig, path) -> FilePath:
+    """Write ``fig`` to ``path`` via a temporary file and a rename (no half-written figure), close it."""
+    plt = agg_pyplot()
     path = FilePath(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".tmp.png")
@@ -290,6 +296,7 @@ def _write_figure(
 ) -> FilePath:
     """``out_dir/<name>.<suffix>.png``: ``rows`` stacked axes drawn by ``draw``, titled "<name> (<kind>):
     <title>" on the first."""
+    plt = agg_pyplot()
     fig, axes = plt.subplots(rows, 1, figsize=size, sharex=rows > 1)
     draw(axes)
     (axes if rows == 1 else axes[0]).set_title(f"{name}{f' ({kind})' if kind else ''}: {title}")

@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 from slipnav.scenarios.model import SensorCalibration
 from slipnav.scenarios.sensor_log import SensorLog
 from slipnav.studies.calibration_manoeuvres import STANDSTILL_PREFIX, Manoeuvre
@@ -16,6 +15,8 @@ from slipnav.systems.navigation.sensor_correction import corrected_accelerometer
 
 def fit_least_squares(residuals, x0, **kwargs):
     """least_squares and the standard errors of its solution ((J^T J)^-1 scaled by max(1, chi^2/dof))."""
+    from scipy.optimize import least_squares  # scipy.optimize's import time only where a fit runs
+
     result = least_squares(residuals, x0, method="lm", x_scale="jac", **kwargs)
     J = result.jac
     dof = max(len(result.fun) - len(x0), 1)

@@ -5,12 +5,9 @@ from __future__ import annotations
 
 import math
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from slipnav.studies.reproduce_measures import (  # noqa: E402
+import numpy as np
+from slipnav.scenarios.plots import agg_pyplot
+from slipnav.studies.reproduce_measures import (
     AT_V_M,
     HOLD,
     PUSH,
@@ -38,7 +35,7 @@ def indiveri_fig2(V_m: float, b: float, runs=(), mode: str = "default") -> Repro
     with np.errstate(invalid="ignore", divide="ignore"):
         kappa = (vr - vl) / (b * (vr + vl))
     u = 0.5 * (vr + vl)
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5.2))
+    fig, axes = agg_pyplot().subplots(1, 2, figsize=(12, 5.2))
     c0 = axes[0].contourf(vl, vr, np.clip(kappa, -1 / b, 1 / b), levels=21, cmap="coolwarm")
     fig.colorbar(c0, ax=axes[0], label="curvature $\\kappa$ I(5) (1/m)")
     c1 = axes[1].contourf(vl, vr, u, levels=21, cmap="viridis")
@@ -91,7 +88,7 @@ def indiveri_fig5(run: Run, mode: str = "default") -> Reproduced:
     driven, bottom the wheel speeds (commands and wheels)."""
     a = run.arrays
     t = a["t"]
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 10), gridspec_kw={"height_ratios": [1.2, 1]})
+    fig, (ax, ax2) = agg_pyplot().subplots(2, 1, figsize=(9, 10), gridspec_kw={"height_ratios": [1.2, 1]})
     ax.plot(run.path.x, run.path.y, "k--", lw=1, label="path")
     ax.plot(a["odo_x"], a["odo_y"], "C2", lw=1.2, label="followed path (wheel encoders)")
     ax.plot(a["true_x"], a["true_y"], "C0o", ms=6, label="true position (in the air)")
@@ -152,7 +149,7 @@ def indiveri_fig6(runs: dict, mode: str = "default") -> Reproduced:
     (ours in place of ICP/Gyrodometry), each compared with the true path (the paper's ICP reference), with
     the followed estimate's final, RMS and maximum position error.
     ``runs``: {"odometry": Run, "gyrodometry": Run, "fused": Run}."""
-    fig, axes = plt.subplots(1, 3, figsize=(15, 5.2))
+    fig, axes = agg_pyplot().subplots(1, 3, figsize=(15, 5.2))
     prefix = {"odometry": "odo", "gyrodometry": "gyro", "fused": "est"}
     numbers = {}
     for ax, (source, run) in zip(axes, runs.items(), strict=True):
@@ -207,7 +204,7 @@ def indiveri_fig6(runs: dict, mode: str = "default") -> Reproduced:
 def indiveri_fig7(bounded: Run, constant: Run, mode: str = "default") -> Reproduced:
     """Indiveri Fig. 7: the long path with straights and turns of different radii, followed with the
     bounded speed law I(24) and with u = V_m/2."""
-    fig, ax = plt.subplots(figsize=(8, 7))
+    fig, ax = agg_pyplot().subplots(figsize=(8, 7))
     ax.plot(bounded.path.x, bounded.path.y, "k--", lw=1, label="path")
     for run, label, color in ((constant, "u = $V_m$/2", "C2"), (bounded, "I(24) bounded", "C3")):
         a = run.arrays
@@ -248,7 +245,7 @@ def indiveri_fig7(bounded: Run, constant: Run, mode: str = "default") -> Reprodu
 def _wheel_speed_panels(key, title, bounded: Run, constant: Run, mode: str, caption, claim):
     """Indiveri Figs. 8-9: wheel commands against V_m, low speed (u = V_m/2, top) and high speed (I(24),
     bottom), each on its own time axis."""
-    fig, axes = plt.subplots(2, 1, figsize=(10, 8))
+    fig, axes = agg_pyplot().subplots(2, 1, figsize=(10, 8))
     numbers = {}
     for ax, run, label in (
         (axes[0], constant, "low speed, u = $V_m$/2"),

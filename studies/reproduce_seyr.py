@@ -5,19 +5,15 @@ from __future__ import annotations
 
 import math
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from slipnav.scenarios.metrics import (  # noqa: E402
+import numpy as np
+from slipnav.scenarios.metrics import (
     DETECTION_C1_LEVEL,
     moving_alpha,
     position_errors,
     side_slip_rms_error,
 )
-from slipnav.scenarios.plots import plot_associated_points, retimed_reference  # noqa: E402
-from slipnav.studies.reproduce_measures import (  # noqa: E402
+from slipnav.scenarios.plots import agg_pyplot, plot_associated_points, retimed_reference
+from slipnav.studies.reproduce_measures import (
     DIVERGENCE,
     EXCESSIVE_SLIP,
     Reproduced,
@@ -33,14 +29,14 @@ from slipnav.studies.reproduce_measures import (  # noqa: E402
     time_axis,
     true_spans,
 )
-from slipnav.systems.navigation.mixing.weights import logsig  # noqa: E402
+from slipnav.systems.navigation.mixing.weights import logsig
 
 
 def seyr_fig4(mixing, mode: str = "default") -> Reproduced:
     """Seyr Fig. 4: the double-sided logsig of S(12)-(14), the switch between odometric (C = 1) and
     inertial (C = 0) navigation, for C1 (|dv_K|), C2 (|a_n|) and C3 (|^O omega - ^I omega|) with
     ``mixing`` (MixingParameters) of the mode."""
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    fig, axes = agg_pyplot().subplots(1, 3, figsize=(12, 3.6))
     for ax, (name, a_, b_, label, unit) in zip(
         axes,
         (
@@ -82,7 +78,7 @@ def seyr_fig5(run: Run, mode: str = "default") -> Reproduced:
     """Seyr Fig. 5: the step size delta_K S(22) reduced in the corner and the nominal trajectory point K
     linked to the interpolated point Pi_K S(24)-(25) (the paper's ovals)."""
     a, ref = run.arrays, run.reference
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [1, 1.3]})
+    fig, (ax, ax2) = agg_pyplot().subplots(1, 2, figsize=(12, 5), gridspec_kw={"width_ratios": [1, 1.3]})
     ax.plot(ref.x, ref.y, "k--", lw=1, label="reference (pre-planned)")
     ax.plot(a["true_x"], a["true_y"], "C0", lw=3, alpha=0.4, label="true")
     plot_associated_points(a, ref, ax, every=0.1)
@@ -129,7 +125,7 @@ def seyr_fig6(run: Run, mode: str = "default") -> Reproduced:
     a, ref = run.arrays, run.reference
     t, moving = a["t"], moving_mask(a)
     v_ref, _, _ = retimed_reference(a, ref)
-    fig, axes = plt.subplots(4, 1, figsize=(9, 10), sharex=True)
+    fig, axes = agg_pyplot().subplots(4, 1, figsize=(9, 10), sharex=True)
     axes[0].plot(t, v_ref, "k--", lw=1, label="Ref. ($\\delta_K$ v at $\\Pi_K$)")
     axes[0].plot(t, a["true_v_t"], "C0", lw=1.5, label="true")
     axes[0].plot(t, a["est_v_t"], "C3", lw=0.8, label="estimate")
@@ -177,7 +173,7 @@ def seyr_fig7(run: Run, mode: str = "default") -> Reproduced:
     v_ref, w_ref, _ = retimed_reference(a, ref)
     diverging = divergence_mask(a)
     onsets = detection_onsets(a)
-    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
+    fig, axes = agg_pyplot().subplots(3, 1, figsize=(10, 9), sharex=True)
     axes[0].plot(t, v_ref, "k--", lw=1, label="Ref.")
     axes[0].plot(t, a["true_v_t"], "C0", lw=1.5, label="true")
     axes[0].plot(t, a["est_v_t"], "C3", lw=0.8, label="estimate")
@@ -226,7 +222,7 @@ def seyr_fig8(corner: Run, square: Run, mode: str = "default") -> Reproduced:
     """Seyr Fig. 8: posture estimates on the corner (left) and the square (right): true, fused S(21) and
     odometry-only paths; the final error in % of the path (Seyr §VII: about 2.5 %) and beside it the RMS
     and the maximum along the run (metrics.position_errors), which a closed path's end does not cancel."""
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
+    fig, axes = agg_pyplot().subplots(1, 2, figsize=(12, 5.5))
     numbers = {}
     for ax, run, name in ((axes[0], corner, "corner"), (axes[1], square, "square")):
         a = run.arrays

@@ -31,7 +31,7 @@ def circle():
 def written_figures(result, tmp_path, monkeypatch) -> dict:
     """write_figures of a run, with each figure kept open: {suffix: Figure}."""
     kept = []
-    monkeypatch.setattr(plots.plt, "close", kept.append)
+    monkeypatch.setattr(plt, "close", kept.append)
     files = plots.write_figures(result.arrays, result.reference, tmp_path, "run")
     suffixes = [f.name.split(".")[1] for f in files]
     return dict(zip(suffixes, kept, strict=True))

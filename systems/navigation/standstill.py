@@ -34,8 +34,8 @@ import math
 import numpy as np
 from pydrake.common.containers import namedview
 from pydrake.systems.framework import LeafSystem
-from scipy.stats import chi2
 from slipnav.systems.ranges import require_flag, require_in
+from slipnav.systems.residual_test import chi_square_quantile
 
 StandstillState = namedview(
     "StandstillState",
@@ -118,7 +118,7 @@ def standstill_constants(p: StandstillParameters, geometry, T_N: float) -> Stand
         T_N=T_N,
         still_samples=max(1, int(round(p.still_time / T_N))),
         average_gain=a,
-        gate=float(chi2.ppf(1.0 - p.false_rejection, 2)),
+        gate=chi_square_quantile(1.0 - p.false_rejection, 2),
         accel_variance=accel_variance,
         accel_mean_average_variance=0.5 * accel_variance * through_average,
         bias_drift_variance=geometry.accel_drift_density**2 * T_N,
