@@ -439,14 +439,10 @@ def sensor_log_chunks(log: SensorLog, rows: int = 10000):
         out.append(f"# {key}: {value}")
     out.append(",".join(names))
     yield "\n".join(out) + "\n"
-    cols = [log.columns[c] for c in names]
-    formats = [_format_count if c in ENCODER_COLUMNS else _format for c in names]
+    columns = [(_format_count if c in ENCODER_COLUMNS else repr, log.columns[c]) for c in names]
     for start in range(0, len(log), rows):
-        lines = (
-            ",".join(f(col[k]) for f, col in zip(formats, cols, strict=True))
-            for k in range(start, min(start + rows, len(log)))
-        )
-        yield "\n".join(lines) + "\n"
+        cells = [map(f, np.asarray(column[start : start + rows], float).tolist()) for f, column in columns]
+        yield "\n".join(map(",".join, zip(*cells, strict=True))) + "\n"
 
 
 def sensor_log_text(log: SensorLog) -> str:
