@@ -364,9 +364,10 @@ def batch_selection(gyro: float, wheels: float, moving: bool, steady: bool, p) -
 def calibration_parameters(state) -> list:
     """[b_g, D, sigma(b_g), sigma(D), learned batches, rejected batches, bias changes detected] of a
     calibration state."""
-    P = np.asarray(state)[_P].reshape(NUM_THETA, NUM_THETA)
-    counts = [state[_LEARNED], state[_REJECTED], state[_CHANGES]]
-    return [*state[_THETA], math.sqrt(P[0, 0]), math.sqrt(P[1, 1]), *counts]
+    values = np.asarray(state, float).tolist()  # element by element, as floats
+    P = values[_P]  # row-major
+    counts = [values[_LEARNED], values[_REJECTED], values[_CHANGES]]
+    return [*values[_THETA], math.sqrt(P[0]), math.sqrt(P[NUM_THETA + 1]), *counts]
 
 
 PARAMETERS_LAYOUT = (("estimate", 2), ("std", 2), ("batches", 3))
