@@ -132,8 +132,8 @@ def _offset_for_angle(angle, rotation, rotation_rate, velocity, speed):
     the centre's horizontal velocity P' + R' d is zero across the heading and the wheels' ``speed`` along
     it."""
     heading = heading_of(rotation, angle)
-    e = np.column_stack([np.cos(heading), np.sin(heading)])
-    n = np.column_stack([-np.sin(heading), np.cos(heading)])
+    cos, sin = np.cos(heading), np.sin(heading)
+    e, n = np.column_stack([cos, sin]), np.column_stack([-sin, cos])
     horizontal = rotation_rate[:, :2, :]
     A = np.vstack([np.einsum("ni,nij->nj", n, horizontal), np.einsum("ni,nij->nj", e, horizontal)])
     b = -np.concatenate([np.sum(n * velocity[:, :2], 1), np.sum(e * velocity[:, :2], 1) - speed])
