@@ -241,6 +241,19 @@ def _parse_cell(text: str, column: str, path, row: int, line: int) -> float:
     return value
 
 
+def _numbers(rows: list, header: list) -> np.ndarray | None:
+    """The rows as _parse_cell reads them where every cell is a number, a time finite, a count whole."""
+    try:
+        data = np.array([[float(cell) for cell in row] for row in rows], float)
+    except ValueError:  # an empty cell (NaN), no number, or rows of unequal lengths
+        return None
+    if data.shape != (len(rows), len(header)):
+        return None
+    t, counts = data[:, header.index("t")], data[:, [header.index(c) for c in ENCODER_COLUMNS]]
+    whole = ~np.isfinite(counts) | (counts == np.floor(counts))
+    return data if np.all(np.isfinite(t)) and np.all(whole) else None
+
+
 def check_time(t: np.ndarray, T_N: float, path="<arrays>", lines=None) -> None:
     """t increases by T_N per row (within SPACING_TOLERANCE); SensorLogError naming the row."""
     if len(t) < 2:
@@ -379,8 +392,12 @@ def _read_preamble(record: list[str], line: int, records: _Records, path: FilePa
 
 
 def _parse_columns(records: _Records, path: FilePath) -> dict[str, np.ndarray]:
-    """Every cell parsed (a row with another number of cells than the header is an error), by column."""
+    """Every cell parsed (a row with another number of cells than the header is an error), by column: all
+    at once where every cell is a number (_numbers), else cell by cell, which names the first bad one."""
     header = records.header
+    data = _numbers(records.rows, header)
+    if data is not None:
+        return {name: data[:, j].copy() for j, name in enumerate(header)}
     data = np.empty((len(records.rows), len(header)))
     for i, (record, line) in enumerate(zip(records.rows, records.lines, strict=True)):
         if len(record) != len(header):
