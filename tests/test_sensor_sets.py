@@ -13,7 +13,17 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.model import load_model
 from slipnav.scenarios.runner import run_scenario
 from slipnav.studies.cli import main
-from slipnav.systems.health import JUMP, NONFINITE, SATURATED, STUCK, health_flags
+from slipnav.systems.health import (
+    JUMP,
+    NONFINITE,
+    SATURATED,
+    STUCK,
+    SensorHealthParameters,
+    health_flags,
+    health_initial_state,
+    health_step,
+    yaw_pair_witness,
+)
 from slipnav.systems.robot.sensors import SensorParameters, sensor_update
 
 from tests.test_faults import GEOMETRY, check, stream
@@ -185,3 +195,27 @@ def test_a_log_with_fewer_sets_replays_bit_for_bit_without_flags(tmp_path, sets)
     for key in ("est_x", "est_y", "est_phi", "C1"):
         np.testing.assert_array_equal(replay[key], run[key], err_msg=key)
     assert not any(replay[key].any() for key in replay.files if key.startswith("health_"))
+
+
+def test_the_pair_witnesses_the_yaw_rate_only_as_two_healthy_sensors():
+    """yaw_pair_witness, sample by sample: two noisy sensors, finite and not excluded, witness the yaw
+    rate; one IMU copied into both sets (pair_copied), a non-finite reading, or a robot whose checks know
+    one set do not, whatever the data sheet says of the sets."""
+
+    def witnessed(rows, geometry=GEOMETRY):
+        state, seen = health_initial_state(geometry, 1.0), []
+        for row in rows:
+            state, _, _ = health_step(state, row, SensorHealthParameters(), geometry)
+            seen.append(yaw_pair_witness(state))
+        return np.array(seen)
+
+    rows = stream(200, 1.0, 2.0)
+    assert witnessed(rows).all()
+    copied = rows.copy()
+    copied[:, 2:4] = copied[:, 0:2]
+    assert not witnessed(copied).any()
+    lost = rows.copy()
+    lost[100, 1] = np.nan
+    seen = witnessed(lost)
+    assert not seen[100] and seen[:100].all()
+    assert not witnessed(rows, dc.replace(GEOMETRY, accelerometer_sets=1)).any()

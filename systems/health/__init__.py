@@ -12,7 +12,13 @@ evidence that it agrees again.
 """
 
 from slipnav.systems.health.check import health_check, health_constants, health_step
-from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
+from slipnav.systems.health.layout import (
+    STATE_SIZE,
+    gyro_bias_step,
+    health_initial_state,
+    travel_restored,
+    yaw_pair_witness,
+)
 from slipnav.systems.health.monitor import (
     HEALTH_STEP_LAYOUT,
     SensorHealthMonitor,
@@ -70,4 +76,5 @@ __all__ = [
     "odometry_unusable",
     "slip_detector_blind",
     "travel_restored",
+    "yaw_pair_witness",
 ]

@@ -43,12 +43,14 @@ from slipnav.systems.health.gyro import (
     frozen_gyro_shadow,
     gyro_readmission,
     gyro_yaw_check,
+    pair_witnesses,
     wheels_yaw_rate,
 )
 from slipnav.systems.health.layout import (
     ANALOG_EXCLUDED,
     ANALOG_REFERENCE,
     ENCODER_INCREMENT,
+    PAIR_WITNESS,
     PREVIOUS_ODOMETRIC_SPEED,
     YAW_WITNESS,
 )
@@ -175,6 +177,8 @@ def health_check(
     moving = used[0] != 0.0 or used[1] != 0.0  # the wheels turned
     pair_check(s, raw, codes, rot, rot_dot, omega, a_force, v_o, moving, fast_known, p, g)
     s[PREVIOUS_ODOMETRIC_SPEED] = v_o
+    pair_ok = codes[0] == 0 and codes[1] == 0 and codes[2] == 0 and codes[3] == 0
+    s[PAIR_WITNESS] = 1.0 if pair_ok and pair_witnesses(raw, g) else 0.0
     # 5. the analog outputs
     if codes[GYRO] == SATURATED:
         replacement = omega  # the pair's yaw rate, or the wheels'

@@ -51,9 +51,10 @@ HEALTH_LAYOUT = (
     ("encoder_block_predicted", 2),
     ("encoder_block_moved", 2),
     # 1 when this sample's encoder output restored a stuck encoder's missed travel; the previous
-    # odometric v_o (m/s)
+    # odometric v_o (m/s); 1 when the accelerometer pair witnessed this sample's yaw rate
     ("travel_restored", 1),
     ("previous_odometric_speed", 1),
+    ("pair_witness", 1),
     # the accelerometer pair: the averages of its disagreement (slow and fast), each sensor's averaged
     # distance from the kinematic reference and its level while the pair agreed, the pair's averaged
     # omega^2, the pair's learned offset a_1 - a_2 beyond the rotational terms and its variance, and the
@@ -127,6 +128,7 @@ ENCODER_BLOCK_PREDICTED = _SLICES["encoder_block_predicted"]
 ENCODER_BLOCK_MOVED = _SLICES["encoder_block_moved"]
 TRAVEL_RESTORED = _SLICES["travel_restored"]
 PREVIOUS_ODOMETRIC_SPEED = _SLICES["previous_odometric_speed"]
+PAIR_WITNESS = _SLICES["pair_witness"]
 PAIR_AVERAGE, PAIR_FAST_AVERAGE = _SLICES["pair_average"], _SLICES["pair_fast_average"]
 PAIR_DEVIATION, PAIR_LEVEL = _SLICES["pair_deviation"], _SLICES["pair_level"]
 PAIR_OMEGA_SQUARED = _SLICES["pair_omega_squared"]
@@ -182,6 +184,12 @@ def gyro_bias_step(state) -> float:
     """The gyro bias step (rad/s) the checks of this sample hand to the calibration (0: none;
     gyro_bias_step_block)."""
     return float(state[BIAS_STEP])
+
+
+def yaw_pair_witness(state) -> bool:
+    """The accelerometer pair witnessed the yaw rate on this sample (gyro.pair_witnesses, and no
+    accelerometer excluded): the third witness that isolates gyro or wheels (yaw_calibration_step)."""
+    return bool(state[PAIR_WITNESS] > 0.0)
 
 
 def travel_restored(state) -> bool:

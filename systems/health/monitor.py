@@ -7,7 +7,13 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 from slipnav.systems.health.analog import channel_present
 from slipnav.systems.health.check import health_check, health_constants
-from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
+from slipnav.systems.health.layout import (
+    STATE_SIZE,
+    gyro_bias_step,
+    health_initial_state,
+    travel_restored,
+    yaw_pair_witness,
+)
 from slipnav.systems.health.parameters import (
     HEALTH_CLASSES,
     NO_CURRENTS,
@@ -50,6 +56,7 @@ HEALTH_STEP_LAYOUT = (
     ("encoder_fault", 1),
     ("sensor_fault", 1),
     ("gyro_bias_step", 1),
+    ("yaw_pair_witness", 1),
 )
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
@@ -129,8 +136,10 @@ class SensorHealthMonitor(LeafSystem):
       S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
       stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
       gyro_bias_step: the step of b_g measured on an excluded gyro this sample (rad/s, 0: none;
-      gyro_bias_step_block), for the calibration. One vector, so that one Python call per sample
-      computes them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+      gyro_bias_step_block), for the calibration; yaw_pair_witness: 1 when the accelerometer pair
+      witnessed the yaw rate on this sample (layout.yaw_pair_witness), for the calibration. One
+      vector, so that one Python call per sample computes them all; the navigation diagram slices it
+      with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
 
@@ -179,7 +188,8 @@ class SensorHealthMonitor(LeafSystem):
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state
         flags = health_flags(codes, odometry_unusable(state, out), self._g.accelerometer_sets)
-        step[STATE_SIZE:] = [*out, *codes, *flags, gyro_bias_step(state)]
+        witness = 1.0 if yaw_pair_witness(state) else 0.0
+        step[STATE_SIZE:] = [*out, *codes, *flags, gyro_bias_step(state), witness]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

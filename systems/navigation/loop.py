@@ -35,6 +35,7 @@ from slipnav.systems.health import (
     health_flags,
     health_initial_state,
     odometry_unusable,
+    yaw_pair_witness,
 )
 from slipnav.systems.navigation.baselines import BaselineState, baselines_step
 from slipnav.systems.navigation.ekf import (
@@ -126,7 +127,6 @@ class NavigationLoop:
         self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
         self.baselines = BaselineState.initial(initial.pose, initial.speed)  # on the raw sensors
         self.yaw_calibration = believed_gyro(params.yaw_calibration, belief.sensors)
-        self.third_yaw_witness = self.geometry.accelerometer_sets == 2
         self.calibration = yaw_calibration_initial_state(self.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
@@ -334,7 +334,7 @@ class NavigationLoop:
             self.n,
             rest,
             gyro_bias_step(self.health),
-            self.third_yaw_witness,
+            yaw_pair_witness(self.health),
         )
         self.standstill = standstill_step(
             self.standstill, corrected, self.checked_encoders, standing, test, self.standstill_constants

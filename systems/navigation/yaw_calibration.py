@@ -189,6 +189,7 @@ CALIBRATION_LAYOUT = (
     ("previous_wheels", 1),
     ("previous_gyro", 1),
     ("standing", 1),
+    ("witnessed", 1),
     ("residual_variance", 1),
     ("change_points", CHANGE_STATE_SIZE),
 )
@@ -196,7 +197,8 @@ CALIBRATION_LAYOUT = (
 batch's sums of (gyro, omega_o, v_o, |v_o| + |omega_o|), its sample count, 1 while every sample of the
 batch passed its checks, the learned and rejected batches, the bias-change CUSUM (CusumState), the bias
 changes detected, the previous batch's calibrated odometric yaw rate and gyro mean (NaN: none), the
-batch's samples the standstill detector called standing, the observed variance of the tested batches'
+batch's samples the standstill detector called standing, those on which the accelerometer pair
+witnessed the yaw rate (third_witness), the observed variance of the tested batches'
 innovations (rad^2/s^2; 0: none yet), the bias-change test's change points (bias_change.CHANGE_LAYOUT)."""
 
 
@@ -205,6 +207,7 @@ _THETA, _P, _SUMS, _COUNT, _OK = (_SLICES[k] for k in ("theta", "covariance", "s
 _LEARNED, _REJECTED, _CUSUM, _CHANGES = (_SLICES[k] for k in ("learned", "rejected", "cusum", "changes"))
 _PREVIOUS_WHEELS, _PREVIOUS_GYRO = _SLICES["previous_wheels"], _SLICES["previous_gyro"]
 _STANDING, _RESIDUAL_VARIANCE = _SLICES["standing"], _SLICES["residual_variance"]
+_WITNESSED = _SLICES["witnessed"]
 _CHANGE_POINTS = _SLICES["change_points"]
 STATE_SIZE = layout_size(CALIBRATION_LAYOUT)
 
@@ -256,10 +259,11 @@ def yaw_calibration_step(
     otherwise (the wheels' counts lag a turn's start or end) it is neither learned from nor tested.
     ``bias_step``: a step of b_g the sensor checks measured on an excluded gyro (rad/s, 0: none;
     systems/health/gyro.py, gyro_bias_step_block), taken as a bias change (bias_step_update with R =
-    measurement_std^2) at once. ``third_witness``: the accelerometer pair witnesses the yaw rate (two
-    accelerometer sets), so that the sensor checks exclude a wheel whose yaw disagrees with gyro and pair;
-    without it a moving batch's change is the wheels' as likely as the gyro's and is not tested (a rest's
-    is: there the standstill detector witnesses too).
+    measurement_std^2) at once. ``third_witness``: the accelerometer pair witnesses the yaw rate on this
+    sample (the sensor checks' yaw_pair_witness: two sensors, finite, none excluded), so that the checks
+    exclude a wheel whose yaw disagrees with gyro and pair; a moving batch is tested for a change only when
+    the pair witnessed every one of its samples, else its change is the wheels' as likely as the gyro's (a
+    rest's is tested: there the standstill detector witnesses too).
     Returns the next state (the theta used at this sample is ``state``'s)."""
     state = np.array(state, dtype=float)
     if not p.enabled:
@@ -283,12 +287,13 @@ def yaw_calibration_step(
         values[_OK] = 0.0
     values[_COUNT] += 1.0
     values[_STANDING] += 1.0 if standing is None or standing else 0.0
+    values[_WITNESSED] += 1.0 if third_witness else 0.0
     if values[_COUNT] < batch_length:
         return state
-    return batch_update(state, track_width, p, T_N, third_witness)
+    return batch_update(state, track_width, p, T_N)
 
 
-def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: float, third_witness: bool):
+def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: float):
     """A batch's end (yaw_calibration_step): the random walks' prediction, the batch's selection, the
     bias-change test and the Kalman update of theta; the batch's sums restart. Returns ``state``."""
     n = state[_COUNT]
@@ -307,7 +312,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     state[_PREVIOUS_WHEELS] = wheels if state[_OK] > 0.5 else math.nan
     state[_PREVIOUS_GYRO] = gyro_mean if state[_OK] > 0.5 else math.nan
     learn, test = batch_selection(gyro_mean - theta[0], wheels, moving > 0.0, steady, p)
-    test = test and (third_witness or moving == 0.0)
+    test = test and (state[_WITNESSED] == n or moving == 0.0)  # the pair witnessed every sample
     witnessed = moving > 0.0 or state[_STANDING] == n  # a rest the detector confirms
     if state[_OK] > 0.5 and witnessed and (learn or test):
         H = np.array([1.0, v_mean / track_width])
@@ -343,7 +348,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     state[_THETA] = theta
     state[_P] = (0.5 * (P + P.T)).ravel()
     state[_SUMS] = 0.0
-    state[_COUNT] = state[_STANDING] = 0.0
+    state[_COUNT] = state[_STANDING] = state[_WITNESSED] = 0.0
     state[_OK] = 1.0
     return state
 
@@ -391,6 +396,7 @@ class YawRateCalibration(LeafSystem):
         - encoder_fault
         - standstill
         - gyro_bias_step
+        - yaw_pair_witness
         output_ports:
         - calibrated
         - bias
@@ -401,7 +407,9 @@ class YawRateCalibration(LeafSystem):
       (its batch is not learned from); standstill (optional): 1 while the standstill detector says the
       robot stands (unconnected: the wheels alone say so, yaw_calibration_step's ``standing`` None);
       gyro_bias_step (optional): the step of b_g the sensor checks measured on an excluded gyro (rad/s;
-      0 or unconnected: none), added at once.
+      0 or unconnected: none), added at once; yaw_pair_witness (optional): 1 when the accelerometer pair
+      witnessed this sample's yaw rate (the sensor checks' decision; unconnected: the believed sensor
+      set has two accelerometer sets).
     - calibrated (direct feedthrough, theta from the state), in CALIBRATED_LAYOUT's order: gyro
       [omega - b_g]; odometry, calibrated_odometry. One vector, one Python call per sample; the
       navigation diagram slices it with a Demultiplexer (diagrams/split.py).
@@ -415,8 +423,8 @@ class YawRateCalibration(LeafSystem):
     Args:
         params: YawCalibrationParameters. track_width: the nominal track (m). T_N, T_C: periods (s).
         sensors: the believed sensor set (None: the nominal SensorParameters()): the gyro's data sheet
-            (believed_gyro) and whether the accelerometer pair witnesses the yaw rate (two sets;
-            yaw_calibration_step's third_witness).
+            (believed_gyro), and while yaw_pair_witness is unconnected whether the accelerometer pair
+            witnesses the yaw rate (two sets; yaw_calibration_step's third_witness).
     """
 
     def __init__(
@@ -439,6 +447,7 @@ class YawRateCalibration(LeafSystem):
         self._faults = [self.DeclareVectorInputPort(name, 1) for name in ("inertial_fault", "encoder_fault")]
         self._standstill = self.DeclareVectorInputPort("standstill", 1)
         self._bias_step = self.DeclareVectorInputPort("gyro_bias_step", 1)
+        self._pair_witness = self.DeclareVectorInputPort("yaw_pair_witness", 1)
         state0 = yaw_calibration_initial_state(params)
         self._state = self.DeclareDiscreteState(state0)
         parameters0 = calibration_parameters(state0)
@@ -466,6 +475,8 @@ class YawRateCalibration(LeafSystem):
         fault = inertial.Eval(context).tolist()[0] > 0.5 or encoder.Eval(context).tolist()[0] > 0.5
         port = self._bias_step
         step = float(port.Eval(context)[0]) if port.HasValue(context) else 0.0
+        port = self._pair_witness
+        witness = port.Eval(context).tolist()[0] > 0.5 if port.HasValue(context) else self._third_witness
         state = yaw_calibration_step(
             discrete_state.get_value(self._state),
             self._gyro.Eval(context).tolist()[0],
@@ -478,7 +489,7 @@ class YawRateCalibration(LeafSystem):
             self._n,
             self._standstill.Eval(context).tolist()[0] > 0.5 if self._standstill.HasValue(context) else None,
             step,
-            self._third_witness,
+            witness,
         )
         discrete_state.set_value(self._state, state)
         if state[_COUNT] == 0.0 or step != 0.0:  # a batch ended, or a bias step: theta, P, the counts moved
