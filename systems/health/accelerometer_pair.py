@@ -62,8 +62,8 @@ def pair_constants(c) -> dict:
     the commotion's correlation from one sample to the next, pair_offset_gate, the chi-square gate of
     PAIR_OFFSET_FALSE_ALARM, and per axis [t, n] pair_offset_rotation, the variance of a block's summed
     omega' terms (2 (2 lever gyro_noise_std / T_N)^2, the lever y for t, x for n: pair_offset_update);
-    per axis, fast_rotation_allowance, FAST_ROTATION_SIGMAS of the noise the gyro's omega' puts into the fast
-    average's rotational term (fast_pair_ratio)."""
+    per axis, fast_rotation_allowance, FAST_ROTATION_SIGMAS of the noise the gyro's omega' puts into the
+    fast average's rotational term (fast_pair_ratio)."""
     omega_dot_std = averaged_omega_dot_std(1.0 / c.fast_consistency_samples, c)
     return {
         "pair_offset_drift": 2.0 * c.accel_drift_density**2 * c.T_N,
@@ -165,19 +165,19 @@ def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: f
     """Learns the pair's offset a_1 - a_2 beyond the rotational terms on ``axis`` (the bias difference):
     a scalar Kalman filter (pair_offset, its variance in pair_offset_variance: from 2
     accel_initial_bias_std^2, plus 2 accel_drift_density^2 T_N every sample, the two biases' random walk)
-    whose measurement is the mean ``disagreement`` over a block of consistency_samples contiguous samples.
-
-    # measurement: the block's mean; its omega' terms 2 x (omega_k - omega_k-1) / T_N telescope to the
-    # block's ends, variance pair_offset_rotation / n^2; each sample adds its white noise, the commotion at
-    # ``speed`` (S(3)'s Gauss-Markov process, its correlation counted as (1 + phi)/(1 - phi) samples) and
-    # gain_cross_coupling of the ``other`` axis's acceleration (misalignment), over n^2
-    # gate: a block whose innovation is beyond pair_offset_gate of its variance is a change of the pair,
-    # which the pair's tests judge, and is not learned (the variance keeps growing meanwhile)."""
+    whose measurement is the mean ``disagreement`` over a block of consistency_samples contiguous samples:
+    its omega' terms 2 x (omega_k - omega_k-1) / T_N telescope to the block's ends (variance
+    pair_offset_rotation / n^2), and each sample adds its white noise, the commotion at ``speed`` (S(3)'s
+    Gauss-Markov process, its correlation counted as (1 + phi)/(1 - phi) samples) and gain_cross_coupling
+    of the ``other`` axis's acceleration (misalignment), over n^2. A block whose innovation lies beyond
+    pair_offset_gate of its variance is a change of the pair, which the pair's tests judge: it is not
+    learned, and the variance keeps growing meanwhile."""
     count = s[PAIR_OFFSET_BLOCK_COUNT]
     block_sum = s[PAIR_OFFSET_BLOCK_SUM]
     block_noise = s[PAIR_OFFSET_BLOCK_NOISE]
     phi = p.pair_offset_phi
     commotion = g.accel_vibration_per_speed * speed
+    # measurement: the block's sums
     block_sum[axis] += disagreement
     block_noise[axis] += (
         p.pair_offset_white
@@ -193,7 +193,7 @@ def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: f
     pair_offset_block_reset(s, axis)
     offset = s[PAIR_OFFSET]
     variance = s[PAIR_OFFSET_VARIANCE]
-    # update step, behind the gate
+    # update step, behind the gate (the variance's prediction: pair_check, every sample)
     innovation = measurement - offset[axis]
     innovation_variance = variance[axis] + noise
     if not innovation_variance > 0.0:  # a noiseless data sheet and no motion: nothing to weigh

@@ -50,6 +50,12 @@ def _side_counts(cusum: CusumState) -> tuple:
     return (cusum.upper_count, cusum.lower_count)
 
 
+def _side(values, side: int):
+    """One side's share of a per-side part of CHANGE_LAYOUT (a view)."""
+    size = len(values) // SIDES
+    return values[side * size : (side + 1) * size]
+
+
 def change_points_age(change, cusum: CusumState) -> None:
     """A batch begins: each side that counts has one more batch since its change point (``change``: the
     CHANGE_LAYOUT view, updated in place)."""
@@ -69,8 +75,8 @@ def change_points_step(change, cusum: CusumState, theta, P, measurement: float, 
     batches = change[_SLICES["batches"]]
     for side, count in enumerate(_side_counts(cusum)):
         if count == 1:  # the change point
-            thetas[side * NUM_THETA : (side + 1) * NUM_THETA] = theta
-            covariances[side * NUM_THETA**2 : (side + 1) * NUM_THETA**2] = np.ravel(P)
+            _side(thetas, side)[:] = theta
+            _side(covariances, side)[:] = np.ravel(P)
             measurements[side] = regressors[side] = batches[side] = 0.0
         if count >= 1:
             measurements[side] += measurement
@@ -84,8 +90,8 @@ def bias_change_update(change, cusum: CusumState, alarm: int, R: float, walk) ->
     (theta, P)."""
     side = 0 if alarm > 0 else 1
     count = _side_counts(cusum)[side]
-    theta = change[_SLICES["theta"]][side * NUM_THETA : (side + 1) * NUM_THETA].copy()
-    P = change[_SLICES["covariance"]][side * NUM_THETA**2 : (side + 1) * NUM_THETA**2]
+    theta = _side(change[_SLICES["theta"]], side).copy()
+    P = _side(change[_SLICES["covariance"]], side)
     # predict step: the random walks since the change point
     P = P.reshape(NUM_THETA, NUM_THETA) + np.asarray(walk) * change[_SLICES["batches"]][side]
     # shift: the batches' mean measurement less the change point's prediction
