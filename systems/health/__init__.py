@@ -12,14 +12,13 @@ evidence that it agrees again.
 """
 
 from slipnav.systems.health.check import health_check, health_constants, health_step
-from slipnav.systems.health.layout import STATE_SIZE, gyro_bias_step, health_initial_state, travel_restored
+from slipnav.systems.health.layout import gyro_bias_step, health_initial_state, travel_restored
 from slipnav.systems.health.monitor import (
     HEALTH_STEP_LAYOUT,
     SensorHealthMonitor,
     health_flags,
     health_report,
     odometry_unusable,
-    slip_detector_blind,
 )
 from slipnav.systems.health.parameters import (
     FORCE_REFERENCE_FIELDS,
@@ -27,11 +26,7 @@ from slipnav.systems.health.parameters import (
     INCONSISTENT,
     JUMP,
     NO_CURRENTS,
-    NO_VELOCITY,
-    NO_YAW_CALIBRATION,
     NONFINITE,
-    NUM_CHANNELS,
-    PLAUSIBLE_CURRENT,
     RECOVERING,
     SATURATED,
     STUCK,
@@ -48,13 +43,8 @@ __all__ = [
     "JUMP",
     "NONFINITE",
     "NO_CURRENTS",
-    "NO_VELOCITY",
-    "NO_YAW_CALIBRATION",
-    "NUM_CHANNELS",
-    "PLAUSIBLE_CURRENT",
     "RECOVERING",
     "SATURATED",
-    "STATE_SIZE",
     "STUCK",
     "HealthConstants",
     "HealthGeometry",
@@ -68,6 +58,5 @@ __all__ = [
     "health_report",
     "health_step",
     "odometry_unusable",
-    "slip_detector_blind",
     "travel_restored",
 ]

@@ -217,7 +217,7 @@ def pair_offset_block_reset(s, axis: int) -> None:
 
 
 @jitable
-def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p, g) -> float:
+def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p) -> float:
     """The fast pair test's average over its bound, in units of the slow test's bound ``limit`` (> limit
     flags): the bound is fast_consistency_factor x limit plus FAST_ROTATION_SIGMAS of the noise that omega'
     from the gyro's difference puts into the average's rotational term (the average of a difference over
@@ -276,7 +276,7 @@ def pair_axis_evidence(s, axis, raw, codes, rot, rot_dot, limit, speed, moving, 
         fast_average[axis] += (offset_free - fast_average[axis]) / p.fast_consistency_samples
     else:  # the replacement's omega' is not averaged in: restart from the slow average
         fast_average[axis] = average[axis]
-    fast = fast_pair_ratio(fast_average[axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
+    fast = fast_pair_ratio(fast_average[axis], limit, axis, fast_known, p)  # 0: off, or no gyro
     mean = 0.5 * (raw[axis] + raw[axis + 2])
     other = 0.5 * (raw[1 - axis] + raw[3 - axis])
     # learned with the gyro's omega' on this sample (fast_known) and both axes healthy

@@ -66,9 +66,8 @@ from slipnav.systems.robot.contact import shoe_drag
 from slipnav.systems.robot.parameters import RobotParameters
 from slipnav.systems.state_layout import layout_indices, layout_size
 
-PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
-"""Output layout: [wheel_R, wheel_L, yaw, body]; a wheel's code is 1 braked, 2 driven; yaw, body 0/1."""
 PERTURBATION_CHANNELS = ("wheel_R", "wheel_L", "yaw", "body")
+"""The flags, in order: a wheel's code is WHEEL_BRAKED or WHEEL_DRIVEN; yaw and body 0 or 1."""
 WHEEL_BRAKED, WHEEL_DRIVEN = 1, 2
 
 

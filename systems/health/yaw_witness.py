@@ -35,6 +35,7 @@ import math
 from slipnav.systems.compiled import jitable
 from slipnav.systems.residual_test import CusumTest, cusum_update
 from slipnav.systems.robot.contact import shoe_drag, tyre_force_and_stiffness
+from slipnav.systems.state_layout import layout_size, layout_slices
 
 YAW_DRIFT = 0.5
 """The yaw test's CUSUM drift k (sigma): soonest for a shift of one sigma."""
@@ -172,9 +173,9 @@ def pair_yaw_rate_std(omega: float, speed: float, c) -> float:
 YAW_TEST_LAYOUT = (("z_variance", 1), ("cusum", 6))
 """The yaw test's state (gyro_yaw_test), in order (name, size): the observed variance of the normalised
 innovation, the CUSUM's sums (CusumState's order)."""
-Z_VARIANCE = 0
-CUSUM = slice(1, 7)
-YAW_TEST_SIZE = 7
+_YAW_TEST = layout_slices(YAW_TEST_LAYOUT)
+Z_VARIANCE, CUSUM = _YAW_TEST["z_variance"], _YAW_TEST["cusum"]
+YAW_TEST_SIZE = layout_size(YAW_TEST_LAYOUT)
 YAW_GATE = 4.0
 """|z| beyond this (in units of the observed spread) does not feed the observed variance (sigma)."""
 YAW_NOISE_SAMPLES = 1000.0
