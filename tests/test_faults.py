@@ -459,9 +459,7 @@ def test_the_fast_pair_bound_by_hand():
     for axis, lever in ((0, 0.015), (1, 0.02)):
         bound = 1.6 * limit + 5 * 2 * lever * omega_dot_std
         assert fast_pair_ratio(bound, limit, axis, True, constants) == pytest.approx(limit)
-        assert fast_pair_ratio(-0.5 * bound, limit, axis, True, constants) == pytest.approx(
-            0.5 * limit
-        )
+        assert fast_pair_ratio(-0.5 * bound, limit, axis, True, constants) == pytest.approx(0.5 * limit)
         assert fast_pair_ratio(bound, limit, axis, False, constants) == 0.0
     off = HealthConstants(
         *health_constants(SensorHealthParameters(fast_consistency_factor=math.inf), GEOMETRY)
@@ -487,7 +485,7 @@ def test_the_pair_gain_test_by_hand():
     constants = HealthConstants(*health_constants(p, GEOMETRY))
     state = health_initial_state(GEOMETRY)
     for _ in range(400):
-        ratio = pair_gain_ratio(state, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants)
+        ratio = pair_gain_ratio(state, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
     g = 0.2
     white = g / (2 - g)
     phi = math.exp(-0.4) * (1 - g)
@@ -507,8 +505,8 @@ def test_the_pair_gain_test_by_hand():
     emptied = state.copy()
     pair_gain_reset(emptied)
     assert pair_gain_upper_bound(emptied, 0, True, constants) == 0.0
-    kept = pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants)
-    again = pair_gain_ratio(emptied, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants)
+    kept = pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
+    again = pair_gain_ratio(emptied, 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
     assert kept > 1.0 and again < 0.5
     # with an offset allowance of 0.1 m/s^2 beyond the tolerance: 0.1 sum |r| / sum r^2 = 0.1 / 1.5
     allowing = HealthConstants(*health_constants(SensorHealthParameters(gain_offset_allowance=0.1), GEOMETRY))
@@ -518,16 +516,16 @@ def test_the_pair_gain_test_by_hand():
     z = (1 / 1.5 - 0.1 - 0.1 / 1.5) / math.sqrt(16 / (40 * 1.5**2 / var))
     assert ratio == pytest.approx(z / 4, rel=1e-9)
     # Not judged without the gyro's omega', nor when off; a gain within the tolerance reads 0.
-    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, False, constants) == 0.0
+    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, False, constants, constants) == 0.0
     off = HealthConstants(*health_constants(SensorHealthParameters(gain_threshold=math.inf), GEOMETRY))
-    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, off) == 0.0
+    assert pair_gain_ratio(state.copy(), 0, 1.0, 1.5, 0.0, 0.0, 1.0, True, True, off, off) == 0.0
     state = health_initial_state(GEOMETRY)
     for _ in range(400):
-        ratio = pair_gain_ratio(state, 1, 0.1, 1.5, 0.0, 0.0, 1.0, True, True, constants)
+        ratio = pair_gain_ratio(state, 1, 0.1, 1.5, 0.0, 0.0, 1.0, True, True, constants, constants)
     assert ratio == 0.0  # beta = 0.067 < 0.1
     at_rest = health_initial_state(GEOMETRY)
     for _ in range(400):
-        ratio = pair_gain_ratio(at_rest, 0, 1.0, 1.5, 0.0, 0.0, 0.0, False, True, constants)
+        ratio = pair_gain_ratio(at_rest, 0, 1.0, 1.5, 0.0, 0.0, 0.0, False, True, constants, constants)
     assert ratio == 0.0
     for name, bad, allowed in (
         ("gain_samples", 51, r"integers in \[2, 50\]"),
