@@ -180,53 +180,40 @@ class SensorHealthParameters:
     gain_release: float = 0.3
 
     def __post_init__(self):
-        for name in (
-            "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
-            "bias_step_yaw_rate yaw_false_alarm_time yaw_witness_lag stuck_min_speed"
-        ).split():
-            require_in(name, getattr(self, name), "(0, inf)")
+        names = "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency"
+        require_each(self, require_in, names, "(0, inf)")
+        names = "bias_step_yaw_rate yaw_false_alarm_time yaw_witness_lag stuck_min_speed"
+        require_each(self, require_in, names, "(0, inf)")
         if self.max_wheel_speed is not None:
             require_in("max_wheel_speed", self.max_wheel_speed, "(0, inf)")
         require_in("saturation_fraction", self.saturation_fraction, "[0.5, 1]")
-        value = self.clip_samples
-        if not (is_integer(value) and value == 0):  # 0: off
-            require_integer("clip_samples", value, "0 (off) or integers in [2, 50]")
-        for name in ("stuck_samples", "consistency_samples", "clip_window"):  # clip_window 50: the ring
-            require_integer(name, getattr(self, name), "integers in [2, 50]")
+        if not (is_integer(self.clip_samples) and self.clip_samples == 0):  # 0: off
+            require_integer("clip_samples", self.clip_samples, "0 (off) or integers in [2, 50]")
+        names = "stuck_samples consistency_samples clip_window"  # clip_window 50: the ring
+        require_each(self, require_integer, names, "integers in [2, 50]")
         require_integer("bias_step_samples", self.bias_step_samples, "integers in [2, 500]")
         require_integer("gain_samples", self.gain_samples, f"integers in [2, {GAIN_WINDOW_MAX}]")
         require_in("gain_tolerance", self.gain_tolerance, "[0, 1)")
-        value = require_in("gain_release", self.gain_release, "(0, 1]")
-        if not value > self.gain_tolerance:
-            raise out_of_range(
-                "gain_release",
-                value,
-                f"above gain_tolerance={self.gain_tolerance!r} "
-                "(a gain within the tolerance must clear the pair)",
-            )
-        for name in (
-            "fast_consistency_samples",
-            "encoder_readmission_samples",
-            "gyro_readmission_samples",
-            "gain_block_samples",
-        ):
-            require_integer(name, getattr(self, name), "integers in [1, 50]")
-        for name in ("encoder_readmission_fraction", "gyro_readmission_fraction", "yaw_slip_fraction"):
-            require_in(name, getattr(self, name), "[0, 1]")
-        for name in (
-            "stuck_tolerance",
-            "stuck_speed_fraction",
-            "accel_consistency_per_speed",
-            "gain_cross_coupling",
-            "gain_offset_allowance",
-        ):
-            require_in(name, getattr(self, name), "[0, inf)")
-        for name, unit in (
-            ("fast_consistency_factor", ""),
-            ("stuck_braking_deceleration", " m/s^2"),
-            ("gain_threshold", ""),
-        ):
-            require_in(name, getattr(self, name), f"(0, inf]{unit}")
+        if not require_in("gain_release", self.gain_release, "(0, 1]") > self.gain_tolerance:
+            tolerance = f"gain_tolerance={self.gain_tolerance!r}"
+            allowed = f"above {tolerance} (a gain within the tolerance must clear the pair)"
+            raise out_of_range("gain_release", self.gain_release, allowed)
+        names = "fast_consistency_samples encoder_readmission_samples gyro_readmission_samples"
+        require_each(self, require_integer, names + " gain_block_samples", "integers in [1, 50]")
+        names = "encoder_readmission_fraction gyro_readmission_fraction yaw_slip_fraction"
+        require_each(self, require_in, names, "[0, 1]")
+        names = "stuck_tolerance stuck_speed_fraction accel_consistency_per_speed gain_cross_coupling"
+        require_each(self, require_in, names + " gain_offset_allowance", "[0, inf)")
+        require_in("fast_consistency_factor", self.fast_consistency_factor, "(0, inf]")
+        require_in("stuck_braking_deceleration", self.stuck_braking_deceleration, "(0, inf] m/s^2")
+        require_in("gain_threshold", self.gain_threshold, "(0, inf]")
+
+
+def require_each(fields, check, names: str, allowed: str, prefix: str = "") -> None:
+    """``check`` (require_in, require_integer) of each of the space-separated ``names`` of ``fields``,
+    in order, against ``allowed``; the message names the field ``prefix + name``."""
+    for name in names.split():
+        check(prefix + name, getattr(fields, name), allowed)
 
 
 @dc.dataclass(frozen=True)
@@ -301,24 +288,15 @@ class HealthGeometry:
     slip_speed_floor: float = 0.3
 
 
-_RECORD_FIELDS = (
-    "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
-    "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
-    "accel_consistency "
-    "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
-    "bias_step_samples bias_step_yaw_rate yaw_slip_fraction yaw_witness_lag yaw_threshold "
-    "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
-    "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
-    "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
-    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
-    "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant accel_initial_bias_std "
-    "accel_drift_density inertial_hold_time gyro_resolution accel_resolution encoder_hold_time "
-    "accelerometer_sets tyre_peak_acceleration "
-    "mass wheel_inertia motor_constant motor_current_limit "
-    "bearing_drag shoe_offset "
-    "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
-    "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor"
-).split()
+_RECORDED = (
+    [f for f in dc.fields(SensorHealthParameters) if f.name != "max_wheel_speed"],  # the geometry's in force
+    dc.fields(HealthGeometry),
+)
+"""The fields health_record copies: the thresholds, yaw_false_alarm_time as the yaw test's threshold,
+then the geometry."""
+_RECORD_FIELDS = [
+    "yaw_threshold" if f.name == "yaw_false_alarm_time" else f.name for fields in _RECORDED for f in fields
+]
 DERIVED_FIELDS = (
     "analog_present saturation_level max_step clip_floor stuck_repeats "
     "encoder_jump_bound encoder_stuck_samples "
@@ -333,7 +311,6 @@ encoder_constants, pair_constants, gain_constants, yaw_constants)."""
 HealthConstants = collections.namedtuple("HealthConstants", _RECORD_FIELDS + DERIVED_FIELDS)
 """What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
 is the bound in force), then the DERIVED_FIELDS."""
-_GEOMETRY_FIELDS = _RECORD_FIELDS[_RECORD_FIELDS.index("radius_R") :]
 FORCE_REFERENCE_FIELDS = tuple(_RECORD_FIELDS[_RECORD_FIELDS.index("mass") :])
 """HealthGeometry's figures of the nominal robot for the force reference and the yaw dynamics
 (RobotParameters' names)."""
@@ -344,34 +321,17 @@ NO_YAW_CALIBRATION = (0.0, 0.0)
 
 
 def health_record(p: SensorHealthParameters, g: HealthGeometry) -> HealthConstants:
-    """The parameters and the geometry as one record in HealthConstants' order (bool, int or float;
-    accelerometer_position a pair of floats), the DERIVED_FIELDS None (check.health_constants fills
-    them)."""
+    """The parameters and the geometry as one record in HealthConstants' order (bool, int or float as
+    declared; accelerometer_position a pair of floats), the DERIVED_FIELDS None (check.health_constants
+    fills them)."""
     values = []
-    for name in _RECORD_FIELDS:
-        if name == "yaw_threshold":  # the yaw test's CUSUM threshold (systems/health/yaw_witness.py)
-            values.append(yaw_test_threshold(p.yaw_false_alarm_time, g.T_N))
-            continue
-        value = getattr(g if name in _GEOMETRY_FIELDS else p, name)
-        if name == "accelerometer_position":
-            value = (float(value[0]), float(value[1]))
-        elif name == "enabled":
-            value = bool(value)
-        elif name in (
-            "stuck_samples",
-            "consistency_samples",
-            "fast_consistency_samples",
-            "encoder_readmission_samples",
-            "gyro_readmission_samples",
-            "clip_samples",
-            "clip_window",
-            "gain_samples",
-            "gain_block_samples",
-            "bias_step_samples",
-            "accelerometer_sets",
-        ):
-            value = int(value)
-        else:
-            value = float(value)
-        values.append(value)
+    for source, fields in zip((p, g), _RECORDED, strict=True):
+        for f in fields:
+            value = getattr(source, f.name)
+            if f.name == "yaw_false_alarm_time":  # the yaw test's CUSUM threshold (yaw_witness.py)
+                values.append(yaw_test_threshold(value, g.T_N))
+            elif f.type is tuple:
+                values.append((float(value[0]), float(value[1])))
+            else:
+                values.append(f.type(value))  # bool, int or float
     return HealthConstants(*values, *([None] * len(DERIVED_FIELDS)))

@@ -60,7 +60,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT
+from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT, require_each
 from slipnav.systems.ranges import out_of_range, require_in
 from slipnav.systems.robot.contact import shoe_drag
 from slipnav.systems.robot.parameters import RobotParameters
@@ -69,6 +69,8 @@ from slipnav.systems.state_layout import layout_indices, layout_size
 PERTURBATION_CHANNELS = ("wheel_R", "wheel_L", "yaw", "body")
 """The flags, in order: a wheel's code is WHEEL_BRAKED or WHEEL_DRIVEN; yaw and body 0 or 1."""
 WHEEL_BRAKED, WHEEL_DRIVEN = 1, 2
+_PREFIX = "perturbation_monitor."
+"""The scenario key of PerturbationParameters, in the messages of its range checks."""
 
 
 @dc.dataclass
@@ -141,27 +143,15 @@ class PerturbationParameters:
     push_demand: float = 0.5
 
     def __post_init__(self):
-        positive = (
-            "time_constant", "reference_acceleration", "speed_threshold", "yaw_threshold",
-            "slide_time_constant", "slide_demand_hold",
-        )  # fmt: skip
-        for name in positive + ("lateral_threshold",):
-            require_in(f"perturbation_monitor.{name}", getattr(self, name), "(0, inf)")
-        for name in ("force_threshold", "slide_threshold", "slide_demand"):  # inf allowed
-            require_in(f"perturbation_monitor.{name}", getattr(self, name), "(0, inf]")
-        for name in (
-            "speed_fraction",
-            "yaw_fraction",
-            "lateral_per_speed",
-            "lateral_fraction",
-            "slide_per_speed",
-            "force_fraction",
-        ):
-            require_in(f"perturbation_monitor.{name}", getattr(self, name), "[0, inf)")
-        require_in("perturbation_monitor.push_demand", self.push_demand, "[0, inf]")  # inf allowed
+        names = "time_constant reference_acceleration speed_threshold yaw_threshold slide_time_constant"
+        require_each(self, require_in, names + " slide_demand_hold lateral_threshold", "(0, inf)", _PREFIX)
+        require_each(self, require_in, "force_threshold slide_threshold slide_demand", "(0, inf]", _PREFIX)
+        names = "speed_fraction yaw_fraction lateral_per_speed lateral_fraction slide_per_speed"
+        require_each(self, require_in, names + " force_fraction", "[0, inf)", _PREFIX)
+        require_in(_PREFIX + "push_demand", self.push_demand, "[0, inf]")  # inf allowed
         n = self.confirm_samples
         if int(n) != n or not 1 <= n <= 100:  # a whole number of samples
-            raise out_of_range("perturbation_monitor.confirm_samples", n, "1 .. 100")
+            raise out_of_range(_PREFIX + "confirm_samples", n, "1 .. 100")
 
     def validate(self) -> "PerturbationParameters":
         self.__post_init__()
