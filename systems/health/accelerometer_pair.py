@@ -15,8 +15,8 @@ sensor stays out until the pair's averages fall below half their bounds (a hold 
 alone: until its evidence is gone and that of a gain within gain_release is in).
 
 An excluded axis reads its partner's plus the rotational difference and the learned offset
-(systems/health/analog.py). A robot with fewer than two sets, or a log whose one IMU fills both
-(pair_copied), has no pair: nothing is judged (pair_present).
+(systems/health/analog.py). A robot with fewer than two sets, or a log whose one IMU fills both, has no
+pair: nothing is judged (pair_present).
 """
 
 import math
@@ -43,7 +43,7 @@ from slipnav.systems.health.pair_gain import (
     pair_gain_reset,
     pair_gain_upper_bound,
 )
-from slipnav.systems.health.parameters import INCONSISTENT, PLAUSIBLE_CURRENT
+from slipnav.systems.health.parameters import INCONSISTENT, plausible_currents
 from slipnav.systems.residual_test import chi_square_gate
 from slipnav.systems.robot.contact import shoe_drag
 
@@ -101,17 +101,11 @@ def pair_omega_squared(sample, position) -> float:
 
 
 @jitable
-def pair_copied(raw) -> bool:
-    """Both accelerometers read the same values on both axes: one IMU copied into both sets of a log,
-    which says nothing of their agreement or of omega^2 (two real sensors' noise never repeats)."""
-    return raw[0] == raw[2] and raw[1] == raw[3]
-
-
-@jitable
 def pair_present(raw, g) -> bool:
-    """The robot has two accelerometer sets (HealthGeometry.accelerometer_sets) and they are two sensors:
-    not one IMU copied into both sets of a log (pair_copied)."""
-    return g.accelerometer_sets == 2 and not pair_copied(raw)
+    """The robot has two accelerometer sets (HealthGeometry.accelerometer_sets) and they are two sensors,
+    not one IMU copied into both sets of a log (the same values on both axes, which say nothing of their
+    agreement or of omega^2: two real sensors' noise never repeats)."""
+    return g.accelerometer_sets == 2 and not (raw[0] == raw[2] and raw[1] == raw[3])
 
 
 @jitable
@@ -144,10 +138,7 @@ def force_reference(currents, used, previous_increments, first, v_o: float, yaw_
     rad) and the nominal shoe drag at ``v_o`` and ``yaw_rate``, over the nominal mass. NaN without the
     nominal mass, on an encoder's first reading, or without plausible currents (beyond
     PLAUSIBLE_CURRENT x the driver's limit, or none)."""
-    plausible = PLAUSIBLE_CURRENT * g.motor_current_limit
-    if not (g.mass > 0.0) or first[0] or first[1]:
-        return math.nan
-    if not (abs(currents[0]) <= plausible and abs(currents[1]) <= plausible):  # False for NaN
+    if not (g.mass > 0.0) or first[0] or first[1] or not plausible_currents(currents, g.motor_current_limit):
         return math.nan
     radii = (g.radius_R, g.radius_L)
     force = 0.0

@@ -210,11 +210,8 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
                 missed[w] = still_predicted[w] - predicted[w]  # the travel missed before the detection
         else:
             still[w] = still_predicted[w] = still_predicted_abs[w] = 0.0
-            if math.isfinite(inc[w]) and code[w] == STUCK:
-                codes[FIRST_ENCODER + w], inc[w] = (
-                    RECOVERING,
-                    math.nan,
-                )  # the stuck counter resumes with a lump
+            if math.isfinite(inc[w]) and code[w] == STUCK:  # the stuck counter resumes with a lump
+                codes[FIRST_ENCODER + w], inc[w] = RECOVERING, math.nan
     return missed
 
 

@@ -82,28 +82,24 @@ def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
     hold = s[ANALOG_HOLD]
     held = hold[GYRO] > 0.0
     judged = codes[GYRO] == 0 or (held and codes[GYRO] == INCONSISTENT)
+    goes_on = False  # the block goes on to the next sample
     if judged and s[ANALOG_EXCLUDED][GYRO] > 0.0 and math.isfinite(reference[GYRO]):
-        out_code = INCONSISTENT if held else RECOVERING
+        codes[GYRO] = INCONSISTENT if held else RECOVERING  # until a block agrees
         s[GYRO_BLOCK_COUNT] += 1.0
         s[GYRO_BLOCK_DIFFERENCE] += raw[GYRO] - bias - reference[GYRO]
         s[GYRO_BLOCK_TRAVEL] += abs(reference[GYRO])
         informative = not held or s[GYRO_BLOCK_TRAVEL] * g.T_N >= YAW_RELEASE_HEADING
-        if s[GYRO_BLOCK_COUNT] < p.gyro_readmission_samples or not informative:
-            codes[GYRO] = out_code
-        else:
-            n = s[GYRO_BLOCK_COUNT]
-            counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
-            allowed = (
-                3.0 * g.gyro_noise_std * math.sqrt(n)
-                + counts
-                + p.gyro_readmission_fraction * s[GYRO_BLOCK_TRAVEL]
-            )
-            if abs(s[GYRO_BLOCK_DIFFERENCE]) > allowed:
-                codes[GYRO] = out_code  # a new block from the next sample
-            else:
-                codes[GYRO], hold[GYRO] = 0, 0.0
-            s[GYRO_BLOCK_COUNT], s[GYRO_BLOCK_DIFFERENCE], s[GYRO_BLOCK_TRAVEL] = 0.0, 0.0, 0.0
-    else:
+        n = s[GYRO_BLOCK_COUNT]
+        goes_on = n < p.gyro_readmission_samples or not informative
+        counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
+        allowed = (
+            3.0 * g.gyro_noise_std * math.sqrt(n)
+            + counts
+            + p.gyro_readmission_fraction * s[GYRO_BLOCK_TRAVEL]
+        )
+        if not goes_on and not abs(s[GYRO_BLOCK_DIFFERENCE]) > allowed:
+            codes[GYRO], hold[GYRO] = 0, 0.0
+    if not goes_on:  # judged, or no block: the next one starts anew
         s[GYRO_BLOCK_COUNT], s[GYRO_BLOCK_DIFFERENCE], s[GYRO_BLOCK_TRAVEL] = 0.0, 0.0, 0.0
     gyro_bias_step_block(s, codes[GYRO], raw[GYRO] - bias - reference[GYRO], reference[GYRO], p, g)
 

@@ -147,19 +147,18 @@ class SensorHealthMonitor(LeafSystem):
             self.DeclareVectorInputPort(name, size)
             for name, size in (("accelerometers", 4), ("gyro", 1), ("encoders", 2))
         ]
-        self._currents = self.DeclareVectorInputPort("motor_currents", 2)
-        self._velocity = self.DeclareVectorInputPort("body_velocity", 2)
-        self._tyre_peak = self.DeclareVectorInputPort("tyre_peak", 1)
-        self._yaw_calibration = self.DeclareVectorInputPort("yaw_calibration", 2)
+        self._optional = [  # the optional inputs and what an unconnected one reads
+            (self.DeclareVectorInputPort(name, size), unconnected)
+            for name, size, unconnected in (
+                ("motor_currents", 2, NO_CURRENTS),
+                ("body_velocity", 2, NO_VELOCITY),
+                ("tyre_peak", 1, (math.nan,)),
+                ("yaw_calibration", 2, NO_YAW_CALIBRATION),
+            )
+        ]
         self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
-        prereq = {
-            self.xd_ticket(),
-            self._currents.ticket(),
-            self._velocity.ticket(),
-            self._tyre_peak.ticket(),
-            self._yaw_calibration.ticket(),
-        }
-        prereq |= {port.ticket() for port in self._inputs}
+        prereq = {self.xd_ticket()} | {port.ticket() for port in self._inputs}
+        prereq |= {port.ticket() for port, _ in self._optional}
         size = sum(n for _, n in HEALTH_STEP_LAYOUT)
         self._step = self.DeclareVectorOutputPort("step", size, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
@@ -167,14 +166,10 @@ class SensorHealthMonitor(LeafSystem):
     def _calc(self, context, output):
         raw = tuple([v for port in self._inputs for v in port.Eval(context).tolist()])
         state = context.get_discrete_state(self._state).get_value()
-        port = self._currents
-        currents = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_CURRENTS
-        port = self._velocity
-        velocity = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_VELOCITY
-        port = self._tyre_peak
-        peak = float(port.Eval(context)[0]) if port.HasValue(context) else math.nan
-        port = self._yaw_calibration
-        calibration = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_YAW_CALIBRATION
+        currents, velocity, (peak,), calibration = (
+            tuple(port.Eval(context).tolist()) if port.HasValue(context) else unconnected
+            for port, unconnected in self._optional
+        )
         state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak, calibration)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state

@@ -6,6 +6,7 @@ import collections
 import dataclasses as dc
 import math
 
+from slipnav.systems.compiled import jitable
 from slipnav.systems.health.layout import GAIN_WINDOW_MAX
 from slipnav.systems.health.yaw_witness import yaw_test_threshold
 from slipnav.systems.ranges import is_integer, out_of_range, require_in, require_integer
@@ -15,13 +16,21 @@ NO_CURRENTS = (math.nan, math.nan)
 odometry's, and the perturbation monitor has no force test."""
 PLAUSIBLE_CURRENT = 1.5
 """A current reading beyond this many times the driver's limit is implausible: no force reference or
-force test from it."""
+force test from it (plausible_currents)."""
 HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
 """Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
 NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
 NUM_ANALOG, GYRO, FIRST_ENCODER, NUM_CHANNELS = 5, 4, 5, 7
 """A sample's channels [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L]: the analog ones first, the
 gyro's index, the right encoder's, all of them."""
+
+
+@jitable
+def plausible_currents(currents, current_limit: float) -> bool:
+    """Both readings [i_R, i_L] (A) within PLAUSIBLE_CURRENT times the driver's ``current_limit`` (False
+    for NaN)."""
+    plausible = PLAUSIBLE_CURRENT * current_limit
+    return abs(currents[0]) <= plausible and abs(currents[1]) <= plausible
 
 
 @dc.dataclass

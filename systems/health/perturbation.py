@@ -60,7 +60,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT, require_each
+from slipnav.systems.health.parameters import NO_CURRENTS, plausible_currents, require_each
 from slipnav.systems.ranges import out_of_range, require_in
 from slipnav.systems.robot.contact import shoe_drag
 from slipnav.systems.robot.parameters import RobotParameters
@@ -179,17 +179,10 @@ PERTURBATION_LAYOUT = (
 """The monitor's state, in order (name, size); the flags last."""
 _INDEX = layout_indices(PERTURBATION_LAYOUT)
 STATE_SIZE = layout_size(PERTURBATION_LAYOUT)
-REFERENCE, WHEEL_RESIDUAL, YAW_RESIDUAL = (
-    _INDEX["reference"],
-    _INDEX["wheel_residual"],
-    _INDEX["yaw_residual"],
-)
-LATERAL_RESIDUAL, CONFIRM_COUNTS = _INDEX["lateral_residual"], _INDEX["confirm_counts"]
-LAST_ENCODER, FORCE_STAGE1, FORCE_STAGE2 = (
-    _INDEX["last_encoder"],
-    _INDEX["force_stage1"],
-    _INDEX["force_stage2"],
-)
+REFERENCE, WHEEL_RESIDUAL = _INDEX["reference"], _INDEX["wheel_residual"]
+YAW_RESIDUAL, LATERAL_RESIDUAL = _INDEX["yaw_residual"], _INDEX["lateral_residual"]
+CONFIRM_COUNTS, LAST_ENCODER = _INDEX["confirm_counts"], _INDEX["last_encoder"]
+FORCE_STAGE1, FORCE_STAGE2 = _INDEX["force_stage1"], _INDEX["force_stage2"]
 SLIDE_VELOCITY, HELD_DEMAND = _INDEX["slide_velocity"], _INDEX["held_demand"]
 SIDEWAYS_COUNT, SIDEWAYS_PUSH = _INDEX["sideways_count"], _INDEX["sideways_push"]
 SIDEWAYS_VETO, SIDEWAYS_SEEN = _INDEX["sideways_veto"], _INDEX["sideways_seen"]
@@ -321,8 +314,7 @@ def force_test(s, command, rates, currents, estimate, robot, outside, a: float, 
     testable = (
         robot is not None
         and math.isfinite(params.force_threshold)
-        and abs(currents[0]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit  # False for NaN
-        and abs(currents[1]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit
+        and plausible_currents(currents, robot.motor_current_limit)
     )
     forces = unexplained_force(s, rates, currents, estimate, robot, a, T_N) if testable else None
     if forces is None:

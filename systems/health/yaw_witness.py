@@ -152,9 +152,7 @@ def yaw_residual_variance(witness: float, witness_rate: float, c) -> float:
     of change ``witness_rate`` (rad/s^2); ``c``: HealthConstants (or anything with their
     yaw_slip_fraction, yaw_witness_lag and yaw_residual_floor, yaw_constants)."""
     return (
-        c.yaw_residual_floor
-        + (c.yaw_slip_fraction * witness) ** 2
-        + (c.yaw_witness_lag * witness_rate) ** 2
+        c.yaw_residual_floor + (c.yaw_slip_fraction * witness) ** 2 + (c.yaw_witness_lag * witness_rate) ** 2
     )
 
 
