@@ -458,15 +458,13 @@ def test_the_fast_pair_bound_by_hand():
     limit = 2.6
     for axis, lever in ((0, 0.015), (1, 0.02)):
         bound = 1.6 * limit + 5 * 2 * lever * omega_dot_std
-        assert fast_pair_ratio(bound, limit, axis, True, constants, constants) == pytest.approx(limit)
-        assert fast_pair_ratio(-0.5 * bound, limit, axis, True, constants, constants) == pytest.approx(
-            0.5 * limit
-        )
-        assert fast_pair_ratio(bound, limit, axis, False, constants, constants) == 0.0
+        assert fast_pair_ratio(bound, limit, axis, True, constants) == pytest.approx(limit)
+        assert fast_pair_ratio(-0.5 * bound, limit, axis, True, constants) == pytest.approx(0.5 * limit)
+        assert fast_pair_ratio(bound, limit, axis, False, constants) == 0.0
     off = HealthConstants(
         *health_constants(SensorHealthParameters(fast_consistency_factor=math.inf), GEOMETRY)
     )
-    assert fast_pair_ratio(100.0, limit, 0, True, off, off) == 0.0
+    assert fast_pair_ratio(100.0, limit, 0, True, off) == 0.0
     for bad in (0, 51, True, 2.0):
         with pytest.raises(ValueError, match=r"fast_consistency_samples=.*integers in \[1, 50\]"):
             SensorHealthParameters(fast_consistency_samples=bad)

@@ -13,7 +13,6 @@ evidence that it agrees again.
 
 from slipnav.systems.health.check import health_check, health_constants, health_step
 from slipnav.systems.health.layout import (
-    STATE_SIZE,
     gyro_bias_step,
     health_initial_state,
     travel_restored,
@@ -25,7 +24,6 @@ from slipnav.systems.health.monitor import (
     health_flags,
     health_report,
     odometry_unusable,
-    slip_detector_blind,
 )
 from slipnav.systems.health.parameters import (
     FORCE_REFERENCE_FIELDS,
@@ -33,11 +31,7 @@ from slipnav.systems.health.parameters import (
     INCONSISTENT,
     JUMP,
     NO_CURRENTS,
-    NO_VELOCITY,
-    NO_YAW_CALIBRATION,
     NONFINITE,
-    NUM_CHANNELS,
-    PLAUSIBLE_CURRENT,
     RECOVERING,
     SATURATED,
     STUCK,
@@ -54,13 +48,8 @@ __all__ = [
     "JUMP",
     "NONFINITE",
     "NO_CURRENTS",
-    "NO_VELOCITY",
-    "NO_YAW_CALIBRATION",
-    "NUM_CHANNELS",
-    "PLAUSIBLE_CURRENT",
     "RECOVERING",
     "SATURATED",
-    "STATE_SIZE",
     "STUCK",
     "HealthConstants",
     "HealthGeometry",
@@ -74,7 +63,6 @@ __all__ = [
     "health_report",
     "health_step",
     "odometry_unusable",
-    "slip_detector_blind",
     "travel_restored",
     "yaw_pair_witness",
 ]

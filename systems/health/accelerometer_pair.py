@@ -15,8 +15,7 @@ sensor stays out until the pair's averages fall below half their bounds (a hold 
 alone: until its evidence is gone and that of a gain within gain_release is in).
 
 An excluded axis reads its partner's plus the rotational difference and the learned offset
-(systems/health/analog.py). A robot with fewer than two sets, or a log whose one IMU fills both
-(pair_copied), has no pair: nothing is judged (pair_present).
+(analog.analog_outputs). Without two sensors there is no pair: nothing is judged (pair_present).
 """
 
 import math
@@ -43,7 +42,7 @@ from slipnav.systems.health.pair_gain import (
     pair_gain_reset,
     pair_gain_upper_bound,
 )
-from slipnav.systems.health.parameters import INCONSISTENT, PLAUSIBLE_CURRENT
+from slipnav.systems.health.parameters import INCONSISTENT, plausible_currents
 from slipnav.systems.residual_test import chi_square_gate
 from slipnav.systems.robot.contact import shoe_drag
 
@@ -52,18 +51,15 @@ PAIR_OFFSET_FALSE_ALARM = 1e-4
 FAST_ROTATION_SIGMAS = 5.0
 """The fast pair test's bound allows this many standard deviations of the noise that the gyro's
 sample-to-sample difference (omega') puts into the fast average's rotational terms, 2 omega' y (t) and
-2 omega' x (n): Kurt3D's accelerometers sit at +-(0.1, 0.05) m, Tinyphoon's at +-(0.02, 0.015) m."""
+2 omega' x (n) (fast_pair_ratio)."""
 
 
 def pair_constants(c) -> dict:
-    """The pair tests' figures of the record ``c`` (HealthConstants): pair_offset_drift, the offset
-    variance's growth per sample (2 accel_drift_density^2 T_N, the two biases' random walk);
-    pair_offset_white, the disagreement's white noise variance (2 accel_noise_std^2), pair_offset_phi,
-    the commotion's correlation from one sample to the next, pair_offset_gate, the chi-square gate of
-    PAIR_OFFSET_FALSE_ALARM, and per axis [t, n] pair_offset_rotation, the variance of a block's summed
-    omega' terms (2 (2 lever gyro_noise_std / T_N)^2, the lever y for t, x for n: pair_offset_update);
-    per axis, fast_rotation_allowance, FAST_ROTATION_SIGMAS of the noise the gyro's omega' puts into the
-    fast average's rotational term (fast_pair_ratio)."""
+    """The pair tests' figures of the record ``c`` (HealthConstants), for pair_offset_update:
+    pair_offset_drift, pair_offset_white (the disagreement's white noise variance), pair_offset_phi (the
+    commotion's correlation from one sample to the next), pair_offset_gate (the chi-square gate of
+    PAIR_OFFSET_FALSE_ALARM) and, per axis [t, n], pair_offset_rotation (the variance of a block's summed
+    omega' terms on the lever, y for t, x for n); for fast_pair_ratio, per axis, fast_rotation_allowance."""
     omega_dot_std = averaged_omega_dot_std(1.0 / c.fast_consistency_samples, c)
     return {
         "pair_offset_drift": 2.0 * c.accel_drift_density**2 * c.T_N,
@@ -101,17 +97,11 @@ def pair_omega_squared(sample, position) -> float:
 
 
 @jitable
-def pair_copied(raw) -> bool:
-    """Both accelerometers read the same values on both axes: one IMU copied into both sets of a log,
-    which says nothing of their agreement or of omega^2 (two real sensors' noise never repeats)."""
-    return raw[0] == raw[2] and raw[1] == raw[3]
-
-
-@jitable
 def pair_present(raw, g) -> bool:
-    """The robot has two accelerometer sets (HealthGeometry.accelerometer_sets) and they are two sensors:
-    not one IMU copied into both sets of a log (pair_copied)."""
-    return g.accelerometer_sets == 2 and not pair_copied(raw)
+    """The robot has two accelerometer sets (HealthGeometry.accelerometer_sets) and they are two sensors,
+    not one IMU copied into both sets of a log (the same values on both axes, which say nothing of their
+    agreement or of omega^2: two real sensors' noise never repeats)."""
+    return g.accelerometer_sets == 2 and not (raw[0] == raw[2] and raw[1] == raw[3])
 
 
 @jitable
@@ -144,10 +134,7 @@ def force_reference(currents, used, previous_increments, first, v_o: float, yaw_
     rad) and the nominal shoe drag at ``v_o`` and ``yaw_rate``, over the nominal mass. NaN without the
     nominal mass, on an encoder's first reading, or without plausible currents (beyond
     PLAUSIBLE_CURRENT x the driver's limit, or none)."""
-    plausible = PLAUSIBLE_CURRENT * g.motor_current_limit
-    if not (g.mass > 0.0) or first[0] or first[1]:
-        return math.nan
-    if not (abs(currents[0]) <= plausible and abs(currents[1]) <= plausible):  # False for NaN
+    if not (g.mass > 0.0) or first[0] or first[1] or not plausible_currents(currents, g.motor_current_limit):
         return math.nan
     radii = (g.radius_R, g.radius_L)
     force = 0.0
@@ -163,15 +150,13 @@ def force_reference(currents, used, previous_increments, first, v_o: float, yaw_
 @jitable
 def pair_offset_update(s, axis: int, disagreement: float, speed: float, other: float, p, g):
     """Learns the pair's offset a_1 - a_2 beyond the rotational terms on ``axis`` (the bias difference):
-    a scalar Kalman filter (pair_offset, its variance in pair_offset_variance: from 2
-    accel_initial_bias_std^2, plus 2 accel_drift_density^2 T_N every sample, the two biases' random walk)
-    whose measurement is the mean ``disagreement`` over a block of consistency_samples contiguous samples:
-    its omega' terms 2 x (omega_k - omega_k-1) / T_N telescope to the block's ends (variance
-    pair_offset_rotation / n^2), and each sample adds its white noise, the commotion at ``speed`` (S(3)'s
-    Gauss-Markov process, its correlation counted as (1 + phi)/(1 - phi) samples) and gain_cross_coupling
-    of the ``other`` axis's acceleration (misalignment), over n^2. A block whose innovation lies beyond
-    pair_offset_gate of its variance is a change of the pair, which the pair's tests judge: it is not
-    learned, and the variance keeps growing meanwhile."""
+    a scalar Kalman filter (pair_offset, its variance pair_offset_variance: from 2 accel_initial_bias_std^2,
+    plus 2 accel_drift_density^2 T_N every sample, the two biases' random walk) whose measurement is the
+    mean ``disagreement`` over a block of consistency_samples contiguous samples. The block's omega' terms
+    telescope to its ends (variance pair_offset_rotation / n^2); each sample adds its white noise, the
+    commotion at ``speed`` (S(3)'s Gauss-Markov process, counted as (1 + phi)/(1 - phi) samples) and
+    gain_cross_coupling of the ``other`` axis's acceleration, over n^2. A block whose innovation is beyond
+    pair_offset_gate of its variance is a change of the pair, which the pair's tests judge: not learned."""
     count = s[PAIR_OFFSET_BLOCK_COUNT]
     block_sum = s[PAIR_OFFSET_BLOCK_SUM]
     block_noise = s[PAIR_OFFSET_BLOCK_NOISE]
@@ -217,13 +202,11 @@ def pair_offset_block_reset(s, axis: int) -> None:
 
 
 @jitable
-def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p, g) -> float:
+def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p) -> float:
     """The fast pair test's average over its bound, in units of the slow test's bound ``limit`` (> limit
-    flags): the bound is fast_consistency_factor x limit plus FAST_ROTATION_SIGMAS of the noise that omega'
-    from the gyro's difference puts into the average's rotational term (the average of a difference over
-    fast_consistency_samples n: averaged_omega_dot_std with g = 1/n, times the lever 2 y for t, 2 x for
-    n). 0 while the test is off or the gyro is not trusted (the odometry's omega' is one count's
-    55 rad/s^2 a sample on Tinyphoon)."""
+    flags): the bound is fast_consistency_factor x limit plus fast_rotation_allowance, FAST_ROTATION_SIGMAS
+    of averaged_omega_dot_std (gain 1 / fast_consistency_samples) on the lever 2 y for t, 2 x for n. 0
+    while the test is off or the gyro is not trusted (the odometry's omega' is a count's step)."""
     if not known or math.isinf(p.fast_consistency_factor):
         return 0.0
     bound = p.fast_consistency_factor * limit + p.fast_rotation_allowance[axis]  # pair_constants
@@ -232,10 +215,10 @@ def fast_pair_ratio(fast_average: float, limit: float, axis: int, known: bool, p
 
 @jitable
 def pair_check(s, raw, codes, rot, rot_dot, omega, a_force, v_o, moving, fast_known, p, g) -> None:
-    """The pair's tests (module docstring) on both axes; writes codes[0:4]. ``rot``, ``rot_dot``:
-    pair_rotational_terms; ``omega``: the body's yaw rate (rad/s); ``a_force``: force_reference (NaN:
-    none); ``v_o``: the odometric speed (m/s); ``moving``: the wheels turned; ``fast_known``: the gyro's
-    omega' is known on this sample (trusted on this and the previous one)."""
+    """The pair's tests on both axes; writes codes[0:4]. ``rot``, ``rot_dot``: pair_rotational_terms;
+    ``omega``: the body's yaw rate (rad/s); ``a_force``: force_reference (NaN: none); ``v_o``: the
+    odometric speed (m/s); ``moving``: the wheels turned; ``fast_known``: the gyro is trusted on this and
+    the previous sample (its omega' is known)."""
     deviation = s[PAIR_DEVIATION]
     level = s[PAIR_LEVEL]
     limit = p.accel_consistency + p.accel_consistency_per_speed * abs(v_o)
@@ -276,7 +259,7 @@ def pair_axis_evidence(s, axis, raw, codes, rot, rot_dot, limit, speed, moving, 
         fast_average[axis] += (offset_free - fast_average[axis]) / p.fast_consistency_samples
     else:  # the replacement's omega' is not averaged in: restart from the slow average
         fast_average[axis] = average[axis]
-    fast = fast_pair_ratio(fast_average[axis], limit, axis, fast_known, p, g)  # 0: off, or no gyro
+    fast = fast_pair_ratio(fast_average[axis], limit, axis, fast_known, p)  # 0: off, or no gyro
     mean = 0.5 * (raw[axis] + raw[axis + 2])
     other = 0.5 * (raw[1 - axis] + raw[3 - axis])
     # learned with the gyro's omega' on this sample (fast_known) and both axes healthy
@@ -292,10 +275,9 @@ def pair_axis_evidence(s, axis, raw, codes, rot, rot_dot, limit, speed, moving, 
 @jitable
 def pair_axis_decision(s, axis, raw, codes, limit, fast, gain, force_known, fast_known, p) -> None:
     """One axis's flag, blame and release (module docstring): each sensor's level follows it while the
-    pair agrees; a flag blames the sensor that moved more from its level plus lies farther from the
-    kinematics (each alone errs: the true signal moves meanwhile, and the wheels slip), the distance alone
-    with the force reference (``force_known``: it does not slip, and a hard braking's true change would
-    blame the healthy one) or when only the gain test flags (a scale fault grows with the signal)."""
+    pair agrees; a flag blames by the change from the level plus the distance from the kinematics (each
+    alone errs: the true signal moves meanwhile, and the wheels slip), by the distance alone with the force
+    reference (``force_known``) or when only the gain test flags (a scale fault grows with the signal)."""
     average = s[PAIR_AVERAGE]
     deviation = s[PAIR_DEVIATION]
     level = s[PAIR_LEVEL]

@@ -12,11 +12,8 @@ against its data sheet and its last accepted value (health codes 1-4), and the v
    the last accepted value, the gyro's less b_g) against what the robot can do in one sample
    (gyro_max_step, accel_max_step); ``recovering`` while the channel is excluded and still beyond it.
 
-A channel of an absent accelerometer set (SensorParameters.accelerometer_sets) is not judged.
-An excluded channel outputs its replacement (analog_outputs): the gyro the yaw rate of its witnesses
-(systems/health/gyro.py) plus b_g, which the navigation removes; an accelerometer axis the other
-sensor's reading of that axis plus the rotational difference and the pair's learned offset
-(systems/health/accelerometer_pair.py); else the reference carried along.
+A channel of an absent accelerometer set (SensorParameters.accelerometer_sets) is not judged. An
+excluded or absent channel outputs its replacement (analog_outputs).
 """
 
 import math
@@ -65,11 +62,9 @@ def checks_off(s, raw) -> tuple:
 
 
 def analog_constants(c) -> dict:
-    """analog_checks' figures of the record ``c`` (HealthConstants), per channel of [a_t1, a_n1, a_t2, a_n2,
-    omega]: analog_present (channel_present), saturation_level (saturation_fraction x the data-sheet
-    range), max_step (the jump test's bound), clip_floor (CLIP_MIN_COUNTS counts of the converter:
-    clip_returns); and stuck_repeats, the repeats beyond which a channel is stuck (stuck_samples - 1 and
-    the stream's longest healthy hold, hold_samples)."""
+    """analog_checks' figures of the record ``c`` (HealthConstants), per channel: analog_present
+    (channel_present), saturation_level, max_step (the jump test's bound), clip_floor (CLIP_MIN_COUNTS
+    counts: clip_returns); and stuck_repeats (stuck_samples - 1 beyond the stream's hold, hold_samples)."""
     ranges = (c.accel_range,) * 4 + (c.gyro_range,)
     quanta = (c.accel_resolution,) * 4 + (c.gyro_resolution,)
     return {
@@ -83,8 +78,8 @@ def analog_constants(c) -> dict:
 
 @jitable
 def analog_checks(s, raw, bias: float, codes, p) -> None:
-    """Writes codes[0:5] (module docstring, 1-4; ``inconsistent`` while a hold stands), the repeat counts,
-    the last readings and the clip ring; ``bias``: the calibration's b_g; ``p``: HealthConstants."""
+    """Writes codes[0:5] (1-4; ``inconsistent`` while a hold stands), the repeat counts, the last readings
+    and the clip ring; ``bias``: the calibration's b_g; ``p``: HealthConstants."""
     reference = s[ANALOG_REFERENCE]
     last = s[ANALOG_LAST]
     repeats = s[ANALOG_REPEATS]
@@ -123,14 +118,12 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
 
 @jitable
 def clip_returns(ring, base: int, position: int, x: float, floor: float, p) -> int:
-    """How many times reading ``x`` returned to its magnitude within the last clip_window readings (the
-    channel's ring of magnitudes ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``) since
-    the last larger one, counting this one and a run of repeats once. A clipped channel returns to its
-    rail again and again, the largest magnitude it reads; noise never repeats a value (within
-    stuck_tolerance).
-    A quantised channel returns to its largest level by its own noise while its readings span few
-    counts: 0 unless the magnitudes read since the last larger one reach ``floor`` below |x|
-    (analog_constants' clip_floor: CLIP_MIN_COUNTS counts; 0 for a continuous channel)."""
+    """How many times reading ``x`` returned to its magnitude (within stuck_tolerance) within the last
+    clip_window readings since the last larger one, counting this one and a run of repeats once (the
+    channel's ring of magnitudes ring[base : base + CLIP_WINDOW_MAX], the next slot at ``position``): a
+    clipped channel returns to its rail again and again, noise never repeats a value. 0 unless the
+    magnitudes read since the last larger one reach ``floor`` below |x| (clip_floor; 0 for a continuous
+    channel): a quantised channel returns to its largest level by its own noise."""
     tol = p.stuck_tolerance
     magnitude = abs(x)
     larger = magnitude + tol  # a reading beyond it ends the search
@@ -167,14 +160,13 @@ def channel_present(c: int, accelerometer_sets: int) -> bool:
 
 @jitable
 def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation, present, out) -> None:
-    """Writes out[0:5]: the reading, else its replacement (module docstring), and the references; a
-    frozen gyro's owed heading is paid back on out[4] (systems/health/gyro.py). ``gyro_replacement``:
-    the excluded gyro's yaw rate from its witnesses (rad/s, without b_g); ``rotation``: the pair's
-    rotational difference per axis (t, n) with its angular-acceleration terms (m/s^2); ``present``: the
-    channels the robot has (analog_constants' analog_present). An absent set 2 reads set 1's output
-    moved across the pair (the rotational difference), so that S(3)'s mean is the body centre's; without
-    accelerometers the four channels read 0 (the navigation then measures no acceleration:
-    monitor.health_flags)."""
+    """Writes out[0:5] and the references: the reading, else its replacement. The excluded gyro reads
+    ``gyro_replacement`` (its witnesses' yaw rate, rad/s) plus b_g, which the navigation removes, and a
+    frozen gyro's owed heading is paid back on it (gyro.frozen_gyro_shadow); an excluded accelerometer axis
+    reads its partner's reading plus the pair's ``rotation`` (rotational difference with its
+    angular-acceleration terms per axis t, n, m/s^2) and learned offset, else its reference carried along.
+    Of the absent channels (not ``present``) set 2 reads set 1's output moved across the pair, so that
+    S(3)'s mean is the body centre's; without accelerometers the four read 0 (monitor.health_flags)."""
     reference = s[ANALOG_REFERENCE]
     excluded = s[ANALOG_EXCLUDED]
     offset = s[PAIR_OFFSET]

@@ -1,26 +1,22 @@
 """The encoders against the other wheel and the gyro: [theta_R, theta_L], judged by their raw-to-raw
-increments.
+increments against v_pred = v_other +- b omega, the calibrated prediction v_R - v_L = b (gyro - b_g) - D v_o
+(predicted_increment; systems/navigation/yaw_calibration.py).
 
 - ``nonfinite``: NaN or inf.
 - ``jump``: an increment implying a wheel speed beyond max_wheel_speed, or a change of the wheel speed
   beyond max_wheel_acceleration max(T_N, encoder_hold_time) plus two counts against the last used
-  increment (a log that holds or interpolates its angles between readings changes its speed at once by
-  what the wheel gained over the interval).
-- ``stuck``: a count standing still for stuck_samples beyond the stream's encoder_hold_time (a log
-  that holds its angles between readings) while the other wheel and the gyro say it turns
-  faster than stuck_min_speed + stuck_speed_fraction |v_other| (v_pred = v_other +- b omega: a wheel
-  held by hand, about which the robot pivots on rolling tyres, is not flagged), counted only while the
-  body does not brake against that wheel's motion harder than stuck_braking_deceleration (a hard braking
-  locks a wheel honestly). A stuck encoder's travel missed before the detection is added then.
-- ``recovering``: excluded, until its increments agree with v_pred sample by sample and, summed over a
-  block of encoder_readmission_samples, within two counts plus encoder_readmission_fraction of the
-  predicted travel; one excluded for a disagreement (suspect) needs READMISSION_TRAVEL_COUNTS of its own
-  counts in the block: at rest a sign-flipped or doubled encoder agrees with any prediction. Without a
-  prediction, one increment agreeing with the previous one suffices. No exclusion ends on a timer.
+  increment (a log that holds its angles between readings changes its speed at once by what the wheel
+  gained over the interval).
+- ``stuck``: a count standing still for stuck_samples beyond the stream's encoder_hold_time while v_pred
+  exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (a wheel held by hand, about which
+  the robot pivots on rolling tyres, is not flagged); a sample on which the healthy tangential
+  accelerometers' mean brakes against the wheel's motion harder than stuck_braking_deceleration restarts
+  the count (a hard braking locks a wheel honestly). The travel missed before the detection is added then.
+- ``recovering``: excluded until a re-admission block agrees (readmission_block); without a prediction,
+  one increment agreeing with the previous one suffices. No exclusion ends on a timer.
 
-An excluded encoder advances by v_pred T_N / r (encoder_outputs), else by its last increment; the first
-increment after an exclusion (it spans the gap) is never used. The prediction reads the calibration:
-v_R - v_L = b (gyro - b_g) - D v_o (systems/navigation/yaw_calibration.py).
+An excluded encoder advances by v_pred T_N / r, else by its last increment (encoder_outputs); the first
+increment after an exclusion (it spans the gap) is never used.
 """
 
 import math
@@ -47,18 +43,15 @@ from slipnav.systems.health.layout import (
 from slipnav.systems.health.parameters import FIRST_ENCODER, JUMP, NONFINITE, RECOVERING, STUCK
 
 READMISSION_TRAVEL_COUNTS = 10.0
-"""An encoder excluded for a disagreement (a jump, a stuck count, an increment or a block off the
-prediction) has its re-admission block judged only once the encoder itself has counted this many counts
-in it (five times the block's two-count allowance): at rest a sign-flipped or doubled encoder agrees with
-any prediction, so the block goes on until the wheel has turned enough to tell. One excluded for a
-non-finite reading comes back at rest."""
+"""The counts an encoder excluded for a disagreement (suspect) must itself count in its re-admission block
+before the block is judged (five times its two-count allowance): at rest a sign-flipped or doubled encoder
+agrees with any prediction. One excluded for a non-finite reading comes back at rest."""
 
 
 def encoder_constants(c) -> dict:
-    """The encoder tests' figures of the record ``c`` (HealthConstants): encoder_jump_bound, per wheel
-    [R, L], the largest change of the increment (rad): max_wheel_acceleration over max(T_N,
-    encoder_hold_time) plus two counts per sample, for one T_N; encoder_stuck_samples, the still samples
-    that make a stuck count (stuck_samples beyond the stream's hold, hold_samples)."""
+    """The encoder tests' figures of the record ``c`` (HealthConstants): encoder_jump_bound, the jump
+    test's bound on the change of the increment per wheel [R, L] (rad); encoder_stuck_samples, the still
+    samples that make a stuck count (hold_samples)."""
     count_speed = 2.0 * c.encoder_step / c.T_N
     return {
         "encoder_jump_bound": tuple(
@@ -71,9 +64,8 @@ def encoder_constants(c) -> dict:
 
 @jitable
 def predicted_increment(w: int, other_increment: float, gyro: float, radius_difference: float, g) -> float:
-    """Wheel w's increment (rad) from the other wheel's and the gyro less b_g (rad/s): v_R - v_L =
-    b omega - D v_o in the nominal radii (the calibration's omega = omega_o + D v_o / b), v_o taken as the
-    other wheel's."""
+    """Wheel w's increment (rad) from the other wheel's and the gyro less b_g (rad/s), v_pred in the nominal
+    radii, v_o taken as the other wheel's."""
     radii = (g.radius_R, g.radius_L)
     v_other = other_increment * radii[1 - w] / g.T_N
     turn = g.track_width * gyro - radius_difference * v_other
@@ -90,10 +82,9 @@ def previous_encoder_output(s) -> list:
 
 @jitable
 def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: bool, codes, p, g) -> tuple:
-    """Judges each encoder's raw increment (module docstring: nonfinite, jump, recovering) and its
-    re-admission block; writes codes[5:7]. Returns (the accepted increments, NaN where none; True where
-    this is the encoder's first reading; True where the sample extended a re-admission block that is
-    not judged yet)."""
+    """Judges each encoder's raw increment (nonfinite, jump, recovering); writes codes[5:7]. Returns (the
+    accepted increments, NaN where none; True on the encoder's first reading; True where the sample
+    extended a re-admission block not judged yet)."""
     last = s[ENCODER_LAST_RAW]
     increment = s[ENCODER_INCREMENT]
     code = s[ENCODER_CODE]
@@ -145,10 +136,11 @@ def encoder_increments(s, raw, gyro: float, radius_difference: float, gyro_ok: b
 
 @jitable
 def readmission_block(s, w: int, d: float, expected: float, bound: float, p, g) -> tuple:
-    """One sample of wheel ``w``'s re-admission: its increment ``d`` agrees with the ``expected`` one
-    within ``bound`` (else the wheel is suspect), and over a block of encoder_readmission_samples, where
-    the counts' quantisation telescopes, their summed difference stays within two counts plus
-    encoder_readmission_fraction of the predicted travel. Returns (re-admitted, the block goes on)."""
+    """One sample of wheel ``w``'s re-admission block: each increment ``d`` agrees with the ``expected``
+    one within the jump ``bound`` (else the wheel is suspect and the block restarts), and over
+    encoder_readmission_samples (for a suspect one, once it counted READMISSION_TRAVEL_COUNTS) their summed
+    difference stays within two counts plus encoder_readmission_fraction of the predicted travel: the
+    counts' quantisation telescopes, a scale error does not. Returns (re-admitted, the block goes on)."""
     suspect = s[ENCODER_SUSPECT]
     if abs(d - expected) > bound:
         suspect[w] = 1.0
@@ -172,16 +164,15 @@ def readmission_block(s, w: int, d: float, expected: float, bound: float, p, g) 
 
 @jitable
 def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
-    """The stuck test (module docstring) on this sample's accepted increments ``inc`` and the
-    ``predicted`` ones (rad, NaN: none); writes codes[5:7]. Returns the travel each encoder missed
-    before its detection (rad), added to its output on this sample."""
+    """The stuck test on the accepted increments ``inc`` and the ``predicted`` ones (rad, NaN: none);
+    writes codes[5:7]. Returns the travel each encoder missed before its detection (rad)."""
     still = s[ENCODER_STILL]
     still_predicted = s[ENCODER_STILL_PREDICTED]
     still_predicted_abs = s[ENCODER_STILL_PREDICTED_ABS]
     code = s[ENCODER_CODE]
     suspect = s[ENCODER_SUSPECT]
     radii = (g.radius_R, g.radius_L)
-    # the body's deceleration from the healthy tangential accelerometers present (NaN if none is)
+    # the body's acceleration from the healthy tangential accelerometers present (NaN if none is)
     first_ok = codes[0] == 0 and p.analog_present[0]
     second_ok = codes[2] == 0 and p.analog_present[2]
     a_body = math.nan
@@ -210,20 +201,16 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
                 missed[w] = still_predicted[w] - predicted[w]  # the travel missed before the detection
         else:
             still[w] = still_predicted[w] = still_predicted_abs[w] = 0.0
-            if math.isfinite(inc[w]) and code[w] == STUCK:
-                codes[FIRST_ENCODER + w], inc[w] = (
-                    RECOVERING,
-                    math.nan,
-                )  # the stuck counter resumes with a lump
+            if math.isfinite(inc[w]) and code[w] == STUCK:  # the stuck counter resumes with a lump
+                codes[FIRST_ENCODER + w], inc[w] = RECOVERING, math.nan
     return missed
 
 
 @jitable
 def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_output, out) -> list:
-    """Writes out[5:7]: the accepted increment, else the predicted one, else the last one, added to the
-    previous output (``previous_output``, previous_encoder_output before this sample's checks); the
-    reading itself while the encoder is healthy, less its offset from replacements. Returns the
-    increments used (rad)."""
+    """Writes out[5:7]: the reading itself while the encoder is healthy, less its offset from replacements;
+    else ``previous_output`` (previous_encoder_output) plus the predicted increment, else the last one, and
+    the ``missed`` travel. Returns the increments used (rad)."""
     last = s[ENCODER_LAST_RAW]
     offset = s[ENCODER_OUTPUT_OFFSET]
     increment = s[ENCODER_INCREMENT]

@@ -2,24 +2,18 @@
 pair (|omega| from S(3)'s centripetal difference).
 
 - ``inconsistent``: the yaw test (systems/health/yaw_witness.py) finds the gyro's yaw rate in a turn
-  unconfirmed by the wheels' witness and not supported by the pair's |omega| (gyro_yaw_check): the gyro
-  is held out until a re-admission block that turned YAW_RELEASE_HEADING agrees in sum.
-- Re-admission (gyro_readmission): an excluded gyro comes back after gyro_readmission_samples in a row
-  within its jump bound of the replacement whose summed difference from it (a heading) stays within
-  3 noise sigmas sqrt(n), two counts of each wheel and gyro_readmission_fraction of the replacement's
-  own: a scale error does not telescope. No exclusion ends on a timer.
-- A new level is a bias to estimate (gyro_bias_step_block): while the gyro is out for a jump, blocks of
-  bias_step_samples in which the wheels say the robot drives straight and the residual is steady
-  measure a bias step, which the calibration adds to b_g; the gyro less the new b_g then agrees.
+  unconfirmed by the wheels' witness and not supported by the pair's |omega| (gyro_yaw_check).
+- Re-admission (gyro_readmission): an excluded gyro comes back only when a block of samples agrees with
+  its replacement, sample by sample and in sum (a scale error does not telescope); one the yaw test
+  holds out needs a block that turned YAW_RELEASE_HEADING. No exclusion ends on a timer.
+- A new level is a bias to estimate (gyro_bias_step_block): while the gyro is out for a jump, a steady
+  residual while driving straight is a bias step, which the calibration adds to b_g; the gyro less the
+  new b_g then agrees.
 - Replacement (wheels_yaw_rate, body_yaw_rate): the yaw rate the nominal yaw dynamics give the body
   from the wheels' calibrated speeds (yaw_follow_step, from the replacement's last value), the plain
-  odometric yaw rate without the nominal robot's figures, else the last value. A frozen gyro's
-  replacement starts from the wheels' yaw rate run through the repeats it was trusted for, and the
-  heading those repeats missed is paid back over the next stuck_samples samples (frozen_gyro_shadow).
-  A saturated gyro reads the pair's yaw rate, at least its full scale, with the gyro's sign, unless the
-  odometry says below the full scale and the pair does not say more than both it and PAIR_SPIN_MARGIN
-  times the odometric yaw rate (the gyro reads beyond the robot: the wheels' yaw rate); one clipped at a
-  rail below the range reads the wheels' yaw rate, without both encoders the pair's, at least the rail.
+  odometric yaw rate without the nominal robot's figures, else the last value; a saturated gyro's from
+  the pair or the wheels; a frozen gyro's from the wheels' yaw rate run through the repeats it was trusted
+  for, with the heading they missed paid back (frozen_gyro_shadow).
 """
 
 import math
@@ -60,11 +54,10 @@ from slipnav.systems.health.yaw_witness import (
 )
 
 PAIR_SPIN_MARGIN = 1.5
-"""A gyro railed at its full scale while the odometry says below it reads the accelerometer pair's yaw
-rate only when the pair says more than the full scale and this many times the odometric yaw rate (a
-spin the wheels do not see: a lifted wheel's), else the wheels'. (Not the wheels' yaw dynamics: they
-carry the replacement's own last value.) On Tinyphoon's +-(0.02, 0.015) m the pair's yaw rate, averaged
-over 15 samples, reads up to 5.4 rad/s while the body turns at 4.1, above the 5.2 rad/s full scale."""
+"""A gyro railed at its full scale while the odometry says below it reads the pair's yaw rate only when
+the pair says more than the full scale and this many times the odometric yaw rate (a spin the wheels do
+not see: a lifted wheel's; body_yaw_rate): on Tinyphoon's short lever the pair's averaged yaw rate reads
+up to a third above the body's."""
 YAW_RELEASE_HEADING = 0.05
 """A gyro the yaw test holds out is re-admitted only by a block whose replacement turned this much (rad,
 3 deg): driving straight says nothing of a scale error."""
@@ -76,48 +69,43 @@ wheels do not see, is no bias."""
 
 @jitable
 def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
-    """The excluded gyro's re-admission block and its bias-step block (module docstring): codes[4] is
-    RECOVERING (INCONSISTENT while the yaw test holds it) until a block agrees, then 0."""
+    """The excluded gyro's re-admission block, then its bias-step block: codes[4] is RECOVERING
+    (INCONSISTENT while the yaw test holds it) until gyro_readmission_samples in a row within the jump
+    bound of the replacement sum their difference from it (a heading) within 3 noise sigmas sqrt(n), two
+    counts of each wheel and gyro_readmission_fraction of the replacement's summed magnitude, then 0."""
     reference = s[ANALOG_REFERENCE]
     hold = s[ANALOG_HOLD]
     held = hold[GYRO] > 0.0
     judged = codes[GYRO] == 0 or (held and codes[GYRO] == INCONSISTENT)
+    goes_on = False  # the block goes on to the next sample
     if judged and s[ANALOG_EXCLUDED][GYRO] > 0.0 and math.isfinite(reference[GYRO]):
-        out_code = INCONSISTENT if held else RECOVERING
+        codes[GYRO] = INCONSISTENT if held else RECOVERING  # until a block agrees
         s[GYRO_BLOCK_COUNT] += 1.0
         s[GYRO_BLOCK_DIFFERENCE] += raw[GYRO] - bias - reference[GYRO]
         s[GYRO_BLOCK_TRAVEL] += abs(reference[GYRO])
         informative = not held or s[GYRO_BLOCK_TRAVEL] * g.T_N >= YAW_RELEASE_HEADING
-        if s[GYRO_BLOCK_COUNT] < p.gyro_readmission_samples or not informative:
-            codes[GYRO] = out_code
-        else:
-            n = s[GYRO_BLOCK_COUNT]
-            counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
-            allowed = (
-                3.0 * g.gyro_noise_std * math.sqrt(n)
-                + counts
-                + p.gyro_readmission_fraction * s[GYRO_BLOCK_TRAVEL]
-            )
-            if abs(s[GYRO_BLOCK_DIFFERENCE]) > allowed:
-                codes[GYRO] = out_code  # a new block from the next sample
-            else:
-                codes[GYRO], hold[GYRO] = 0, 0.0
-            s[GYRO_BLOCK_COUNT], s[GYRO_BLOCK_DIFFERENCE], s[GYRO_BLOCK_TRAVEL] = 0.0, 0.0, 0.0
-    else:
+        n = s[GYRO_BLOCK_COUNT]
+        goes_on = n < p.gyro_readmission_samples or not informative
+        counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
+        allowed = (
+            3.0 * g.gyro_noise_std * math.sqrt(n)
+            + counts
+            + p.gyro_readmission_fraction * s[GYRO_BLOCK_TRAVEL]
+        )
+        if not goes_on and not abs(s[GYRO_BLOCK_DIFFERENCE]) > allowed:
+            codes[GYRO], hold[GYRO] = 0, 0.0
+    if not goes_on:  # judged, or no block: the next one starts anew
         s[GYRO_BLOCK_COUNT], s[GYRO_BLOCK_DIFFERENCE], s[GYRO_BLOCK_TRAVEL] = 0.0, 0.0, 0.0
     gyro_bias_step_block(s, codes[GYRO], raw[GYRO] - bias - reference[GYRO], reference[GYRO], p, g)
 
 
 @jitable
 def gyro_bias_step_block(s, code: int, residual: float, replacement: float, p, g) -> None:
-    """The bias step of an excluded gyro (module docstring): while the gyro is out for a jump (JUMP,
-    RECOVERING), its ``residual`` against the ``replacement`` (raw - b_g - replacement, rad/s) is summed
-    over blocks of bias_step_samples. A block in which the replacement stays within bias_step_yaw_rate
-    (the wheels say the robot drives straight, where a yaw-rate scale error reads nothing) and the
-    residual's standard deviation within BIAS_STEP_SIGMAS of the gyro's noise plus the wheels'
-    quantisation (one count of each wheel over T_N, as a yaw rate) measures a new bias: its mean
-    residual, unless within BIAS_STEP_SIGMAS of its standard error, is handed to the calibration
-    (the bias_step part, layout.gyro_bias_step), which adds it to b_g."""
+    """While the gyro is out for a jump (``code`` JUMP, RECOVERING), its ``residual`` against the
+    ``replacement`` (raw - b_g - replacement, rad/s) is summed over blocks of bias_step_samples. A block
+    whose replacement stays within bias_step_yaw_rate and whose residual spreads within BIAS_STEP_SIGMAS
+    of the gyro's noise plus one count of each wheel (as a yaw rate) measures a new bias: its mean, unless
+    within BIAS_STEP_SIGMAS of its standard error, is handed to the calibration (layout.gyro_bias_step)."""
     s[BIAS_STEP] = 0.0
     if code != JUMP and code != RECOVERING or not math.isfinite(residual):
         s[BIAS_BLOCK_COUNT] = s[BIAS_BLOCK_SUM] = s[BIAS_BLOCK_SQUARES] = s[BIAS_BLOCK_TURN] = 0.0
@@ -141,13 +129,12 @@ def gyro_bias_step_block(s, code: int, residual: float, replacement: float, p, g
 
 @jitable
 def frozen_gyro_shadow(s, raw, bias: float, codes, wheels, encoders_ok: bool, model: bool, p, g) -> None:
-    """A frozen gyro is trusted for stuck_samples - 2 repeats (stuck_samples - 1 equal readings): the
-    wheels' yaw rate runs through them from the last reading that changed, and the heading the repeats
-    missed against it is owed. When the stuck test flags the gyro, its reference starts from there and
-    the heading is paid back over stuck_samples samples. Anchored afresh after any exclusion.
-    ``wheels``: (v_R, v_L, v_t, v_n, omega_o, grip), the calibrated wheel speeds, the body's velocity
-    (m/s), the odometric yaw rate (rad/s) and the tyres' grip over the nominal curve's; ``encoders_ok``:
-    both encoders healthy; ``model``: the nominal yaw dynamics serve (else the odometric yaw rate)."""
+    """A frozen gyro is trusted for stuck_samples - 2 repeats: the wheels' yaw rate runs through them from
+    the last reading that changed, and the heading the repeats missed against it is owed. When the stuck
+    test flags the gyro, its reference starts from there and the heading is paid back over stuck_samples
+    samples (analog.analog_outputs). Anchored afresh after any exclusion. ``wheels``: check.wheel_motion's;
+    ``encoders_ok``: both encoders healthy; ``model``: the nominal yaw dynamics serve (else the odometric
+    yaw rate)."""
     shadow = s[FROZEN_GYRO_SHADOW]
     if codes[GYRO] == 0 and s[ANALOG_REPEATS][GYRO] == 0:
         s[FROZEN_GYRO_SHADOW], s[FROZEN_GYRO_OWED] = raw[GYRO] - bias, 0.0
@@ -167,10 +154,8 @@ def frozen_gyro_shadow(s, raw, bias: float, codes, wheels, encoders_ok: bool, mo
 @jitable
 def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: float, p, g) -> bool:
     """The wheels' witness of the gyro and the yaw test (systems/health/yaw_witness.py), once per
-    sample: True when the test holds the gyro out (hold, codes[4] INCONSISTENT). The wheels witness
-    nothing while their tyres slide: the witness restarts from the gyro (else the odometric yaw rate)
-    when they grip again, and forgets that start within the tyres' lag. ``wheels``: as in
-    frozen_gyro_shadow; ``v_o``: the odometric speed (m/s)."""
+    sample: True when the test holds the gyro out (hold, codes[4] INCONSISTENT). ``wheels``:
+    check.wheel_motion's; ``v_o``: the odometric speed (m/s)."""
     v_R, v_L, v_t, v_n, omega_o, grip = wheels
     witness = s[YAW_WITNESS] if math.isfinite(s[YAW_WITNESS]) else omega_o
     gripping = encoders_ok and tyre_grip(v_R, v_L, v_t, v_n, witness, g) >= GRIP_STIFFNESS_RATIO
@@ -223,9 +208,12 @@ def body_yaw_rate(
     s, raw, bias: float, codes, gyro_ok: bool, encoders_ok: bool, omega_wheels, omega_o, pair_squared, p
 ):
     """The body's yaw rate this sample (rad/s, without b_g): the gyro's, else the wheels'
-    (``omega_wheels``); a saturated gyro's from the pair or the wheels (module docstring).
-    ``pair_squared``: this sample's omega^2 from the pair (NaN: none); the pair's averaged omega^2 is in
-    the state."""
+    (``omega_wheels``). A saturated gyro reads this sample's pair yaw rate, at least its full scale, with
+    the gyro's sign; with both encoders healthy, the wheels' when the odometry says below the full scale
+    and the averaged pair not more than both it and PAIR_SPIN_MARGIN times the odometric ``omega_o`` (the
+    gyro reads beyond the robot). One clipped at a rail below the range reads the wheels' yaw rate,
+    without both encoders the pair's, at least the rail. ``pair_squared``: this sample's omega^2 from the
+    pair (NaN: none)."""
     omega = raw[GYRO] - bias if gyro_ok else omega_wheels
     if codes[GYRO] != SATURATED:
         return omega

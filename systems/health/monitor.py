@@ -64,17 +64,11 @@ HEALTH_STEP_LAYOUT = (
 def slip_detector_blind(codes, unusable: bool = False, accelerometer_sets: int = 2) -> bool:
     """S(11) cannot use the sample: both encoders excluded, one encoder excluded while the gyro is (its
     replacement is then its last increment, not the other wheel's and the gyro's), an encoder output that
-    cannot serve (``unusable``, odometry_unusable: a stuck encoder's missed travel restored in this one
-    sample, or a non-finite angle that the odometry holds over), or no tangential accelerometer of the
-    robot's ``accelerometer_sets`` (0, 1 or 2) in.
-
-    An encoder excluded otherwise advances by the other wheel's increment and the gyro's yaw rate (v_R -
-    v_L = b omega): the odometric v_t is then the healthy wheel's, and its slip is what S(11) is there to
-    see (a braking slide during an encoder outage: open square, C1 would otherwise return to the
-    odometry; a stuck encoder: C1 recovers from the slip the still counts feigned before the detection).
-    One excluded tangential axis reads its partner's plus the rotational terms (the replacement), which
-    S(11) uses: isolated by the force reference, it is the healthy sensor's reading; a gyro or lateral
-    fault alone does not touch S(11)."""
+    cannot serve (``unusable``: odometry_unusable), or no tangential accelerometer of the robot's
+    ``accelerometer_sets`` (0, 1 or 2) in. One excluded encoder otherwise advances by the healthy wheel and
+    the gyro, whose slip S(11) is there to see; one excluded tangential axis reads its partner's (the
+    replacement, isolated by the force reference), which S(11) uses; a gyro or lateral fault alone does
+    not touch S(11)."""
     right, left = codes[5] > 0, codes[6] > 0
     if unusable or (right and left) or ((right or left) and codes[4] > 0):
         return True
@@ -85,18 +79,18 @@ def slip_detector_blind(codes, unusable: bool = False, accelerometer_sets: int =
 
 
 def odometry_unusable(state, sample) -> bool:
-    """This sample's encoder output cannot serve S(11) (slip_detector_blind): it restores a stuck
-    encoder's missed travel (travel_restored), or an angle is not finite (the checks off, or no reading
-    yet), so that the odometry holds its last speed over it."""
+    """This sample's encoder output cannot serve S(11): it restores a stuck encoder's missed travel
+    (travel_restored), or an angle is not finite (the checks off, or no reading yet) and the odometry holds
+    its last speed over it."""
     return travel_restored(state) or not (math.isfinite(sample[5]) and math.isfinite(sample[6]))
 
 
 def health_flags(codes, unusable: bool = False, accelerometer_sets: int = 2) -> list:
     """[inertial_fault, encoder_fault, sensor_fault]: 1.0 when any accelerometer/gyro, any encoder is
-    excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind). A robot without
-    accelerometers (``accelerometer_sets`` 0) has an inertial_fault on every sample: its inertial estimate
-    carries no kinematics of its own, so the tyre-model check rests and the yaw calibration does not
-    learn from wheels whose slip nothing can see."""
+    excluded (codes > 0), when S(11) cannot use the sample (slip_detector_blind); the yaw calibration does
+    not learn from a sample with either fault. A robot without accelerometers (``accelerometer_sets`` 0)
+    has an inertial_fault on every sample: its inertial estimate carries no kinematics of its own, so the
+    tyre-model check rests and the yaw calibration does not learn from wheels whose slip nothing sees."""
     inertial = 1.0 if max(codes[0:5]) > 0 or accelerometer_sets == 0 else 0.0
     encoder = 1.0 if max(codes[5:7]) > 0 else 0.0
     return [inertial, encoder, 1.0 if slip_detector_blind(codes, unusable, accelerometer_sets) else 0.0]
@@ -119,27 +113,16 @@ class SensorHealthMonitor(LeafSystem):
         output_ports:
         - step
 
-    - inputs: the samples as read; motor_currents (optional): the drivers' current readings [i_R, i_L]
-      (A), the t axes' force reference (unconnected: the odometry's); body_velocity (optional): the
-      navigation's (v_t, v_n) of the previous sample (the EKF's state), which the excluded gyro's
-      replacement reads (yaw_follow_step; unconnected: the odometric v_t and no v_n); tyre_peak
-      (optional): the navigation's identified tyre peak of the previous sample (the velocity mixer's
-      state; unconnected: the nominal); yaw_calibration (optional): the online calibration's [b_g, D]
-      (the YawRateCalibration's state; unconnected: 0, 0), with which the gyro's replacement reads the
-      calibrated odometric yaw rate omega_o + D v_o / b plus the bias, and an encoder's v_R - v_L = b
-      (gyro - b_g) - D v_o.
+    - inputs: the samples as read; optional (health_step's arguments): motor_currents (unconnected: the
+      odometry's force reference), body_velocity (the EKF's state; unconnected: the odometric v_t and no
+      v_n), tyre_peak (the velocity mixer's state; unconnected: the nominal), yaw_calibration (the
+      YawRateCalibration's state; unconnected: 0, 0).
     - step (direct feedthrough), in HEALTH_STEP_LAYOUT's order: the next state; the accepted or replaced
-      samples accelerometers [a_t1, a_n1, a_t2, a_n2], gyro [omega], encoders [theta_R, theta_L]; health,
-      the code of each channel [a_t1, a_n1, a_t2, a_n2, omega, theta_R, theta_L] (0 healthy,
-      k: HEALTH_CLASSES[k - 1]); inertial_fault, encoder_fault: 1 when any accelerometer/gyro, any
-      encoder channel is excluded (the yaw calibration does not learn from the sample); sensor_fault:
-      S(11) cannot use the sample (slip_detector_blind: both encoders, one while the gyro is excluded, a
-      stuck one's restored travel, or both tangential accelerometers; its sum leaves the sample out).
-      gyro_bias_step: the step of b_g measured on an excluded gyro this sample (rad/s, 0: none;
-      gyro_bias_step_block), for the calibration; yaw_pair_witness: 1 when the accelerometer pair
-      witnessed the yaw rate on this sample (layout.yaw_pair_witness), for the calibration. One
-      vector, so that one Python call per sample computes them all; the navigation diagram slices it
-      with a Demultiplexer (diagrams/split.py).
+      samples; health, the code of each channel (0 healthy, k: HEALTH_CLASSES[k - 1]); the flags
+      (health_flags); gyro_bias_step, the step of b_g measured on an excluded gyro this sample (rad/s, 0:
+      none), and yaw_pair_witness, 1 when the accelerometer pair witnessed the yaw rate on this sample
+      (layout.yaw_pair_witness), for the calibration. One vector, so that one Python call per sample
+      computes them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
 
@@ -156,19 +139,18 @@ class SensorHealthMonitor(LeafSystem):
             self.DeclareVectorInputPort(name, size)
             for name, size in (("accelerometers", 4), ("gyro", 1), ("encoders", 2))
         ]
-        self._currents = self.DeclareVectorInputPort("motor_currents", 2)
-        self._velocity = self.DeclareVectorInputPort("body_velocity", 2)
-        self._tyre_peak = self.DeclareVectorInputPort("tyre_peak", 1)
-        self._yaw_calibration = self.DeclareVectorInputPort("yaw_calibration", 2)
+        self._optional = [  # the optional inputs and what an unconnected one reads
+            (self.DeclareVectorInputPort(name, size), unconnected)
+            for name, size, unconnected in (
+                ("motor_currents", 2, NO_CURRENTS),
+                ("body_velocity", 2, NO_VELOCITY),
+                ("tyre_peak", 1, (math.nan,)),
+                ("yaw_calibration", 2, NO_YAW_CALIBRATION),
+            )
+        ]
         self._state = self.DeclareDiscreteState(health_initial_state(geometry, initial_speed))
-        prereq = {
-            self.xd_ticket(),
-            self._currents.ticket(),
-            self._velocity.ticket(),
-            self._tyre_peak.ticket(),
-            self._yaw_calibration.ticket(),
-        }
-        prereq |= {port.ticket() for port in self._inputs}
+        prereq = {self.xd_ticket()} | {port.ticket() for port in self._inputs}
+        prereq |= {port.ticket() for port, _ in self._optional}
         size = sum(n for _, n in HEALTH_STEP_LAYOUT)
         self._step = self.DeclareVectorOutputPort("step", size, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(geometry.T_N, 0.0, self._update)
@@ -176,14 +158,10 @@ class SensorHealthMonitor(LeafSystem):
     def _calc(self, context, output):
         raw = tuple([v for port in self._inputs for v in port.Eval(context).tolist()])
         state = context.get_discrete_state(self._state).get_value()
-        port = self._currents
-        currents = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_CURRENTS
-        port = self._velocity
-        velocity = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_VELOCITY
-        port = self._tyre_peak
-        peak = float(port.Eval(context)[0]) if port.HasValue(context) else math.nan
-        port = self._yaw_calibration
-        calibration = tuple(port.Eval(context).tolist()) if port.HasValue(context) else NO_YAW_CALIBRATION
+        currents, velocity, (peak,), calibration = (
+            tuple(port.Eval(context).tolist()) if port.HasValue(context) else unconnected
+            for port, unconnected in self._optional
+        )
         state, out, codes = health_check(state, raw, currents, self._constants, velocity, peak, calibration)
         step = output.get_mutable_value()  # written in place: no list of the whole vector
         step[0:STATE_SIZE] = state

@@ -1,9 +1,9 @@
 """The accelerometer pair's gain test: a scale fault on one sensor makes the pair's disagreement (beyond
 S(3)'s rotational terms and the learned offset) proportional to that sensor's own signal, which the
-averages of the consistency test miss while it stays below their bound (the open corner's tangential
-axes: 1 m/s^2 on average, the bound 2.6 m/s^2 at speed). The test regresses the disagreement on each
-sensor's signal over the last gain_samples informative samples: a x2 scale on one sensor is a gain of
-0.67 on the pair's mean, flagged beyond gain_tolerance once the evidence passes gain_threshold.
+consistency test's averages miss while it stays below their bound. The test regresses the disagreement
+on each sensor's signal over the last gain_samples informative samples (pair_gain_ratio): a x2 scale on
+one sensor is a gain of 0.67 on the pair's mean, flagged beyond gain_tolerance once the evidence passes
+gain_threshold.
 """
 
 import math
@@ -29,7 +29,7 @@ GAIN_CORRELATION = 16.0
 commotion's 5 ms): the variance of a sum is taken as this many times that of independent samples."""
 GAIN_HORIZON = 2
 """The gain test's evidence is at most this many times gain_samples samples old: a standstill after a
-fault (nothing informative comes in) re-admits the sensor within it (80 samples, 0.16 s)."""
+fault (nothing informative comes in) re-admits the sensor within it."""
 GAIN_HOLD = 2.0
 """A pair's hold (the state's analog_hold) set by the gain test alone; the averages' is 1."""
 GAIN_RELEASE_SIGMAS = 1.0
@@ -45,11 +45,9 @@ def averaged_omega_dot_std(gain: float, g) -> float:
 
 def gain_constants(c) -> dict:
     """The gain test's figures of the record ``c`` (HealthConstants) for pair_gain_block_variance:
-    gain_block_gain, the block average's gain b = 1 / gain_block_samples; gain_block_white, the white
-    noise's variance as the block average leaves it (2 accel_noise_std^2 b / (2 - b)); gain_block_coloured,
-    the commotion's share, per unit of its variance (b / (2 - b) (1 + phi) / (1 - phi), phi its
-    correlation over a sample times 1 - b); per axis [t, n], gain_block_rotation, the variance omega' from
-    the gyro's difference puts into the averaged rotational term on the lever (2 y for t, 2 x for n)."""
+    gain_block_gain b = 1 / gain_block_samples; the variances the block average leaves of the white noise
+    (gain_block_white), of the commotion per unit of its variance (gain_block_coloured) and, per axis
+    [t, n], of the gyro's omega' on the lever 2 y for t, 2 x for n (gain_block_rotation)."""
     b = 1.0 / c.gain_block_samples
     phi = math.exp(-c.T_N / c.accel_vibration_time_constant) * (1.0 - b)
     white = b / (2.0 - b)  # an exponential average's variance over its input's
@@ -94,14 +92,11 @@ def pair_gain_ratio(
 ) -> float:
     """The gain test on ``axis`` (0: t, 1: n), its statistic over gain_threshold (> 1 flags; 0 while off
     or not ``update``d: the gyro's omega' unknown). The gain beta of the block-averaged disagreement on
-    each regressor r = mean +- rotation / 2 (sensor 1's or sensor 2's own signal; the mean's noise is
-    uncorrelated with the disagreement's) is the ratio of the sums of d r / var and r^2 / var over the
-    last gain_samples informative samples (the wheels turned, ``moving``: at rest the mean is the
-    sensors' biases; and a regressor above the noise) within the last GAIN_HORIZON gain_samples samples
-    (pair_gain_window). The statistic is (|beta| - gain_tolerance - gain_offset_allowance
-    sum |r| / var / sum r^2 / var) over beta's standard deviation sqrt(GAIN_CORRELATION / sum r^2 / var),
-    the larger of the two regressors'; the allowance is what an offset error of the disagreement puts
-    into beta."""
+    each regressor r = mean +- rotation / 2 (sensor 1's or sensor 2's own signal) is sum d r / var over
+    sum r^2 / var in the window (pair_gain_window; ``moving``: the wheels turned, at rest the mean is the
+    sensors' biases). The statistic is the larger regressor's (|beta| - gain_tolerance -
+    gain_offset_allowance sum |r| / var / sum r^2 / var) over beta's standard deviation
+    sqrt(GAIN_CORRELATION / sum r^2 / var); the allowance is what an offset error puts into beta."""
     if math.isinf(p.gain_threshold) or not update:
         return 0.0
     variance = pair_gain_block_variance(s, axis, disagreement, mean, rotation, other, speed, p, g)
@@ -122,10 +117,10 @@ def pair_gain_ratio(
 
 @jitable
 def pair_gain_window(s, axis: int, moving: bool, variance: float, p) -> None:
-    """The window holds the last gain_samples informative samples of the last GAIN_HORIZON gain_samples
-    samples: a signal's zero crossing keeps the evidence, a standstill lets it expire. Each sample's
-    products replace the oldest in the ring and in the sums (recomputed from the ring whenever it wraps,
-    against rounding). Per regressor k the sums d r / var, r^2 / var, |r| / var."""
+    """The window holds the last gain_samples informative samples (moving, a regressor above the noise) of
+    the last GAIN_HORIZON gain_samples samples: a signal's zero crossing keeps the evidence, a standstill
+    lets it expire. Each sample's products (per regressor d r / var, r^2 / var, |r| / var) replace the
+    oldest in the ring and in the sums, which are recomputed from the ring whenever it wraps."""
     n = p.gain_samples
     sums = s[GAIN_SUMS]
     products = s[GAIN_PRODUCTS]
@@ -203,8 +198,9 @@ def pair_gain_upper_bound(s, axis: int, update: bool, p) -> float:
     """The gain test's evidence of health on ``axis`` after pair_gain_ratio's update: the larger regressor's
     |beta| + GAIN_RELEASE_SIGMAS standard deviations (0: nothing informative in the window, or not
     ``update``d, or the test off). A pair the gain test flagged is released when this is below
-    gain_release: a flag is cleared by the evidence of a gain within it, not by a window whose evidence
-    of the fault dipped."""
+    gain_release as well as the statistic below half its threshold: cleared on the statistic alone, a
+    doubled sensor comes back at a dip of its evidence; on the bound alone, a well-measured moderate gain
+    is flagged and cleared on alternate samples."""
     if math.isinf(p.gain_threshold) or not update:
         return 0.0
     sums = s[GAIN_SUMS]

@@ -6,6 +6,7 @@ import collections
 import dataclasses as dc
 import math
 
+from slipnav.systems.compiled import jitable
 from slipnav.systems.health.layout import GAIN_WINDOW_MAX
 from slipnav.systems.health.yaw_witness import yaw_test_threshold
 from slipnav.systems.ranges import is_integer, out_of_range, require_in, require_integer
@@ -15,7 +16,7 @@ NO_CURRENTS = (math.nan, math.nan)
 odometry's, and the perturbation monitor has no force test."""
 PLAUSIBLE_CURRENT = 1.5
 """A current reading beyond this many times the driver's limit is implausible: no force reference or
-force test from it."""
+force test from it (plausible_currents)."""
 HEALTH_CLASSES = ("nonfinite", "saturated", "stuck", "jump", "inconsistent", "recovering")
 """Health code k (1..6) is HEALTH_CLASSES[k - 1]; 0 is healthy."""
 NONFINITE, SATURATED, STUCK, JUMP, INCONSISTENT, RECOVERING = range(1, 7)
@@ -24,122 +25,82 @@ NUM_ANALOG, GYRO, FIRST_ENCODER, NUM_CHANNELS = 5, 4, 5, 7
 gyro's index, the right encoder's, all of them."""
 
 
+@jitable
+def plausible_currents(currents, current_limit: float) -> bool:
+    """Both readings [i_R, i_L] (A) within PLAUSIBLE_CURRENT times the driver's ``current_limit`` (False
+    for NaN)."""
+    plausible = PLAUSIBLE_CURRENT * current_limit
+    return abs(currents[0]) <= plausible and abs(currents[1]) <= plausible
+
+
 @dc.dataclass
 class SensorHealthParameters:
-    """Thresholds of the sensor checks (systems/health/: each test's module). Defaults: the data sheets of
-    systems/robot/sensors.py and, for the rates of change, 4-5x the largest change per sample in the
-    fault-free built-in runs (gyro 0.11 rad/s, accelerometers 6.4 m/s^2, wheel speed 0.14 m/s on Tinyphoon's
-    square).
+    """Thresholds of the sensor checks; each test is stated in its module (systems/health/). Defaults: the
+    data sheets of systems/robot/sensors.py; the rates of change 4-5x the largest change per sample in the
+    fault-free built-in runs; the other thresholds above the fault-free built-ins' largest statistic.
 
     Args:
         enabled: check (False: only NaN/inf are replaced, by the last value).
         gyro_range: data-sheet full scale (rad/s): ADXRS300 300 deg/s.
         accel_range: data-sheet full scale (m/s^2): ADXL210E 10 g.
-        saturation_fraction: a reading at this fraction of the full scale counts as saturated.
+        saturation_fraction: a reading at this fraction of the full scale counts as saturated, in [0.5, 1].
         stuck_samples: repeats (analog) or still counts (encoder) before "stuck", in [2, 50] (0.1 s).
         stuck_tolerance: an analog change at most this large is a repeat (a real ADC's quantum).
         stuck_min_speed, stuck_speed_fraction: an encoder is stuck when it stands still while v_pred
             exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (m/s, 1).
-        stuck_braking_deceleration: an encoder's still samples count only while the healthy
-            accelerometers' mean a_t does not oppose that wheel's predicted motion by more than this
-            (m/s^2; a braking sample restarts the count): a hard braking locks a
-            wheel while the other still turns (the square at 5.8 m/s^2, one wheel commanded to a stop),
-            and its honest standstill reads like a frozen counter. inf (default): the test counts at
-            any braking. 3.0 (above the built-ins' driving decelerations outside such slides: drag
-            0.5-1, slip control's steps) goes with mixing.slide_onset_jump (README, Sensor faults: it
-            costs a counter that freezes in a hard braking, accepted as still until the braking ends).
+        stuck_braking_deceleration: an encoder's still samples count only while the body brakes against
+            that wheel's motion by at most this (m/s^2, in (0, inf]): a hard braking locks a wheel
+            honestly. inf (default): at any braking. 3.0, above the built-ins' driving decelerations, goes
+            with mixing.slide_onset_jump (README, Sensor faults); a counter that freezes in a hard braking
+            then counts as still until the braking ends.
         gyro_max_step: largest plausible change of the gyro in one sample (rad/s).
         accel_max_step: the same for an accelerometer axis (m/s^2).
         max_wheel_speed: largest plausible circumferential wheel speed (m/s); 1.5 x the motors' no-load
             speed of the nominal robot if None.
         max_wheel_acceleration: largest plausible change of a wheel's circumferential speed (m/s^2).
-        accel_consistency, accel_consistency_per_speed: the two accelerometers may disagree, in the
-            moving average over consistency_samples and beyond the rotational terms, by
-            accel_consistency + accel_consistency_per_speed |v_o| (m/s^2; the commotion grows with the
-            speed: the fault-free built-ins, matched and toleranced, peak at 0.59 of it, on the long
-            path at 4 m/s; Tinyphoon's at 0.39).
-        consistency_samples: samples of that average, in [2, 50].
-        fast_consistency_samples, fast_consistency_factor: a second, shorter average of the same
-            disagreement (fast_consistency_samples, in [1, 50]; as long as consistency_samples it is no
-            faster) flags the pair as well when it exceeds fast_consistency_factor times the bound plus
-            FAST_ROTATION_SIGMAS of its rotational terms' noise (fast_pair_ratio; inf: off), while the
-            gyro is trusted on this and the previous sample. 3 and 1.6: the built-ins' fault-free fast
-            averages (matched, tolerance draws, friction 0.5 and 0.9, mass +25 %, accelerometer scale
-            and misalignment) peak at 0.60 of the bound with factor 1 on Tinyphoon and 0.90 on
-            Kurt3D's long path at 4 m/s (its commotion); the allowance does not scale with the factor,
-            so 1.6 keeps about 1.6 x of margin there and more on Tinyphoon. The short average flags a
-            large bias step (5 m/s^2) within a few samples, before the long one fills.
-        bias_step_samples: an excluded gyro's residual against its replacement is judged over blocks
-            of this many samples for a new bias (gyro_bias_step_block), in [2, 500]: 25 (50 ms).
-        bias_step_yaw_rate: the block measures a bias only while its replacement stays within this
-            (rad/s): 0.15, driving straight (the calibration's change_yaw_rate), where a scale error or
-            a sign flip reads nothing.
-        yaw_slip_fraction: the share of the wheels' yaw rate that the tyres' differential slip may leave
-            unexplained by the nominal yaw dynamics, in the yaw test's residual variance
-            (systems/health/yaw_witness.py), in [0, 1]: 0.2.
-        yaw_witness_lag: the witness's timing uncertainty against the gyro (s): the body's unmodelled
-            lag behind the wheels and the sensor streams' relative latency, times the witness's rate of
-            change, in the yaw test's residual variance, in (0, inf): 0.02, one T_C.
-        yaw_false_alarm_time: healthy driving (s) per false alarm of the yaw test's CUSUM, in
-            (0, inf): 3600, one an hour.
-        encoder_readmission_samples: an excluded encoder is re-admitted only after a block of this
-            many consecutive samples (in [1, 50]; 10 = T_C) that each agree with the prediction from the
-            other wheel and the gyro, span READMISSION_TRAVEL_COUNTS of the encoder's counts, and whose
-            summed difference from it stays within two counts plus
-            encoder_readmission_fraction of the predicted travel. One sample's bound
-            (max_wheel_acceleration T_N, 0.3 m/s) lets a doubled encoder through below 0.3 m/s; the
-            quantisation telescopes over the block, a scale error does not (a doubled encoder re-admitted
-            at 0.3 m/s reads v_t 0.15 m/s fast, half its wheel's excess). Like every channel it is
-            kept out until a block agrees.
-        encoder_readmission_fraction: the block's tolerance beyond two counts, as a fraction of the
-            predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
-        gyro_readmission_samples: an excluded gyro is re-admitted only after this many consecutive
-            samples (in [1, 50]; 1: the first within the bound) within gyro_max_step of its replacement.
-            A replacement departs from the true rate in a skid (the odometric yaw rate reads 15-20 % high
-            in a skidding turn), so a gyro with a bias step can meet it within the bound for one sample,
-            and re-admitted then it is trusted for the rest of its fault. 5 (10 ms): several samples
-            against such a chance meeting, few enough that an outage ending in a skid is not held out
-            much longer than the outage. Like every channel it is kept out until a block agrees.
-        gyro_readmission_fraction: the gyro's block must also agree in sum: its summed difference from
-            the replacement within 3 noise sigmas sqrt(n), two counts of each wheel's heading and this
-            fraction (in [0, 1]) of the replacement's summed magnitude. A gyro's doubled scale passes the
-            sample bound as a turn slows below gyro_max_step (its excess is the turn's own rate), while
-            its sum over the block carries the whole excess. In the faults benchmark every other gyro
-            fault (outages ending in the skid too) is re-admitted as with the sample bound alone.
+        accel_consistency, accel_consistency_per_speed: the bound of the pair's averaged disagreement,
+            accel_consistency + accel_consistency_per_speed |v_o| (m/s^2, 1/s; the commotion grows with the
+            speed): the fault-free built-ins peak at 0.59 of it.
+        consistency_samples: samples of that moving average, in [2, 50].
+        fast_consistency_samples, fast_consistency_factor: a second, shorter average (in [1, 50]) flags
+            the pair beyond fast_consistency_factor times the bound plus its rotational terms' noise
+            (fast_pair_ratio; (0, inf], inf: off). 3 and 1.6: a 5 m/s^2 bias step flagged within a few
+            samples; the fault-free built-ins peak at 0.90 of the bound with factor 1.
+        bias_step_samples: the samples of an excluded gyro's bias-step block, in [2, 500]: 25 (50 ms).
+        bias_step_yaw_rate: the block measures a bias only while the replacement stays within this (rad/s):
+            0.15, driving straight (the calibration's change_yaw_rate), where a scale error reads nothing.
+        yaw_slip_fraction: the share of the wheels' yaw rate the tyres' differential slip may leave
+            unexplained, in the yaw test's residual variance, in [0, 1]: 0.2.
+        yaw_witness_lag: the witness's timing uncertainty against the gyro (s), in (0, inf): 0.02, one T_C.
+        yaw_false_alarm_time: healthy driving (s) per false alarm of the yaw test, in (0, inf): 3600.
+        encoder_readmission_samples: the samples of an excluded encoder's re-admission block, in [1, 50]:
+            10 (T_C). One sample's bound lets a doubled encoder through below 0.3 m/s; the block's sum not.
+        encoder_readmission_fraction: the block's summed tolerance beyond two counts, as a fraction of
+            the predicted travel, in [0, 1]: 0.2, well above the differential slip of the built-ins' turns.
+        gyro_readmission_samples: the samples of an excluded gyro's re-admission block, in [1, 50] (1: the
+            first within the bound): 5 (10 ms); a skid's replacement (the odometric yaw rate reads 15-20 %
+            high) can meet a biased gyro for a sample, not for five.
+        gyro_readmission_fraction: the block's summed tolerance as a fraction of the replacement's summed
+            magnitude, in [0, 1]: 0.3; a doubled scale passes the sample bound as a turn slows, not the sum.
         clip_samples, clip_window: a reading that returns to its magnitude for the clip_samples-th time
-            (runs of repeats count once) within the last clip_window readings (both in [2, 50]), with no
-            larger one between, sits at a rail: saturated, though below the data-sheet range (an
-            amplifier's or a misconfigured range's clip; the benchmark clips at half the largest reading).
-            Noise never repeats a value; with an ADC quantum (stuck_tolerance) the returns are judged
-            within it, and quantised noise needs a larger clip_samples (a quantum of the gyro's noise
-            sigma: 399 of 1000 healthy samples flagged at 3, 43 at 10, none at 20) or 0 (off).
-        gain_threshold: the pair's gain test (pair_gain.pair_gain_ratio) flags the pair when
-            its statistic exceeds this (in (0, inf]; inf: off). 4: above the statistic's peak over the
-            built-ins' fault-free runs (matched and toleranced, open and closed loop), 2.76; it flags the
-            open corner's x2 scales of a tangential axis, which the averages above miss.
-        gain_tolerance: the relative gain between the two accelerometers of an axis that the test allows
-            (in [0, 1)): 0.1, the preset's sensitivity tolerances (+-2 % each) and the misalignment's
-            cross-coupling with margin; a x2 scale on one of them is 0.67, a x0.5 one -0.67.
-        gain_samples: the test's sums are over this many informative samples, the last ones (in [2, 50]).
-        gain_block_samples: the disagreement and the regressors are first averaged over this many
-            samples (exponential, in [1, 50]), which takes the white noise and most of the commotion out.
+            within the last clip_window readings (both in [2, 50]; clip_samples 0: off) sits at a rail.
+            Quantised noise needs a larger clip_samples: with a quantum of the gyro's noise sigma, 399 of
+            1000 healthy samples are flagged at 3, 43 at 10, none at 20.
+        gain_threshold: the gain test flags the pair beyond this statistic, in (0, inf] (inf: off): 4,
+            above the fault-free built-ins' peak of 2.76; it flags the open corner's x2 scales of a
+            tangential axis, which the averages miss.
+        gain_tolerance: the relative gain of an axis's two sensors the test allows, in [0, 1): 0.1, the
+            sensitivity tolerances (+-2 % each) and the misalignment with margin; a x2 scale is 0.67.
+        gain_samples: the informative samples the test sums, the last ones, in [2, 50].
+        gain_block_samples: the exponential average of the disagreement and the regressors before the
+            test, in [1, 50]: it takes out the white noise and most of the commotion.
         gain_cross_coupling: the other axis's acceleration, times this, counts as noise of the
-            disagreement (in [0, inf)): in a hard braking (the square at 5.5 m/s^2) the lateral axes
-            disagree by about 5 % of a_t on the nominal robot itself.
-        gain_offset_allowance: an error of the learned offset between the two sensors (m/s^2, in
-            [0, inf)) that the test allows for: it puts offset / |r| into the gain. 0 (default): the
-            offset is trusted; the built-ins stand still for their first second, where the offset is
-            learned and the test learns nothing (at rest the pair's mean is the sensors' biases, which a
-            test there would read as a healthy sensor's gain). For a robot that drives off at
-            once, the two sensors' initial biases (0.05 m/s^2 each, data sheet) differ by up to 0.2.
-        gain_release: a pair the gain test alone flagged is cleared once its statistic is below half
-            the threshold and |beta| plus GAIN_RELEASE_SIGMAS of its standard deviations below this (in
-            (gain_tolerance, 1]): the evidence of a healthy gain. Cleared on the statistic alone, a
-            doubled sensor comes back at a dip of its evidence (a beta two sigmas low) in the middle of
-            its fault; on the bound alone, a well-measured moderate gain (a clipped axis's) is
-            flagged and cleared on alternate samples. A pair the averages flagged is cleared on the
-            averages' evidence (a bias's regression on a weak signal can hold the bound above this for
-            seconds).
+            disagreement, in [0, inf): a hard braking's lateral axes disagree by about 5 % of a_t.
+        gain_offset_allowance: the error of the learned pair offset the test allows for (m/s^2, in [0,
+            inf)). 0 (default): trusted; the built-ins stand still for their first second, where the
+            offset is learned. A robot that drives off at once: up to 0.2, two initial biases of 0.05.
+        gain_release: a pair the gain test alone flagged is cleared once its statistic is below half the
+            threshold and the gain's upper bound (pair_gain_upper_bound) below this, in (gain_tolerance, 1].
     """
 
     enabled: bool = True
@@ -180,53 +141,40 @@ class SensorHealthParameters:
     gain_release: float = 0.3
 
     def __post_init__(self):
-        for name in (
-            "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency "
-            "bias_step_yaw_rate yaw_false_alarm_time yaw_witness_lag stuck_min_speed"
-        ).split():
-            require_in(name, getattr(self, name), "(0, inf)")
+        names = "gyro_range accel_range gyro_max_step accel_max_step max_wheel_acceleration accel_consistency"
+        require_each(self, require_in, names, "(0, inf)")
+        names = "bias_step_yaw_rate yaw_false_alarm_time yaw_witness_lag stuck_min_speed"
+        require_each(self, require_in, names, "(0, inf)")
         if self.max_wheel_speed is not None:
             require_in("max_wheel_speed", self.max_wheel_speed, "(0, inf)")
         require_in("saturation_fraction", self.saturation_fraction, "[0.5, 1]")
-        value = self.clip_samples
-        if not (is_integer(value) and value == 0):  # 0: off
-            require_integer("clip_samples", value, "0 (off) or integers in [2, 50]")
-        for name in ("stuck_samples", "consistency_samples", "clip_window"):  # clip_window 50: the ring
-            require_integer(name, getattr(self, name), "integers in [2, 50]")
+        if not (is_integer(self.clip_samples) and self.clip_samples == 0):  # 0: off
+            require_integer("clip_samples", self.clip_samples, "0 (off) or integers in [2, 50]")
+        names = "stuck_samples consistency_samples clip_window"  # clip_window 50: the ring
+        require_each(self, require_integer, names, "integers in [2, 50]")
         require_integer("bias_step_samples", self.bias_step_samples, "integers in [2, 500]")
         require_integer("gain_samples", self.gain_samples, f"integers in [2, {GAIN_WINDOW_MAX}]")
         require_in("gain_tolerance", self.gain_tolerance, "[0, 1)")
-        value = require_in("gain_release", self.gain_release, "(0, 1]")
-        if not value > self.gain_tolerance:
-            raise out_of_range(
-                "gain_release",
-                value,
-                f"above gain_tolerance={self.gain_tolerance!r} "
-                "(a gain within the tolerance must clear the pair)",
-            )
-        for name in (
-            "fast_consistency_samples",
-            "encoder_readmission_samples",
-            "gyro_readmission_samples",
-            "gain_block_samples",
-        ):
-            require_integer(name, getattr(self, name), "integers in [1, 50]")
-        for name in ("encoder_readmission_fraction", "gyro_readmission_fraction", "yaw_slip_fraction"):
-            require_in(name, getattr(self, name), "[0, 1]")
-        for name in (
-            "stuck_tolerance",
-            "stuck_speed_fraction",
-            "accel_consistency_per_speed",
-            "gain_cross_coupling",
-            "gain_offset_allowance",
-        ):
-            require_in(name, getattr(self, name), "[0, inf)")
-        for name, unit in (
-            ("fast_consistency_factor", ""),
-            ("stuck_braking_deceleration", " m/s^2"),
-            ("gain_threshold", ""),
-        ):
-            require_in(name, getattr(self, name), f"(0, inf]{unit}")
+        if not require_in("gain_release", self.gain_release, "(0, 1]") > self.gain_tolerance:
+            tolerance = f"gain_tolerance={self.gain_tolerance!r}"
+            allowed = f"above {tolerance} (a gain within the tolerance must clear the pair)"
+            raise out_of_range("gain_release", self.gain_release, allowed)
+        names = "fast_consistency_samples encoder_readmission_samples gyro_readmission_samples"
+        require_each(self, require_integer, names + " gain_block_samples", "integers in [1, 50]")
+        names = "encoder_readmission_fraction gyro_readmission_fraction yaw_slip_fraction"
+        require_each(self, require_in, names, "[0, 1]")
+        names = "stuck_tolerance stuck_speed_fraction accel_consistency_per_speed gain_cross_coupling"
+        require_each(self, require_in, names + " gain_offset_allowance", "[0, inf)")
+        require_in("fast_consistency_factor", self.fast_consistency_factor, "(0, inf]")
+        require_in("stuck_braking_deceleration", self.stuck_braking_deceleration, "(0, inf] m/s^2")
+        require_in("gain_threshold", self.gain_threshold, "(0, inf]")
+
+
+def require_each(fields, check, names: str, allowed: str, prefix: str = "") -> None:
+    """``check`` (require_in, require_integer) of each of the space-separated ``names`` of ``fields``,
+    in order, against ``allowed``; the message names the field ``prefix + name``."""
+    for name in names.split():
+        check(prefix + name, getattr(fields, name), allowed)
 
 
 @dc.dataclass(frozen=True)
@@ -301,24 +249,15 @@ class HealthGeometry:
     slip_speed_floor: float = 0.3
 
 
-_RECORD_FIELDS = (
-    "enabled gyro_range accel_range saturation_fraction stuck_samples stuck_tolerance stuck_min_speed "
-    "stuck_speed_fraction stuck_braking_deceleration gyro_max_step accel_max_step max_wheel_acceleration "
-    "accel_consistency "
-    "accel_consistency_per_speed consistency_samples fast_consistency_samples fast_consistency_factor "
-    "bias_step_samples bias_step_yaw_rate yaw_slip_fraction yaw_witness_lag yaw_threshold "
-    "encoder_readmission_samples encoder_readmission_fraction gyro_readmission_samples "
-    "gyro_readmission_fraction clip_samples clip_window gain_threshold gain_tolerance gain_samples "
-    "gain_block_samples gain_cross_coupling gain_offset_allowance gain_release "
-    "radius_R radius_L track_width T_N encoder_step accelerometer_position max_wheel_speed gyro_noise_std "
-    "accel_noise_std accel_vibration_per_speed accel_vibration_time_constant accel_initial_bias_std "
-    "accel_drift_density inertial_hold_time gyro_resolution accel_resolution encoder_hold_time "
-    "accelerometer_sets tyre_peak_acceleration "
-    "mass wheel_inertia motor_constant motor_current_limit "
-    "bearing_drag shoe_offset "
-    "shoe_friction shoe_viscous_drag shoe_slip_speed shoe_normal_load yaw_inertia wheel_normal_load "
-    "tyre_friction tyre_stiffness_factor tyre_shape_factor slip_speed_floor"
-).split()
+_RECORDED = (
+    [f for f in dc.fields(SensorHealthParameters) if f.name != "max_wheel_speed"],  # the geometry's in force
+    dc.fields(HealthGeometry),
+)
+"""The fields health_record copies: the thresholds, yaw_false_alarm_time as the yaw test's threshold,
+then the geometry."""
+_RECORD_FIELDS = [
+    "yaw_threshold" if f.name == "yaw_false_alarm_time" else f.name for fields in _RECORDED for f in fields
+]
 DERIVED_FIELDS = (
     "analog_present saturation_level max_step clip_floor stuck_repeats "
     "encoder_jump_bound encoder_stuck_samples "
@@ -333,7 +272,6 @@ encoder_constants, pair_constants, gain_constants, yaw_constants)."""
 HealthConstants = collections.namedtuple("HealthConstants", _RECORD_FIELDS + DERIVED_FIELDS)
 """What health_check reads: SensorHealthParameters' thresholds, then HealthGeometry (its max_wheel_speed
 is the bound in force), then the DERIVED_FIELDS."""
-_GEOMETRY_FIELDS = _RECORD_FIELDS[_RECORD_FIELDS.index("radius_R") :]
 FORCE_REFERENCE_FIELDS = tuple(_RECORD_FIELDS[_RECORD_FIELDS.index("mass") :])
 """HealthGeometry's figures of the nominal robot for the force reference and the yaw dynamics
 (RobotParameters' names)."""
@@ -344,34 +282,17 @@ NO_YAW_CALIBRATION = (0.0, 0.0)
 
 
 def health_record(p: SensorHealthParameters, g: HealthGeometry) -> HealthConstants:
-    """The parameters and the geometry as one record in HealthConstants' order (bool, int or float;
-    accelerometer_position a pair of floats), the DERIVED_FIELDS None (check.health_constants fills
-    them)."""
+    """The parameters and the geometry as one record in HealthConstants' order (bool, int or float as
+    declared; accelerometer_position a pair of floats), the DERIVED_FIELDS None (check.health_constants
+    fills them)."""
     values = []
-    for name in _RECORD_FIELDS:
-        if name == "yaw_threshold":  # the yaw test's CUSUM threshold (systems/health/yaw_witness.py)
-            values.append(yaw_test_threshold(p.yaw_false_alarm_time, g.T_N))
-            continue
-        value = getattr(g if name in _GEOMETRY_FIELDS else p, name)
-        if name == "accelerometer_position":
-            value = (float(value[0]), float(value[1]))
-        elif name == "enabled":
-            value = bool(value)
-        elif name in (
-            "stuck_samples",
-            "consistency_samples",
-            "fast_consistency_samples",
-            "encoder_readmission_samples",
-            "gyro_readmission_samples",
-            "clip_samples",
-            "clip_window",
-            "gain_samples",
-            "gain_block_samples",
-            "bias_step_samples",
-            "accelerometer_sets",
-        ):
-            value = int(value)
-        else:
-            value = float(value)
-        values.append(value)
+    for source, fields in zip((p, g), _RECORDED, strict=True):
+        for f in fields:
+            value = getattr(source, f.name)
+            if f.name == "yaw_false_alarm_time":  # the yaw test's CUSUM threshold (yaw_witness.py)
+                values.append(yaw_test_threshold(value, g.T_N))
+            elif f.type is tuple:
+                values.append((float(value[0]), float(value[1])))
+            else:
+                values.append(f.type(value))  # bool, int or float
     return HealthConstants(*values, *([None] * len(DERIVED_FIELDS)))

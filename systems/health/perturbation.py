@@ -10,9 +10,8 @@ wheel stopped by a hand from a robot that was commanded to stop. The commands ca
    loop can follow (between the command and a reference that follows it at most at
    reference_acceleration, so that a current-limited run-up or a commanded stop is in the band) by more
    than speed_threshold + speed_fraction |command|, in a PT1 of time_constant: slower (held, blocked,
-   pushed back) or faster (pushed on). The encoders are read as the sensor checks pass them: a stuck or
-   jumping count is excluded and replaced by the other wheel and the gyro, so it does not read as a
-   braked or driven wheel.
+   pushed back) or faster (pushed on). A stuck or jumping count reads as its replacement, not as a braked
+   or driven wheel.
 2. ``yaw``: while both wheels are in their band, the body's yaw rate (the navigation's, the gyro's in a
    turn) leaves the wheels' by more than yaw_threshold + yaw_fraction |omega_wheels| (PT1): a wheel off
    the ground, or a push that turns the robot. The tyres' own slip in a hard turn (the odometric yaw rate
@@ -30,7 +29,8 @@ wheel stopped by a hand from a robot that was commanded to stop. The commands ca
    tyres: |v_t omega| has stayed below slide_demand (its peak held with slide_demand_hold). Without lateral
    demand no tyre curve, whatever the floor's grip, lets the body gain side slip; only an outside force
    does (a slippery floor in a turn does not count; the recovery from a spin-out, where the estimate's own
-   v_n is off by more than the bound, does: Kurt3D at friction 0.5).
+   v_n is off by more than the bound, does). A confirmed episode of these lateral conditions is the
+   sideways push the navigation takes as an outside force (sideways_push_update).
 
 4. ``force`` (with the motor drivers' current sense): the body's force balance, from the believed
    (nominal) robot alone. A wheel's motor puts (k i - beta w - J w')/r on the ground; the body's mass
@@ -45,8 +45,7 @@ wheel stopped by a hand from a robot that was commanded to stop. The commands ca
    (its motor's torque is what the free wheel takes): both are left to 2. and 3.
 
 A condition counts once it has held for confirm_samples; the flag then shows in the output (one sample
-later, as every state output). Thresholds: above the largest value in the fault-free built-in runs
-(corner, square, circle, long path), measured with studies/faults.py.
+later, as every state output). Thresholds: above the largest value in the fault-free built-in runs.
 
 What cannot be seen without the current sense: a push the speed loop or the tyres absorb without the
 motion changing (a wheel pushed within the motor's authority, a push below the tyres' grip while driving
@@ -60,65 +59,49 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.health.parameters import NO_CURRENTS, PLAUSIBLE_CURRENT
+from slipnav.systems.health.parameters import NO_CURRENTS, plausible_currents, require_each
 from slipnav.systems.ranges import out_of_range, require_in
 from slipnav.systems.robot.contact import shoe_drag
 from slipnav.systems.robot.parameters import RobotParameters
 from slipnav.systems.state_layout import layout_indices, layout_size
 
-PERTURBATION_CLASSES = ("wheel_braked", "wheel_driven", "yaw", "body")
-"""Output layout: [wheel_R, wheel_L, yaw, body]; a wheel's code is 1 braked, 2 driven; yaw, body 0/1."""
 PERTURBATION_CHANNELS = ("wheel_R", "wheel_L", "yaw", "body")
+"""The flags, in order: a wheel's code is WHEEL_BRAKED or WHEEL_DRIVEN; yaw and body 0 or 1."""
 WHEEL_BRAKED, WHEEL_DRIVEN = 1, 2
+_PREFIX = "perturbation_monitor."
+"""The scenario key of PerturbationParameters, in the messages of its range checks."""
 
 
 @dc.dataclass
 class PerturbationParameters:
-    """Thresholds of the perturbation monitor (module docstring).
+    """Thresholds of the perturbation monitor, each test stated in the module docstring; the fault-free
+    built-ins' largest values are measured with studies/faults.py.
 
     Args:
         enabled: monitor (False: the output stays zero).
         time_constant: PT1 of every residual (s): 0.02, one T_C.
         confirm_samples: samples a condition must hold before it is flagged, in [1, 100].
-        reference_acceleration: the rate (m/s^2) at which the band's reference follows a command: a wheel
-            that accelerates at least this fast towards a new command is following it. 2.0: Kurt3D's
-            wheels accelerate at ~3 m/s^2 at their current limit.
-        speed_threshold, speed_fraction: a wheel outside its band by more than this (m/s, 1 of |command|).
-            Fault-free built-ins: at most 0.10 m/s.
-        yaw_threshold, yaw_fraction: the body's and the wheels' yaw rates differ by more than this (rad/s,
-            1 of the wheels' |omega|). Fault-free: at most 0.43 rad/s (corner) and Kurt3D's skid at 3.4 m/s
-            on the circle.
-        lateral_threshold, lateral_per_speed, lateral_fraction: |a_n - v_t omega| beyond
-            lateral_threshold + lateral_per_speed |v_t| + lateral_fraction |v_t omega| (m/s^2, m/s^2 per
-            m/s, 1). a_n - v_t omega is the side slip's rate v_n', which the tyres build and release in
-            proportion to the turn's demand |v_t omega|: without the demand's share a hard turn of the
-            open corner reaches the bound on robots drawn from the tolerance preset (a false flag); with
-            0.2 the fault-free built-ins (matched and with the tolerance preset; open and closed loop)
-            peak at 0.89 of it (corner), 0.58 (long path). The benchmark's sideways pushes are flagged by
-            the slide and force tests first.
+        reference_acceleration: the rate (m/s^2) at which the band's reference follows a command: 2.0,
+            below Kurt3D's ~3 m/s^2 at its current limit.
+        speed_threshold, speed_fraction: a wheel's band tolerance (m/s, 1 of |command|); fault-free
+            built-ins: at most 0.10 m/s.
+        yaw_threshold, yaw_fraction: the yaw test's bound (rad/s, 1 of the wheels' |omega|); fault-free:
+            at most 0.43 rad/s (corner) and Kurt3D's skid at 3.4 m/s on the circle.
+        lateral_threshold, lateral_per_speed, lateral_fraction: the lateral test's bound (m/s^2, m/s^2
+            per m/s, 1): the side slip's rate a_n - v_t omega grows with the turn's demand |v_t omega|;
+            with 0.2 of it the fault-free built-ins, with the tolerance preset, peak at 0.89 of the bound.
         slide_time_constant: leak of the kinematic lateral velocity L towards the estimate (s).
-        slide_threshold: |L| beyond slide_threshold + slide_per_speed |v_t| is a side slip no tyre
-            explains (m/s); inf: no slide test. Fault-free built-ins: at most 0.75 of the
-            bound (long path at 4 m/s), every robustness case of corner and square at most 0.7; the
-            benchmark's sideways pushes 1.2-5.3.
+        slide_threshold: the slide test's bound on |L| (m/s; inf: no slide test); fault-free built-ins: at
+            most 0.75 of the bound, the benchmark's sideways pushes 1.2-5.3.
         slide_per_speed: the slide bound's growth with |v_t| (1).
         slide_demand: the slide test runs while |v_t omega| has stayed below this (m/s^2); inf: at any
             demand.
         slide_demand_hold: time constant with which the peak of |v_t omega| is held (s).
-        force_threshold: a side's force the motors do not explain, per unit mass, beyond
-            force_threshold + force_fraction |a_t| (m/s^2); inf: no force test. Fault-free built-ins
-            at most 0.29 m/s^2 (Tinyphoon), 0.60 (Kurt3D at 4 m/s); with the robot 25 %
-            heavier than believed 0.72.
-            The benchmark's pushes: 3.2 m/s^2 (a wheel at 0.6 x stall torque), 2.5 a side (the body at
-            5 m/s^2).
+        force_threshold: the force test's bound (m/s^2; inf: no force test); fault-free built-ins at most
+            0.60 m/s^2, 0.72 with the robot 25 % heavier than believed; the benchmark's pushes 2.5-3.2.
         force_fraction: the force bound's growth with |a_t| (1).
-        push_demand: a sideways episode (the body test's lateral and slide conditions) reaches the
-            navigation as an outside force (sideways_push, the mixer's external_force) only if it held
-            once while the turn's held demand |v_t omega| was below this (m/s^2), and raised no wheel
-            or yaw flag. After a turn the side slip the curve misses is the floor's (a slide's
-            recovery), and the kinematics' integral, which carries v_t omega's errors, drifts: without
-            this gate a slow slide after a turn at low friction reads as a push, and the navigation's
-            side slip follows the drift. 0: never (the navigation ignores pushes); inf: any.
+        push_demand: the held turn demand |v_t omega| (m/s^2) below which a sideways episode must have held
+            once to reach the navigation as an outside force (sideways_push_update); 0: never, inf: any.
     """
 
     enabled: bool = True
@@ -142,27 +125,15 @@ class PerturbationParameters:
     push_demand: float = 0.5
 
     def __post_init__(self):
-        positive = (
-            "time_constant", "reference_acceleration", "speed_threshold", "yaw_threshold",
-            "slide_time_constant", "slide_demand_hold",
-        )  # fmt: skip
-        for name in positive + ("lateral_threshold",):
-            require_in(f"perturbation_monitor.{name}", getattr(self, name), "(0, inf)")
-        for name in ("force_threshold", "slide_threshold", "slide_demand"):  # inf allowed
-            require_in(f"perturbation_monitor.{name}", getattr(self, name), "(0, inf]")
-        for name in (
-            "speed_fraction",
-            "yaw_fraction",
-            "lateral_per_speed",
-            "lateral_fraction",
-            "slide_per_speed",
-            "force_fraction",
-        ):
-            require_in(f"perturbation_monitor.{name}", getattr(self, name), "[0, inf)")
-        require_in("perturbation_monitor.push_demand", self.push_demand, "[0, inf]")  # inf allowed
+        names = "time_constant reference_acceleration speed_threshold yaw_threshold slide_time_constant"
+        require_each(self, require_in, names + " slide_demand_hold lateral_threshold", "(0, inf)", _PREFIX)
+        require_each(self, require_in, "force_threshold slide_threshold slide_demand", "(0, inf]", _PREFIX)
+        names = "speed_fraction yaw_fraction lateral_per_speed lateral_fraction slide_per_speed"
+        require_each(self, require_in, names + " force_fraction", "[0, inf)", _PREFIX)
+        require_in(_PREFIX + "push_demand", self.push_demand, "[0, inf]")  # inf allowed
         n = self.confirm_samples
         if int(n) != n or not 1 <= n <= 100:  # a whole number of samples
-            raise out_of_range("perturbation_monitor.confirm_samples", n, "1 .. 100")
+            raise out_of_range(_PREFIX + "confirm_samples", n, "1 .. 100")
 
     def validate(self) -> "PerturbationParameters":
         self.__post_init__()
@@ -190,17 +161,10 @@ PERTURBATION_LAYOUT = (
 """The monitor's state, in order (name, size); the flags last."""
 _INDEX = layout_indices(PERTURBATION_LAYOUT)
 STATE_SIZE = layout_size(PERTURBATION_LAYOUT)
-REFERENCE, WHEEL_RESIDUAL, YAW_RESIDUAL = (
-    _INDEX["reference"],
-    _INDEX["wheel_residual"],
-    _INDEX["yaw_residual"],
-)
-LATERAL_RESIDUAL, CONFIRM_COUNTS = _INDEX["lateral_residual"], _INDEX["confirm_counts"]
-LAST_ENCODER, FORCE_STAGE1, FORCE_STAGE2 = (
-    _INDEX["last_encoder"],
-    _INDEX["force_stage1"],
-    _INDEX["force_stage2"],
-)
+REFERENCE, WHEEL_RESIDUAL = _INDEX["reference"], _INDEX["wheel_residual"]
+YAW_RESIDUAL, LATERAL_RESIDUAL = _INDEX["yaw_residual"], _INDEX["lateral_residual"]
+CONFIRM_COUNTS, LAST_ENCODER = _INDEX["confirm_counts"], _INDEX["last_encoder"]
+FORCE_STAGE1, FORCE_STAGE2 = _INDEX["force_stage1"], _INDEX["force_stage2"]
 SLIDE_VELOCITY, HELD_DEMAND = _INDEX["slide_velocity"], _INDEX["held_demand"]
 SIDEWAYS_COUNT, SIDEWAYS_PUSH = _INDEX["sideways_count"], _INDEX["sideways_push"]
 SIDEWAYS_VETO, SIDEWAYS_SEEN = _INDEX["sideways_veto"], _INDEX["sideways_seen"]
@@ -250,18 +214,17 @@ def perturbation_step(
     Args:
         state: PERTURBATION_LAYOUT's values (perturbation_initial_state at first).
         command: the wheel speed commands [v_R, v_L] (m/s) in force.
-        encoders: the wheel angles [theta_R, theta_L] (rad) as the sensor checks pass them: an excluded
-            encoder's replacement (the other wheel and the gyro), so that a count that is stuck, jumps
-            or spans an exclusion is not read as a wheel held or pushed.
+        encoders: the wheel angles [theta_R, theta_L] (rad) as the sensor checks pass them (an excluded
+            encoder's replacement).
         estimate: the navigation's mixed estimate [v_t, v_n, omega, a_t, a_n].
         radii: the believed rolling radii (r_R, r_L) (m).
         currents: the drivers' current readings [i_R, i_L] (A); NaN or beyond PLAUSIBLE_CURRENT times
             the limit: no force test in this sample.
-        robot: the believed robot (its mass, inertias, motor constant, drags) for the force test, its
-            ForceModel (faster) or RobotParameters; None: no force test.
+        robot: the believed robot for the force test, its ForceModel (faster) or RobotParameters; None:
+            no force test.
         sliding: the navigation's slide-onset test holds this sample (the wheels slide): no yaw test.
-        accelerations: the estimate's a_t, a_n are measured (the robot carries accelerometers); False:
-            no body or force test (3., 4.), which judge the body's motion by them.
+        accelerations: the robot carries accelerometers, which measure the estimate's a_t, a_n; False: no
+            body or force test (3., 4.).
 
     Returns:
         the next state (its last four entries: the flags, PERTURBATION_CHANNELS).
@@ -332,8 +295,7 @@ def force_test(s, command, rates, currents, estimate, robot, outside, a: float, 
     testable = (
         robot is not None
         and math.isfinite(params.force_threshold)
-        and abs(currents[0]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit  # False for NaN
-        and abs(currents[1]) <= PLAUSIBLE_CURRENT * robot.motor_current_limit
+        and plausible_currents(currents, robot.motor_current_limit)
     )
     forces = unexplained_force(s, rates, currents, estimate, robot, a, T_N) if testable else None
     if forces is None:
@@ -351,13 +313,9 @@ def force_test(s, command, rates, currents, estimate, robot, outside, a: float, 
 
 
 def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float):
-    """Update the force balance's filters in ``s`` and return each side's force the motors do not
-    explain per unit mass [e_R, e_L] (m/s^2; module docstring, 4.), or None while a rate is missing.
-
-    Every term passes the same two PT1 stages (a PT2: the wheel and yaw accelerations are differences of
-    quantised rates, Kurt3D's odometric yaw rate steps by 0.15 rad/s a sample); the accelerations are the
-    differences of the second stage's rates.
-    """
+    """Update the force balance's two PT1 stages in ``s`` (a PT2: the wheel and yaw accelerations are the
+    differences of the second stage's quantised rates) and return each side's force the motors do not
+    explain per unit mass [e_R, e_L] (m/s^2; module docstring, 4.), or None while a rate is missing."""
     if not (math.isfinite(rates[0]) and math.isfinite(rates[1])):
         return None
     r = (robot.radius_R, robot.radius_L)
@@ -424,10 +382,12 @@ def slide_step(s, v_t: float, v_n: float, centripetal: float, a_n: float, params
 
 
 def sideways_push_update(s, sideways: bool, params) -> None:
-    """The sideways push the navigation takes (sideways_push): the lateral and slide conditions,
-    confirmed, in an episode that held once while the turn's held demand was below push_demand (after a
-    turn, side slip the curve misses is the floor's) and raised no wheel or yaw flag (a wheel held,
-    pushed or lifted turns the body about it: those lateral traces are the pivot's)."""
+    """The sideways push the navigation takes as an outside force (the mixer's external_force): the body
+    test's lateral and slide conditions, confirmed, in an episode that held once while the turn's held
+    demand was below push_demand and raised no wheel or yaw flag. After a turn the side slip the curve
+    misses is the floor's (a slide's recovery) and the kinematics' integral, which carries v_t omega's
+    errors, drifts: without the demand's gate a slow slide after a turn at low friction reads as a push. A
+    wheel held, pushed or lifted turns the body about it: those lateral traces are the pivot's."""
     s[SIDEWAYS_COUNT] = s[SIDEWAYS_COUNT] + 1.0 if sideways else 0.0
     if not sideways:
         s[SIDEWAYS_VETO] = s[SIDEWAYS_SEEN] = 0.0
@@ -440,10 +400,8 @@ def sideways_push_update(s, sideways: bool, params) -> None:
 
 
 def sideways_push(state) -> bool:
-    """The monitor's ``state`` (perturbation_step) flags a sideways push on the body: the body test's
-    lateral and slide conditions, confirmed, in an episode that held once below push_demand and raised no
-    wheel or yaw flag (the navigation's tyre curve does not explain the side slip: mixing.mix_checked's
-    ``external_force``)."""
+    """The monitor's ``state`` (perturbation_step) flags a sideways push on the body (sideways_push_update;
+    mixing.mix_checked's ``external_force``)."""
     return state[SIDEWAYS_PUSH] > 0.5
 
 

@@ -32,32 +32,17 @@ class PerturbationMonitor(LeafSystem):
         - force_residual
         - external_force
 
-    - wheel_speed_command: the commands [v_R, v_L] (m/s) the motors get.
-    - encoders: the wheel angles [theta_R, theta_L] (rad) the sensor checks pass on (the navigation
-      subsystem's ``checked_encoders``: an excluded encoder's replacement).
-    - mixed_estimate: the navigation's [v_t, v_n, omega, a_t, a_n].
-    - motor_currents (optional): the drivers' current readings [i_R, i_L] (A); unconnected (a replayed
-      log without currents) or NaN: no force test.
-    - slide_onset (optional): the navigation's [1 while its slide-onset test holds, else 0]; unconnected:
-      0.
-    - perturbation: [wheel_R, wheel_L, yaw, body] (state, a copy of the flags that the update stores):
-      a wheel 1 braked, 2 driven; yaw and body 1 when flagged.
-    - force_residual: each side's force the motors do not explain per unit mass [e_R, e_L] (m/s^2,
-      state; FORCE_CHANNELS).
-    - external_force: 1 while the monitor flags a sideways push the navigation should take
-      (sideways_push: the body test's lateral and slide conditions, confirmed, in an episode that held
-      once while the held turn demand was below push_demand and raised no wheel or yaw flag, the sample
-      before it included; state), else 0: the navigation's mixer reads it (mixing.mix_checked), one
-      sample later as every flag. A push along the heading does not set it (the lateral tyre curve
-      holds).
+    - inputs, perturbation_step's arguments: wheel_speed_command (command), encoders (the navigation
+      subsystem's ``checked_encoders``), mixed_estimate (estimate), motor_currents (optional;
+      unconnected: no force test) and slide_onset (optional: 1 while the navigation's slide-onset test
+      holds; unconnected: 0).
+    - outputs, states that the update stores: perturbation, the flags (PERTURBATION_CHANNELS);
+      force_residual (FORCE_CHANNELS); external_force, 1 while the monitor flags a sideways push
+      (sideways_push), which the navigation's mixer reads (mixing.mix_checked).
 
     Update every T_N: perturbation_step.
 
-    Args:
-        params: PerturbationParameters. radii: the believed rolling radii (r_R, r_L) (m). track_width: the
-            believed track (m). T_N: period (s). robot: the believed robot for the force test (None: no
-            force test). accelerations: the robot carries accelerometers (False: no body or force
-            test, perturbation_step).
+    Args: perturbation_step's params, radii, track_width, T_N, robot and accelerations.
     """
 
     def __init__(

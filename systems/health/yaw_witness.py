@@ -1,33 +1,23 @@
 """The wheels' witness of the gyro: the body's yaw rate the wheels imply, and one test of the gyro
 against it, the accelerometer pair breaking the tie (two against one).
 
-1. The witness (yaw_witness_step): the nominal yaw dynamics I_z omega' = b/2 (F_R - F_L) + the shoes'
-   moment driven by the wheels' circumferential speeds (yaw_follow_step), from the wheels alone: the
-   body's yaw rate lags the wheels' kinematic one by the tyres' slip (12 ms on Tinyphoon at 1.6 m/s).
-   Without the nominal robot's yaw inertia, or where its lag at the tyres' slip-speed floor is below
-   MIN_YAW_LAG_STEPS T_N (yaw_lag_at_floor), it is the odometric yaw rate itself.
-2. The residual r = (gyro - b_g) - witness, with the predicted variance (yaw_residual_variance)
-   S = sigma_g^2 + q^2 / 3 + (yaw_slip_fraction witness)^2 + (yaw_witness_lag witness')^2: the gyro's
-   noise, one encoder count per sample of each wheel as a yaw rate (q = encoder_step r / (b T_N), the
-   increment's error uniform within a count), the differential slip the nominal tyre curve leaves
-   unexplained, and the witness's timing against the gyro (the body's unmodelled lag behind the wheels,
-   the streams' relative latency) times the witness's rate of change, from its PT1 over
-   yaw_witness_lag. z = r / sqrt(S), over
-   the larger of 1 and the spread the healthy samples show (Mehra's innovation-based estimate: a real
-   robot whose witnesses agree less well than the data sheet says raises no alarm for that), is
-   judged in turns (|witness| beyond bias_step_yaw_rate; below it the calibration judges the bias) by
-   a two-sided CUSUM (systems/residual_test.py; drift YAW_DRIFT, clip YAW_CLIP, threshold from
-   yaw_false_alarm_time of healthy samples): a gyro whose scale is off by 50 % in a 3 rad/s turn moves z
-   by 2.5 and raises the alarm within 10 ms; a sign flip within 8 ms.
-   While the tyres slide (tyre_grip below GRIP_STIFFNESS_RATIO) the wheels witness nothing: the test
-   pauses (its sums held) and the witness restarts from the gyro when they grip again; the start is
-   forgotten within the tyres' lag, so a faulty gyro is judged a few lags later.
+1. The witness (yaw_witness_step): the nominal yaw dynamics driven by the wheels' circumferential speeds
+   (yaw_follow_step), from the wheels alone: the body's yaw rate lags the wheels' kinematic one by the
+   tyres' slip. Without the nominal robot's yaw inertia (yaw_lag_at_floor) it is the odometric yaw rate.
+2. The residual r = (gyro - b_g) - witness, normalised by its predicted variance (yaw_residual_variance)
+   and by the larger of 1 and the spread the healthy samples show (Mehra's innovation-based estimate: a
+   robot whose witnesses agree less well than the data sheet says raises no alarm for that), is judged
+   in turns (|witness| beyond bias_step_yaw_rate; below it the calibration judges the bias) by a
+   two-sided CUSUM (systems/residual_test.py; drift YAW_DRIFT, clip YAW_CLIP, threshold from
+   yaw_false_alarm_time of healthy samples): a gyro whose scale is off by 50 % in a 3 rad/s turn moves
+   z by 2.5 and raises the alarm within 10 ms. Outside turns, and while the tyres slide (tyre_grip below
+   GRIP_STIFFNESS_RATIO: the wheels witness nothing), the sums restart; the witness restarts from the gyro
+   when the tyres grip again and forgets that start within the tyres' lag.
 3. The decision (gyro_yaw_test): on an alarm the gyro is blamed unless the accelerometer pair's yaw rate
-   |omega| = sqrt(omega^2) (S(3)'s centripetal difference, averaged) clearly sides with it: closer to
-   |gyro - b_g| than to |witness| by PAIR_SIDE_SIGMAS of its own noise (pair_yaw_rate_std). Then the
-   wheels slide or are held (the perturbation monitor's matter) and the gyro stays in. Without the pair
-   (no accelerometers, one IMU copied into both sets, a non-finite reading: gyro.pair_witnesses) two
-   witnesses disagree and neither can be isolated: the gyro stays in and the sums restart.
+   |omega| = sqrt(omega^2) (S(3)'s centripetal difference, averaged) sides with it by PAIR_SIDE_SIGMAS of
+   its own noise (pair_yaw_rate_std): then the wheels slide or are held (the perturbation monitor's
+   matter) and the gyro stays in. Without the pair (gyro.pair_witnesses) two witnesses disagree and
+   neither can be isolated: the gyro stays in and the sums restart.
 """
 
 import math
@@ -35,6 +25,7 @@ import math
 from slipnav.systems.compiled import jitable
 from slipnav.systems.residual_test import CusumTest, cusum_update
 from slipnav.systems.robot.contact import shoe_drag, tyre_force_and_stiffness
+from slipnav.systems.state_layout import layout_size, layout_slices
 
 YAW_DRIFT = 0.5
 """The yaw test's CUSUM drift k (sigma): soonest for a shift of one sigma."""
@@ -44,12 +35,11 @@ needs four samples at least."""
 GRIP_STIFFNESS_RATIO = 0.5
 """The wheels witness the body's yaw rate only while both tyres' slip stiffness dF/dslip is at least this
 share of its value at zero slip (tyre_grip): past the peak the wheels turn apart while the body does
-not (the square's braking slides), and the test pauses.
-"""
+not (the square's braking slides)."""
 MIN_YAW_LAG_STEPS = 0.25
 """The nominal yaw dynamics serve as the witness only while their lag at the tyres' slip-speed floor is at
 least this many T_N (yaw_lag_at_floor): Tinyphoon 1.1, Kurt3D 0.9; a TurtleBot's track with Tinyphoon's
-yaw inertia 0.1, where the step overshoots as the tyres saturate."""
+yaw inertia 0.1."""
 PAIR_SIDE_SIGMAS = 2.0
 """The pair exonerates the gyro only when its |omega| lies this many of its standard deviations closer to
 the gyro's than to the witness's."""
@@ -59,19 +49,15 @@ the gyro's than to the witness's."""
 def yaw_follow_step(
     omega: float, u_R: float, u_L: float, v_t: float, v_n: float, g, grip: float = 1.0
 ) -> float:
-    """The excluded gyro's replacement: the body's yaw rate one T_N on, following the wheels through the
-    nominal yaw dynamics I_z omega' = b/2 (F_R - F_L) + the shoes' moment, each tyre's F_x from the
-    believed curve at the wheel's circumferential speed ``u`` against its contact point's v_t +- omega b/2
-    and v_n.
-    Linearly implicit in the tyres' slip stiffness dF/du (stable for any dF/du >= 0; past the peak, where
-    it turns negative, 1 + T_N (b/2)^2 (k_R + k_L) / I_z stays above 0.99 on both robots): near zero slip
-    the body follows the odometric yaw rate with the lag 2 I_z / (b^2 dF/du), 12 ms on Tinyphoon at 1.6
-    m/s, longer as the tyres saturate; the shoes' scrub holds it below. The odometric yaw rate itself
-    leads the body by that lag (over-reads while the turn builds, under-reads as it ends: 3.9 deg over 0.5
-    s of the open corner's turn, 0.2 deg this way). ``g``: HealthConstants (or anything with their
-    track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields); ``grip``: the identified tyre
-    peak over the nominal, which scales the curve's forces and stiffness (both are mu N times a function
-    of the slip)."""
+    """The body's yaw rate ``omega`` one T_N on, following the wheels through the nominal yaw dynamics
+    I_z omega' = b/2 (F_R - F_L) + the shoes' moment, each tyre's F_x from the believed curve at the
+    wheel's circumferential speed ``u`` against its contact point's v_t +- omega b/2 and v_n: the
+    witness, and the excluded gyro's replacement. Linearly implicit in the tyres' slip stiffness dF/du
+    (stable for any dF/du >= 0; past the peak 1 + T_N (b/2)^2 (k_R + k_L) / I_z stays above 0.99 on both
+    robots): near zero slip the body follows the odometric yaw rate with the lag 2 I_z / (b^2 dF/du) (12
+    ms on Tinyphoon at 1.6 m/s), longer as the tyres saturate. ``g``: HealthConstants (or anything with
+    their track_width, T_N, yaw_inertia, wheel_normal_load, tyre and shoe fields); ``grip``: the
+    identified tyre peak over the nominal, which scales the curve's forces and stiffness."""
     half = 0.5 * g.track_width
     f_R, _, k_R = tyre_force_and_stiffness(v_t + omega * half, v_n, u_R, g.wheel_normal_load, g)
     f_L, _, k_L = tyre_force_and_stiffness(v_t - omega * half, v_n, u_L, g.wheel_normal_load, g)
@@ -84,10 +70,9 @@ def yaw_follow_step(
 def yaw_lag_at_floor(g) -> float:
     """The nominal yaw dynamics' lag behind the wheels at the tyre curve's slip-speed floor (s):
     I_z / ((b/2)^2 2 dF/du) with dF/du = mu N C B / slip_speed_floor, the stiffest the tyres get (inf
-    without a tyre curve). Below MIN_YAW_LAG_STEPS T_N the body follows the wheels within a fraction of
-    a sample and the linearly implicit step of yaw_follow_step overshoots as the tyres saturate: the
-    witness and the gyro's replacement are then the odometric yaw rate (navigation.health_geometry sets
-    yaw_inertia 0)."""
+    without a tyre curve). Below MIN_YAW_LAG_STEPS T_N yaw_follow_step overshoots as the tyres saturate:
+    navigation.health_geometry then sets yaw_inertia 0, and the witness and the gyro's replacement are the
+    odometric yaw rate."""
     stiffness = g.tyre_friction * g.wheel_normal_load * g.tyre_shape_factor * g.tyre_stiffness_factor
     if not stiffness > 0.0:
         return math.inf
@@ -96,9 +81,9 @@ def yaw_lag_at_floor(g) -> float:
 
 @jitable
 def yaw_witness_step(witness: float, v_R: float, v_L: float, v_t: float, v_n: float, g, grip: float):
-    """The witness one T_N on (module docstring, 1.): the yaw dynamics from ``witness`` driven by the
-    wheels' speeds v_R, v_L (m/s) at the body's v_t, v_n; from the odometric yaw rate when it is NaN (a
-    restart), the odometric yaw rate itself without the nominal yaw inertia."""
+    """The witness one T_N on: yaw_follow_step from ``witness`` (the odometric yaw rate when it is NaN)
+    with the wheels' speeds v_R, v_L (m/s) at the body's v_t, v_n; without the nominal yaw inertia the
+    odometric yaw rate itself."""
     omega_o = (v_R - v_L) / g.track_width
     if g.yaw_inertia <= 0.0:
         return omega_o
@@ -136,9 +121,8 @@ def count_yaw_rate(g) -> float:
 
 
 def yaw_constants(c) -> dict:
-    """The yaw test's figures of the record ``c`` (HealthConstants): yaw_residual_floor, the residual's
-    variance without a turn, sigma_g^2 + q^2 / 3 (yaw_residual_variance); yaw_smoothing, the gain of the
-    witness's PT1 over yaw_witness_lag, min(1, T_N / yaw_witness_lag) (gyro.gyro_yaw_check)."""
+    """The yaw test's figures of the record ``c`` (HealthConstants): yaw_residual_floor, sigma_g^2 + q^2 / 3
+    (yaw_residual_variance); yaw_smoothing, the gain of the witness's PT1, min(1, T_N / yaw_witness_lag)."""
     return {
         "yaw_residual_floor": c.gyro_noise_std**2 + count_yaw_rate(c) ** 2 / 3.0,
         "yaw_smoothing": min(1.0, c.T_N / c.yaw_witness_lag),
@@ -147,13 +131,15 @@ def yaw_constants(c) -> dict:
 
 @jitable
 def yaw_residual_variance(witness: float, witness_rate: float, c) -> float:
-    """S of the residual (gyro - b_g) - witness (rad^2/s^2; module docstring, 2.) at the witness's rate
-    of change ``witness_rate`` (rad/s^2); ``c``: HealthConstants (or anything with their
+    """The predicted variance S of the residual (gyro - b_g) - witness (rad^2/s^2): sigma_g^2 + q^2 / 3 +
+    (yaw_slip_fraction witness)^2 + (yaw_witness_lag witness')^2, the gyro's noise, one encoder count per
+    sample of each wheel as a yaw rate (q: count_yaw_rate, the error uniform within a count), the
+    differential slip the nominal tyre curve leaves unexplained, and the witness's timing against the gyro
+    (the body's unmodelled lag, the streams' relative latency) times its rate of change ``witness_rate``
+    (rad/s^2, from its PT1 over yaw_witness_lag). ``c``: HealthConstants (or anything with their
     yaw_slip_fraction, yaw_witness_lag and yaw_residual_floor, yaw_constants)."""
     return (
-        c.yaw_residual_floor
-        + (c.yaw_slip_fraction * witness) ** 2
-        + (c.yaw_witness_lag * witness_rate) ** 2
+        c.yaw_residual_floor + (c.yaw_slip_fraction * witness) ** 2 + (c.yaw_witness_lag * witness_rate) ** 2
     )
 
 
@@ -172,9 +158,9 @@ def pair_yaw_rate_std(omega: float, speed: float, c) -> float:
 YAW_TEST_LAYOUT = (("z_variance", 1), ("cusum", 6))
 """The yaw test's state (gyro_yaw_test), in order (name, size): the observed variance of the normalised
 innovation, the CUSUM's sums (CusumState's order)."""
-Z_VARIANCE = 0
-CUSUM = slice(1, 7)
-YAW_TEST_SIZE = 7
+_YAW_TEST = layout_slices(YAW_TEST_LAYOUT)
+Z_VARIANCE, CUSUM = _YAW_TEST["z_variance"], _YAW_TEST["cusum"]
+YAW_TEST_SIZE = layout_size(YAW_TEST_LAYOUT)
 YAW_GATE = 4.0
 """|z| beyond this (in units of the observed spread) does not feed the observed variance (sigma)."""
 YAW_NOISE_SAMPLES = 1000.0
@@ -192,11 +178,9 @@ def gyro_yaw_test(
 ) -> bool:
     """One sample of the yaw test (module docstring, 2. and 3.): ``state`` YAW_TEST_LAYOUT's values
     (updated in place), ``gyro`` the gyro less b_g and ``witness`` the wheels' yaw rate (rad/s) with its
-    smoothed rate of change ``witness_rate`` (rad/s^2),
-    ``pair_squared`` the pair's averaged omega^2 (rad^2/s^2, NaN: no pair to witness), ``speed`` |v_o|
-    (m/s), ``c``
-    HealthConstants (yaw_threshold). Returns True when the gyro is to be excluded; an alarm restarts the
-    sums either way."""
+    smoothed rate of change ``witness_rate`` (rad/s^2), ``pair_squared`` the pair's averaged omega^2
+    (rad^2/s^2, NaN: no pair to witness), ``speed`` |v_o| (m/s), ``c`` HealthConstants (yaw_threshold).
+    Returns True when the gyro is to be excluded; an alarm restarts the sums either way."""
     residual = gyro - witness
     z = residual / math.sqrt(yaw_residual_variance(witness, witness_rate, c))
     # test, normalised by the larger of 1 and the variance the healthy samples show (Mehra)
