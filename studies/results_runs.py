@@ -345,8 +345,9 @@ CALIBRATION = Section(
     ),
 )
 
-LONG_RUN_SECONDS = 600.0
-"""Simulated time of the long run's laps and of its spin (studies/long_run.py measures an hour of each)."""
+LONG_RUN_SECONDS = 3600.0
+"""Simulated time of the long run's laps and of its spin: an hour of each (issue: a 1 h run of square laps
+with standstills between them)."""
 
 
 def long_run_section(context) -> str:
@@ -363,6 +364,7 @@ def long_run_section(context) -> str:
             f"{s['covariance_min_eigenvalue']:.2g} … {s['covariance_max_eigenvalue']:.2g}",
             f"{s['covariance_max_asymmetry']:.2g}",
             " / ".join(f"{100 * s['final_position_error_m'][k]:.1f}" for k in ESTIMATE_KEYS),
+            _run_reports(s),
         ],
         [
             f"spin at {SPIN_RATE:g} rad/s, {r['duration_s']:.0f} s, plain loop",
@@ -370,6 +372,7 @@ def long_run_section(context) -> str:
             f"{r['min_eigenvalue']:.2g} … {r['max_eigenvalue']:.2g}",
             f"{r['max_asymmetry']:.2g}",
             f"largest velocity variance {r['max_velocity_variance']:.2g} m²/s²",
+            "—",
         ],
     ]
     intro = paragraph(
@@ -377,10 +380,23 @@ def long_run_section(context) -> str:
         f"run square_laps --duration {LONG_RUN_SECONDS:g}` in a child process: its peak resident memory and "
         "wall time, the EKF covariance P's extreme eigenvalues and largest asymmetry over the run, checked "
         "every 0.1 s, and the final position errors of fused / odometry-only / Gyrodometry), and as long a "
-        "spin on the spot through the plain navigation loop on synthetic sensors (P checked every 0.1 s)."
+        "spin on the spot through the plain navigation loop on synthetic sensors (P checked every 0.1 s). "
+        "The reports: the channels the sensor checks flagged, the perturbations and the gyro bias changes "
+        "the run's summary lists (none on a fault-free run)."
     )
-    header = ("run", "memory, wall", "P's eigenvalues", "P's asymmetry", "final error, cm")
+    header = ("run", "memory, wall", "P's eigenvalues", "P's asymmetry", "final error, cm", "reports")
     return intro + "\n\n" + table(header, rows)
+
+
+def _run_reports(summary: dict) -> str:
+    """The fault-free run's reports from its summary: flagged channels, perturbations, bias changes."""
+    flagged = sorted(summary.get("sensor_health") or {})
+    perturbations = sorted(summary.get("perturbations") or {})
+    changes = len(summary.get("gyro_bias_changes_s") or [])
+    return (
+        f"flagged: {', '.join(flagged) or 'none'}; perturbations: {', '.join(perturbations) or 'none'}; "
+        f"bias changes: {changes}"
+    )
 
 
 LONG_RUN = Section(
