@@ -19,6 +19,7 @@ from slipnav.studies.results_page import (
     parse_page,
     write_results,
 )
+from slipnav.studies.results_runs import _run_reports
 from slipnav.studies.results_sections import SECTIONS
 from slipnav.studies.results_text import Context, Section, SectionSkipped, table
 
@@ -187,3 +188,15 @@ def test_the_committed_page_is_stamped_and_names_real_commands():
         commands = re.findall(r"`slipnav ([a-z-]+)[^`]*`", paragraph)
         assert commands, f"{name}: no command"
         assert set(commands) <= set(COMMANDS), f"{name}: {commands}"
+
+
+def test_the_long_run_reports_name_what_the_runs_summary_lists():
+    """The long run's report column: the flagged channels and perturbations by name, the bias changes by
+    count, 'none' where the summary lists nothing."""
+    assert _run_reports({}) == "flagged: none; perturbations: none; bias changes: 0"
+    summary = {
+        "sensor_health": {"gyro": {}, "accel1_n": {}},
+        "perturbations": {"body": {}},
+        "gyro_bias_changes_s": [1.0, 2.5],
+    }
+    assert _run_reports(summary) == "flagged: accel1_n, gyro; perturbations: body; bias changes: 2"
