@@ -23,6 +23,7 @@ import math
 import numpy as np
 from slipnav.systems.compiled import compiled, element_view, jitable, record_maker
 from slipnav.systems.health.accelerometer_pair import (
+    all_in,
     force_reference,
     pair_check,
     pair_constants,
@@ -177,8 +178,7 @@ def health_check(
     moving = used[0] != 0.0 or used[1] != 0.0  # the wheels turned
     pair_check(s, raw, codes, rot, rot_dot, omega, a_force, v_o, moving, fast_known, p, g)
     s[PREVIOUS_ODOMETRIC_SPEED] = v_o
-    pair_ok = codes[0] == 0 and codes[1] == 0 and codes[2] == 0 and codes[3] == 0
-    s[PAIR_WITNESS] = 1.0 if pair_ok and pair_witnesses(raw, g) else 0.0
+    s[PAIR_WITNESS] = 1.0 if all_in(codes[0:4], (0,)) and pair_witnesses(raw, g) else 0.0
     # 5. the analog outputs
     if codes[GYRO] == SATURATED:
         replacement = omega  # the pair's yaw rate, or the wheels'
