@@ -14,8 +14,7 @@ its witnesses are healthy. Two tests judge z:
    of healthy samples between false alarms by Siegmund's approximation of the average run length
    (cusum_threshold). A shift of delta sigma is detected after about (h + 1.166) / (delta - k)
    samples (at most clip). Each side also counts the samples since it last stood at zero (Page's
-   estimate of the change point) and sums their residuals: on an alarm, cusum_shift is the mean residual
-   since the change, the size of the change in the residual's units.
+   estimate of the change point).
 """
 
 import dataclasses as dc
@@ -28,11 +27,11 @@ from scipy.special import gammaincinv
 from slipnav.systems.compiled import jitable
 from slipnav.systems.ranges import out_of_range, require_in
 
-CusumState = namedview(
-    "CusumState", ["upper", "lower", "upper_count", "lower_count", "upper_sum", "lower_sum"]
-)
+CusumState = namedview("CusumState", ["upper", "lower", "upper_count", "lower_count"])
 """The two one-sided sums g+ (shift up) and g- (shift down), in sigma; per side the samples since it last
-stood at zero and the sum of their residuals (the residual's units)."""
+stood at zero."""
+CUSUM_SIZE = len(CusumState.get_fields())
+"""CusumState's number of values."""
 
 SIEGMUND_CORRECTION = 1.166
 """Siegmund's boundary correction of the CUSUM's threshold for Gaussian increments (in sigma)."""
@@ -100,39 +99,26 @@ class CusumTest:
 
 def cusum_initial_state() -> CusumState:
     """Both sums at zero."""
-    return CusumState([0.0] * 6)
+    return CusumState([0.0] * CUSUM_SIZE)
 
 
-def cusum_step(state: CusumState, z: float, test: CusumTest, residual: float | None = None) -> tuple:
-    """One normalised innovation ``z`` of ``residual`` (default z): returns (the next CusumState, +1 / -1
-    when the upper / lower sum exceeds the threshold, else 0). The sums are not reset here: the caller
-    decides what an alarm changes and restarts the test with cusum_initial_state."""
+def cusum_step(state: CusumState, z: float, test: CusumTest) -> tuple:
+    """One normalised innovation ``z``: returns (the next CusumState, +1 / -1 when the upper / lower sum
+    exceeds the threshold, else 0). The sums are not reset here: the caller decides what an alarm
+    changes and restarts the test with cusum_initial_state."""
     sums = np.array(state[:], dtype=float)
-    alarm = cusum_update(sums, z, test.drift, test.threshold, test.clip, z if residual is None else residual)
+    alarm = cusum_update(sums, z, test.drift, test.threshold, test.clip)
     return CusumState(sums), alarm
 
 
 @jitable
-def cusum_update(sums, z: float, drift: float, threshold: float, clip: float, residual: float) -> int:
+def cusum_update(sums, z: float, drift: float, threshold: float, clip: float) -> int:
     """cusum_step on the plain array ``sums`` (CusumState's order), updated in place: the form the
     compiled sensor checks call (systems/compiled.py). Returns +1 / -1 / 0 as cusum_step."""
     clipped = min(max(z, -clip), clip)
     upper = max(0.0, sums[0] + clipped - drift)
     lower = max(0.0, sums[1] - clipped - drift)
-    if upper > 0.0:
-        sums[2], sums[4] = sums[2] + 1.0, sums[4] + residual
-    else:
-        sums[2], sums[4] = 0.0, 0.0
-    if lower > 0.0:
-        sums[3], sums[5] = sums[3] + 1.0, sums[5] + residual
-    else:
-        sums[3], sums[5] = 0.0, 0.0
+    sums[2] = sums[2] + 1.0 if upper > 0.0 else 0.0
+    sums[3] = sums[3] + 1.0 if lower > 0.0 else 0.0
     sums[0], sums[1] = upper, lower
     return 1 if upper > threshold else (-1 if lower > threshold else 0)
-
-
-def cusum_shift(state: CusumState, side: int) -> tuple:
-    """(samples since the change point, mean residual since it) of the upper (``side`` +1) or lower (-1)
-    sum; (0, 0) while that sum stands at zero."""
-    count, total = (state.upper_count, state.upper_sum) if side > 0 else (state.lower_count, state.lower_sum)
-    return count, (total / count if count > 0 else 0.0)

@@ -105,13 +105,13 @@ def test_bias_change_update_measures_from_the_change_point_by_hand():
     gives the shift 0.08 - 0.01 - 10 x 0.002 = 0.05; P there plus 4 batches of the walk diag(1e-8, 0),
     widened by 0.05^2, takes it with R / 3."""
     change = np.zeros(CHANGE_STATE_SIZE)
-    cusum = CusumState([0.0, 12.0, 0.0, 3.0, 0.0, -0.1])
+    cusum = CusumState([0.0, 12.0, 0.0, 3.0])
     change_points_step(
-        change, CusumState([0.0, 1.0, 0.0, 1.0, 0.0, 0.0]), [0.01, 0.002], np.diag([1e-6, 4e-6]), 0.07, 10.0
+        change, CusumState([0.0, 1.0, 0.0, 1.0]), [0.01, 0.002], np.diag([1e-6, 4e-6]), 0.07, 10.0
     )
     for y in (0.09, 0.08):
         change_points_age(change, cusum)
-        change_points_step(change, CusumState([0.0, 5.0, 0.0, 2.0, 0.0, 0.0]), [9.0, 9.0], np.eye(2), y, 10.0)
+        change_points_step(change, CusumState([0.0, 5.0, 0.0, 2.0]), [9.0, 9.0], np.eye(2), y, 10.0)
     change_points_age(change, cusum)
     change_points_age(change, cusum)
     theta, P = bias_change_update(change, cusum, -1, 1e-4, np.diag([1e-8, 0.0]))

@@ -14,7 +14,6 @@ from slipnav.systems.residual_test import (
     chi_square_gate,
     cusum_initial_state,
     cusum_run_length,
-    cusum_shift,
     cusum_step,
     cusum_threshold,
 )
@@ -61,22 +60,25 @@ def test_page_recursion_by_hand():
     assert alarm == -1
 
 
-def test_the_change_point_and_the_shift_since_it():
-    """Each side counts the samples since its sum last stood at zero and sums their (unclipped)
-    residuals: after z = -1 (the upper sum at zero), 1.5, 10 and 2 with residuals 0.01 z, the upper run
-    holds 3 samples of mean (0.015 + 0.1 + 0.02) / 3 = 0.045; the lower sum never left zero."""
-    test = CusumTest(drift=0.5, threshold=100.0, clip=2.0)
+def test_the_change_point_counts_by_hand():
+    """Each side counts the samples since its sum last stood at zero, and an alarm resets nothing (k =
+    0.5, h = 3.5, clip 2): z = -1 lifts only g- (0.5); 1.5, 10 (clipped to 2) and 2 lift g+ to 1, 2.5
+    and 4 (an alarm, its run 3 samples long) while g- falls back to zero; -5 (clipped to -2) takes g+ to
+    1.5 (4 samples) and g- to 1.5, the next -5 g+ to zero (its run ends) and g- to 3 (2 samples)."""
+    test = CusumTest(drift=0.5, threshold=3.5, clip=2.0)
     state = cusum_initial_state()
-    for z in (-1.0, 1.5, 10.0, 2.0):
-        state, _ = cusum_step(state, z, test, 0.01 * z)
-    count, shift = cusum_shift(state, 1)
-    assert count == 3 and shift == pytest.approx(0.045, rel=1e-12)
-    assert cusum_shift(state, -1) == (0, 0.0)
-    state, _ = cusum_step(state, -5.0, test, -0.05)  # clipped: 4 - 2 - 0.5 = 1.5, the run goes on
-    assert cusum_shift(state, 1)[0] == 4
-    state, _ = cusum_step(state, -5.0, test, -0.05)  # back to zero: the run ends
-    assert cusum_shift(state, 1) == (0, 0.0)
-    assert cusum_shift(state, -1) == (2, pytest.approx(-0.05))
+    expected = (
+        (-1.0, (0.0, 0.5, 0.0, 1.0), 0),
+        (1.5, (1.0, 0.0, 1.0, 0.0), 0),
+        (10.0, (2.5, 0.0, 2.0, 0.0), 0),
+        (2.0, (4.0, 0.0, 3.0, 0.0), 1),
+        (-5.0, (1.5, 1.5, 4.0, 1.0), 0),
+        (-5.0, (0.0, 3.0, 0.0, 2.0), 0),
+    )
+    for z, sums, alarm in expected:
+        state, raised = cusum_step(state, z, test)
+        assert (tuple(state[:]), raised) == (sums, alarm)
+    assert (state.upper_count, state.lower_count) == (0.0, 2.0)
 
 
 def first_alarms(test: CusumTest, z: np.ndarray) -> np.ndarray:

@@ -23,7 +23,7 @@ against it, the accelerometer pair breaking the tie (two against one).
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.residual_test import CusumTest, cusum_update
+from slipnav.systems.residual_test import CUSUM_SIZE, CusumTest, cusum_update
 from slipnav.systems.robot.contact import shoe_drag, tyre_force_and_stiffness
 from slipnav.systems.state_layout import layout_size, layout_slices
 
@@ -155,7 +155,7 @@ def pair_yaw_rate_std(omega: float, speed: float, c) -> float:
     return squared / max(2.0 * abs(omega), math.sqrt(squared))
 
 
-YAW_TEST_LAYOUT = (("z_variance", 1), ("cusum", 6))
+YAW_TEST_LAYOUT = (("z_variance", 1), ("cusum", CUSUM_SIZE))
 """The yaw test's state (gyro_yaw_test), in order (name, size): the observed variance of the normalised
 innovation, the CUSUM's sums (CusumState's order)."""
 _YAW_TEST = layout_slices(YAW_TEST_LAYOUT)
@@ -169,7 +169,7 @@ YAW_NOISE_SAMPLES = 1000.0
 
 def yaw_test_initial_state() -> list:
     """z's observed variance 1, the sums at zero."""
-    return [1.0] + [0.0] * 6
+    return [1.0] + [0.0] * CUSUM_SIZE
 
 
 @jitable
@@ -185,7 +185,7 @@ def gyro_yaw_test(
     z = residual / math.sqrt(yaw_residual_variance(witness, witness_rate, c))
     # test, normalised by the larger of 1 and the variance the healthy samples show (Mehra)
     spread = math.sqrt(max(1.0, state[Z_VARIANCE]))
-    alarm = cusum_update(state[CUSUM], z / spread, YAW_DRIFT, c.yaw_threshold, YAW_CLIP, residual)
+    alarm = cusum_update(state[CUSUM], z / spread, YAW_DRIFT, c.yaw_threshold, YAW_CLIP)
     if alarm == 0 and abs(z) <= YAW_GATE * spread:
         state[Z_VARIANCE] += (z * z - state[Z_VARIANCE]) / YAW_NOISE_SAMPLES
     if alarm == 0:

@@ -63,7 +63,7 @@ from slipnav.systems.navigation.bias_change import (
     change_points_step,
 )
 from slipnav.systems.ranges import out_of_range, require_flag, require_in
-from slipnav.systems.residual_test import CusumState, cusum_step
+from slipnav.systems.residual_test import CUSUM_SIZE, CusumState, cusum_step
 from slipnav.systems.robot.sensors import SensorParameters
 from slipnav.systems.state_layout import layout_size, layout_slices
 
@@ -184,7 +184,7 @@ CALIBRATION_LAYOUT = (
     ("ok", 1),
     ("learned", 1),
     ("rejected", 1),
-    ("cusum", 6),
+    ("cusum", CUSUM_SIZE),
     ("changes", 1),
     ("previous_wheels", 1),
     ("previous_gyro", 1),
@@ -327,7 +327,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
             z = innovation / math.sqrt(max(S, state[_RESIDUAL_VARIANCE]))
             if z * z <= p.innovation_gate**2:
                 state[_RESIDUAL_VARIANCE] += (innovation**2 - state[_RESIDUAL_VARIANCE]) / p.noise_batches
-            cusum, alarm = cusum_step(CusumState(state[_CUSUM]), z, bias_change_test(p), innovation)
+            cusum, alarm = cusum_step(CusumState(state[_CUSUM]), z, bias_change_test(p))
             state[_CUSUM] = cusum[:]
             change_points_step(state[_CHANGE_POINTS], cusum, theta, P, gyro_mean - omega_mean, H[1])
             if alarm:  # measured from the change point (systems/navigation/bias_change.py)
