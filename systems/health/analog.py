@@ -25,6 +25,9 @@ from slipnav.systems.health.layout import (
     ANALOG_LAST,
     ANALOG_REFERENCE,
     ANALOG_REPEATS,
+    BLOCK_DIFFERENCE,
+    BLOCK_SAMPLES,
+    BLOCK_TRAVEL,
     CLIP_POSITION,
     CLIP_RING,
     CLIP_WINDOW_MAX,
@@ -149,6 +152,17 @@ def hold_samples(hold_time: float, T_N: float) -> int:
     """The samples a stream's longest healthy hold ``hold_time`` (s) spans at T_N: the repeats a stuck
     test allows beyond its own count."""
     return math.ceil(hold_time / T_N - 1e-9)
+
+
+@jitable
+def readmission_sample(block, residual: float, replacement: float, noise: float, fixed: float, fraction):
+    """Adds an excluded channel's ``residual`` against its ``replacement`` to its re-admission ``block``
+    (layout.READMISSION_LAYOUT's values, updated in place). Returns the summed difference the block
+    allows: ``noise`` sqrt(samples) + ``fixed`` + ``fraction`` of the replacement's summed magnitude."""
+    block[BLOCK_SAMPLES] += 1.0
+    block[BLOCK_DIFFERENCE] += residual
+    block[BLOCK_TRAVEL] += abs(replacement)
+    return noise * math.sqrt(block[BLOCK_SAMPLES]) + fixed + fraction * block[BLOCK_TRAVEL]
 
 
 @jitable

@@ -22,12 +22,14 @@ increment after an exclusion (it spans the gap) is never used.
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.health.analog import hold_samples
+from slipnav.systems.health.analog import hold_samples, readmission_sample
 from slipnav.systems.health.layout import (
-    ENCODER_BLOCK_COUNT,
-    ENCODER_BLOCK_DIFFERENCE,
+    BLOCK_DIFFERENCE,
+    BLOCK_SAMPLES,
+    BLOCK_TRAVEL,
+    ENCODER_BLOCK_L,
     ENCODER_BLOCK_MOVED,
-    ENCODER_BLOCK_PREDICTED,
+    ENCODER_BLOCK_R,
     ENCODER_CODE,
     ENCODER_INCREMENT,
     ENCODER_LAST_RAW,
@@ -145,18 +147,14 @@ def readmission_block(s, w: int, d: float, expected: float, bound: float, p, g) 
     if abs(d - expected) > bound:
         suspect[w] = 1.0
         return False, False
-    block_count = s[ENCODER_BLOCK_COUNT]
-    block_difference = s[ENCODER_BLOCK_DIFFERENCE]
-    block_predicted = s[ENCODER_BLOCK_PREDICTED]
+    block = s[ENCODER_BLOCK_R] if w == 0 else s[ENCODER_BLOCK_L]  # READMISSION_LAYOUT's values
     block_moved = s[ENCODER_BLOCK_MOVED]
-    block_count[w] += 1.0
-    block_difference[w] += d - expected
-    block_predicted[w] += abs(expected)
+    fraction = p.encoder_readmission_fraction
+    allowed = readmission_sample(block, d - expected, expected, 0.0, 2.0 * g.encoder_step, fraction)
     block_moved[w] += abs(d)
     moved = block_moved[w] >= READMISSION_TRAVEL_COUNTS * g.encoder_step
-    if block_count[w] >= p.encoder_readmission_samples and (moved or suspect[w] == 0.0):
-        tolerance = 2.0 * g.encoder_step + p.encoder_readmission_fraction * block_predicted[w]
-        ok = abs(block_difference[w]) <= tolerance
+    if block[BLOCK_SAMPLES] >= p.encoder_readmission_samples and (moved or suspect[w] == 0.0):
+        ok = abs(block[BLOCK_DIFFERENCE]) <= allowed
         suspect[w] = suspect[w] if ok else 1.0
         return ok, False
     return False, True
@@ -216,9 +214,6 @@ def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_
     increment = s[ENCODER_INCREMENT]
     code = s[ENCODER_CODE]
     lost = s[ENCODER_LOST]
-    block_count = s[ENCODER_BLOCK_COUNT]
-    block_difference = s[ENCODER_BLOCK_DIFFERENCE]
-    block_predicted = s[ENCODER_BLOCK_PREDICTED]
     block_moved = s[ENCODER_BLOCK_MOVED]
     used = [0.0, 0.0]
     for w in range(2):
@@ -242,6 +237,7 @@ def encoder_outputs(s, codes, inc, predicted, first, in_block, missed, previous_
         code[w] = codes[c]
         increment[w] = increment[w] if first[w] else used[w]  # the first keeps the initial speed's increment
         if not in_block[w]:  # judged, broken, or no block: the next one starts anew
-            block_count[w] = block_difference[w] = block_predicted[w] = block_moved[w] = 0.0
+            block = s[ENCODER_BLOCK_R] if w == 0 else s[ENCODER_BLOCK_L]
+            block[BLOCK_SAMPLES] = block[BLOCK_DIFFERENCE] = block[BLOCK_TRAVEL] = block_moved[w] = 0.0
     s[TRAVEL_RESTORED] = 1.0 if missed[0] != 0.0 or missed[1] != 0.0 else 0.0
     return used

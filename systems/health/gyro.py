@@ -20,6 +20,7 @@ import math
 
 from slipnav.systems.compiled import jitable
 from slipnav.systems.health.accelerometer_pair import pair_present
+from slipnav.systems.health.analog import readmission_sample
 from slipnav.systems.health.layout import (
     ANALOG_EXCLUDED,
     ANALOG_HOLD,
@@ -30,11 +31,12 @@ from slipnav.systems.health.layout import (
     BIAS_BLOCK_SUM,
     BIAS_BLOCK_TURN,
     BIAS_STEP,
+    BLOCK_DIFFERENCE,
+    BLOCK_SAMPLES,
+    BLOCK_TRAVEL,
     FROZEN_GYRO_OWED,
     FROZEN_GYRO_SHADOW,
-    GYRO_BLOCK_COUNT,
-    GYRO_BLOCK_DIFFERENCE,
-    GYRO_BLOCK_TRAVEL,
+    GYRO_BLOCK,
     PAIR_OMEGA_SQUARED,
     PAYBACK_LEFT,
     PAYBACK_RATE,
@@ -75,27 +77,22 @@ def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
     counts of each wheel and gyro_readmission_fraction of the replacement's summed magnitude, then 0."""
     reference = s[ANALOG_REFERENCE]
     hold = s[ANALOG_HOLD]
+    block = s[GYRO_BLOCK]
     held = hold[GYRO] > 0.0
     judged = codes[GYRO] == 0 or (held and codes[GYRO] == INCONSISTENT)
     goes_on = False  # the block goes on to the next sample
     if judged and s[ANALOG_EXCLUDED][GYRO] > 0.0 and math.isfinite(reference[GYRO]):
         codes[GYRO] = INCONSISTENT if held else RECOVERING  # until a block agrees
-        s[GYRO_BLOCK_COUNT] += 1.0
-        s[GYRO_BLOCK_DIFFERENCE] += raw[GYRO] - bias - reference[GYRO]
-        s[GYRO_BLOCK_TRAVEL] += abs(reference[GYRO])
-        informative = not held or s[GYRO_BLOCK_TRAVEL] * g.T_N >= YAW_RELEASE_HEADING
-        n = s[GYRO_BLOCK_COUNT]
-        goes_on = n < p.gyro_readmission_samples or not informative
         counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
-        allowed = (
-            3.0 * g.gyro_noise_std * math.sqrt(n)
-            + counts
-            + p.gyro_readmission_fraction * s[GYRO_BLOCK_TRAVEL]
-        )
-        if not goes_on and not abs(s[GYRO_BLOCK_DIFFERENCE]) > allowed:
+        noise, fraction = 3.0 * g.gyro_noise_std, p.gyro_readmission_fraction
+        residual = raw[GYRO] - bias - reference[GYRO]
+        allowed = readmission_sample(block, residual, reference[GYRO], noise, counts, fraction)
+        informative = not held or block[BLOCK_TRAVEL] * g.T_N >= YAW_RELEASE_HEADING
+        goes_on = block[BLOCK_SAMPLES] < p.gyro_readmission_samples or not informative
+        if not goes_on and not abs(block[BLOCK_DIFFERENCE]) > allowed:
             codes[GYRO], hold[GYRO] = 0, 0.0
     if not goes_on:  # judged, or no block: the next one starts anew
-        s[GYRO_BLOCK_COUNT], s[GYRO_BLOCK_DIFFERENCE], s[GYRO_BLOCK_TRAVEL] = 0.0, 0.0, 0.0
+        block[BLOCK_SAMPLES] = block[BLOCK_DIFFERENCE] = block[BLOCK_TRAVEL] = 0.0
     gyro_bias_step_block(s, codes[GYRO], raw[GYRO] - bias - reference[GYRO], reference[GYRO], p, g)
 
 

@@ -19,6 +19,13 @@ GAIN_SERIES = 6
 GAIN_WINDOW_MAX = 50
 """The informative samples the gain test's window keeps (gain_samples at most this)."""
 
+READMISSION_LAYOUT = (("samples", 1), ("difference", 1), ("travel", 1))
+"""An excluded channel's re-admission block (analog.readmission_sample), in order (name, size): its
+samples, their summed difference from the replacement and the replacement's summed magnitude."""
+_READMISSION = layout_slices(READMISSION_LAYOUT)
+BLOCK_SAMPLES, BLOCK_DIFFERENCE, BLOCK_TRAVEL = (_READMISSION[k] for k in ("samples", "difference", "travel"))
+READMISSION_SIZE = layout_size(READMISSION_LAYOUT)
+
 HEALTH_LAYOUT = (
     # analog channels: the reference (the last accepted value, the gyro's less b_g, or the replacement),
     # the last raw reading, its repeat count, the inconsistency hold (1; the gain test's: GAIN_HOLD) and
@@ -34,8 +41,8 @@ HEALTH_LAYOUT = (
     # encoders: the last finite raw angle, the output angle less it, the last used increment, the still
     # samples and the travel predicted over them (summed, and summed in magnitude), the code, 1 while
     # the next increment spans an exclusion (lost), the last raw increment, 1 while the exclusion is for
-    # a disagreement (suspect); the re-admission block: its agreeing samples, their summed difference
-    # from the prediction, the predicted travel and the encoder's own travel
+    # a disagreement (suspect); the re-admission blocks (READMISSION_LAYOUT; the replacement is the
+    # prediction) and the encoders' own travel in them
     ("encoder_last_raw", 2),
     ("encoder_output_offset", 2),
     ("encoder_increment", 2),
@@ -46,9 +53,8 @@ HEALTH_LAYOUT = (
     ("encoder_lost", 2),
     ("encoder_raw_increment", 2),
     ("encoder_suspect", 2),
-    ("encoder_block_count", 2),
-    ("encoder_block_difference", 2),
-    ("encoder_block_predicted", 2),
+    ("encoder_block_R", READMISSION_SIZE),
+    ("encoder_block_L", READMISSION_SIZE),
     ("encoder_block_moved", 2),
     # 1 when this sample's encoder output restored a stuck encoder's missed travel; the previous
     # odometric v_o (m/s); 1 when the accelerometer pair witnessed this sample's yaw rate
@@ -83,11 +89,8 @@ HEALTH_LAYOUT = (
     ("gain_position", 2),
     ("gain_products", 2 * GAIN_SERIES * GAIN_WINDOW_MAX),
     ("gain_numbers", 2 * GAIN_WINDOW_MAX),
-    # the excluded gyro's re-admission block: samples, summed difference from the replacement, the
-    # replacement's summed magnitude (rad/s)
-    ("gyro_block_count", 1),
-    ("gyro_block_difference", 1),
-    ("gyro_block_travel", 1),
+    # the excluded gyro's re-admission block (READMISSION_LAYOUT, rad/s)
+    ("gyro_block", READMISSION_SIZE),
     # a frozen gyro's repeats: the wheels' yaw rate run through them (NaN: none), the heading they
     # missed against it, the payback still due (rate per sample, samples left)
     ("frozen_gyro_shadow", 1),
@@ -122,9 +125,7 @@ ENCODER_STILL_PREDICTED = _SLICES["encoder_still_predicted"]
 ENCODER_STILL_PREDICTED_ABS = _SLICES["encoder_still_predicted_abs"]
 ENCODER_CODE, ENCODER_LOST = _SLICES["encoder_code"], _SLICES["encoder_lost"]
 ENCODER_RAW_INCREMENT, ENCODER_SUSPECT = _SLICES["encoder_raw_increment"], _SLICES["encoder_suspect"]
-ENCODER_BLOCK_COUNT = _SLICES["encoder_block_count"]
-ENCODER_BLOCK_DIFFERENCE = _SLICES["encoder_block_difference"]
-ENCODER_BLOCK_PREDICTED = _SLICES["encoder_block_predicted"]
+ENCODER_BLOCK_R, ENCODER_BLOCK_L = _SLICES["encoder_block_R"], _SLICES["encoder_block_L"]
 ENCODER_BLOCK_MOVED = _SLICES["encoder_block_moved"]
 TRAVEL_RESTORED = _SLICES["travel_restored"]
 PREVIOUS_ODOMETRIC_SPEED = _SLICES["previous_odometric_speed"]
@@ -142,8 +143,7 @@ GAIN_BLOCK_OTHER, GAIN_SUMS = _SLICES["gain_block_other"], _SLICES["gain_sums"]
 GAIN_SAMPLE_NUMBER, GAIN_COUNT = _SLICES["gain_sample_number"], _SLICES["gain_count"]
 GAIN_POSITION, GAIN_PRODUCTS = _SLICES["gain_position"], _SLICES["gain_products"]
 GAIN_NUMBERS = _SLICES["gain_numbers"]
-GYRO_BLOCK_COUNT, GYRO_BLOCK_DIFFERENCE = _SLICES["gyro_block_count"], _SLICES["gyro_block_difference"]
-GYRO_BLOCK_TRAVEL = _SLICES["gyro_block_travel"]
+GYRO_BLOCK = _SLICES["gyro_block"]
 FROZEN_GYRO_SHADOW, FROZEN_GYRO_OWED = _SLICES["frozen_gyro_shadow"], _SLICES["frozen_gyro_owed"]
 PAYBACK_RATE, PAYBACK_LEFT = _SLICES["payback_rate"], _SLICES["payback_left"]
 BIAS_BLOCK_COUNT, BIAS_BLOCK_SUM = _SLICES["bias_block_count"], _SLICES["bias_block_sum"]
