@@ -42,7 +42,7 @@ from slipnav.systems.health.pair_gain import (
     pair_gain_reset,
     pair_gain_upper_bound,
 )
-from slipnav.systems.health.parameters import INCONSISTENT, plausible_currents
+from slipnav.systems.health.parameters import INCONSISTENT, drive_torque, plausible_currents
 from slipnav.systems.residual_test import chi_square_gate
 from slipnav.systems.robot.contact import shoe_drag
 
@@ -141,7 +141,7 @@ def force_reference(currents, used, previous_increments, first, v_o: float, yaw_
     for w in range(2):
         rate = used[w] / g.T_N
         rate_dot = (used[w] - previous_increments[w]) / (g.T_N * g.T_N)
-        torque = g.motor_constant * currents[w] - g.bearing_drag * rate - g.wheel_inertia * rate_dot
+        torque = drive_torque(currents[w], rate, g) - g.wheel_inertia * rate_dot
         force += torque / radii[w]
     force, _ = shoe_drag(v_o, 0.0, yaw_rate, g, force, 0.0)
     return force / g.mass

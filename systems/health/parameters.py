@@ -33,6 +33,14 @@ def plausible_currents(currents, current_limit: float) -> bool:
     return abs(currents[0]) <= plausible and abs(currents[1]) <= plausible
 
 
+@jitable
+def drive_torque(current: float, rate: float, p) -> float:
+    """The torque a wheel's motor at ``current`` (A) puts on it less the bearing drag at its ``rate``
+    (rad/s): k i - beta w (N m), what the ground and the wheel's inertia take (``p``: anything with
+    RobotParameters' motor_constant and bearing_drag)."""
+    return p.motor_constant * current - p.bearing_drag * rate
+
+
 @dc.dataclass
 class SensorHealthParameters:
     """Thresholds of the sensor checks; each test is stated in its module (systems/health/). Defaults: the

@@ -59,7 +59,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.health.parameters import NO_CURRENTS, plausible_currents, require_each
+from slipnav.systems.health.parameters import NO_CURRENTS, drive_torque, plausible_currents, require_each
 from slipnav.systems.ranges import out_of_range, require_in
 from slipnav.systems.robot.contact import shoe_drag
 from slipnav.systems.robot.parameters import RobotParameters
@@ -319,10 +319,8 @@ def unexplained_force(s, rates, currents, estimate, robot, a: float, T_N: float)
     if not (math.isfinite(rates[0]) and math.isfinite(rates[1])):
         return None
     r = (robot.radius_R, robot.radius_L)
-    k, J, beta, m, half = (
-        robot.motor_constant, robot.wheel_inertia, robot.bearing_drag, robot.mass, 0.5 * robot.track_width
-    )  # fmt: skip
-    drive = [(k * currents[w] - beta * rates[w]) / r[w] for w in range(2)]
+    J, m, half = robot.wheel_inertia, robot.mass, 0.5 * robot.track_width
+    drive = [drive_torque(currents[w], rates[w], robot) / r[w] for w in range(2)]
     v_t, v_n, omega, a_t = float(estimate[0]), float(estimate[1]), float(estimate[2]), float(estimate[3])
     shoe_t, shoe_moment = shoe_drag(v_t, v_n, omega, robot, 0.0, 0.0)
     x = (
