@@ -7,8 +7,8 @@ relative lag at a turn's start and end, a loggers' encoder rate below 1/T_C (one
 batch). The data sheet's measurement_std states the first two; the rest shows only in the residuals.
 The calibration therefore takes as a moving batch's measurement variance the larger of measurement_std^2
 and what the residuals show beyond the estimate's own uncertainty (Mehra's innovation-based adaptive
-estimate): R = max(measurement_std^2, C - H P H'), with C the observed variance of the learned moving
-batches' innovations. A robot whose residuals are as quiet as its data sheet says keeps R =
+estimate): R = max(measurement_std^2, R^), with R^ the running mean of innovation^2 - H P H' over the
+learned moving batches. A robot whose residuals are as quiet as its data sheet says keeps R =
 measurement_std^2; a noisier one learns b_g and D no faster than its residuals allow, and the covariance P
 says so.
 """
@@ -29,18 +29,18 @@ def batch_selection(gyro: float, wheels: float, moving: bool, steady: bool, p) -
     return learn, straight and abs(gyro) <= p.straight_yaw_rate + p.largest_bias_step
 
 
-def measurement_variance(stated: float, observed: float, predicted: float) -> float:
-    """A batch's measurement variance R (rad^2/s^2): the ``stated`` one (the data sheet's, measurement_std^2
-    or standstill_measurement_std^2), or the ``observed`` variance of the innovations (0: none yet) less
-    the ``predicted`` part H P H' that the estimate's own uncertainty explains, whichever is larger."""
-    return max(stated, observed - predicted)
+def measurement_variance(stated: float, observed: float) -> float:
+    """A moving batch's measurement variance R (rad^2/s^2): the ``stated`` one (measurement_std^2) or the
+    ``observed`` one (observed_variance_step; 0: none yet), whichever is larger."""
+    return max(stated, observed)
 
 
-def observed_variance_step(observed: float, innovation: float, S: float, gate: float, batches: float):
-    """The observed variance of the moving batches' innovations (rad^2/s^2; 0: none yet) after a learned
-    moving batch's ``innovation`` (rad/s): the running mean over ``batches`` of innovation^2, fed only by
-    innovations within ``gate`` sigmas of the batch's S (H P H' + R with R from measurement_variance, so
-    at least ``observed``): an outlier (a slide, a fault the checks missed) does not widen it."""
+def observed_variance_step(observed: float, innovation: float, predicted: float, S: float, gate: float, n):
+    """The observed measurement variance of the learned moving batches (rad^2/s^2; 0: none yet) after a
+    batch's ``innovation`` (rad/s) whose ``predicted`` part H P H' the estimate's own uncertainty
+    explains: the running mean over ``n`` batches of innovation^2 - H P H' (Mehra's estimate of R), fed
+    only by innovations within ``gate`` sigmas of the batch's S (H P H' + R with R from
+    measurement_variance): an outlier (a slide, a fault the checks missed) does not widen it."""
     if not math.isfinite(innovation) or innovation * innovation > gate * gate * S:
         return observed
-    return observed + (innovation * innovation - observed) / batches
+    return observed + (innovation * innovation - predicted - observed) / n

@@ -213,9 +213,9 @@ batch's sums of (gyro, omega_o, v_o, |v_o| + |omega_o|), its sample count, 1 whi
 batch passed its checks, the learned and rejected batches, the bias-change CUSUM (CusumState), the bias
 changes detected, the previous batch's calibrated odometric yaw rate and gyro mean (NaN: none), the
 batch's samples the standstill detector called standing, those on which the accelerometer pair witnessed
-the yaw rate (third_witness), the observed variance of the tested batches' innovations and that of the
-learned moving batches' (rad^2/s^2; 0: none yet), the bias-change test's change points
-(bias_change.CHANGE_LAYOUT)."""
+the yaw rate (third_witness), the observed variance of the tested batches' innovations and the learned
+moving batches' observed measurement variance (rad^2/s^2; 0: none yet), the bias-change test's change
+points (bias_change.CHANGE_LAYOUT)."""
 
 
 _SLICES = layout_slices(CALIBRATION_LAYOUT)
@@ -318,12 +318,12 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
         H = np.array([1.0, v_mean / track_width])
         R = (p.measurement_std if moving > 0.0 else p.standstill_measurement_std) ** 2
         if moving > 0.0:  # the residuals' noise beyond the data sheet's (calibration_batches.py)
-            R = measurement_variance(R, state[_MOVING_VARIANCE], H @ P @ H)
+            R = measurement_variance(R, state[_MOVING_VARIANCE])
         innovation = gyro_mean - omega_mean - H @ theta
         S = H @ P @ H + R
         if learn and moving > 0.0:
             state[_MOVING_VARIANCE] = observed_variance_step(
-                state[_MOVING_VARIANCE], innovation, S, p.innovation_gate, p.noise_batches
+                state[_MOVING_VARIANCE], innovation, S - R, S, p.innovation_gate, p.noise_batches
             )
         alarm = 0
         # the test judges b_g only where D's uncertainty adds less to the innovation than the noise does
