@@ -3,6 +3,7 @@
 (systems/navigation/calibration_batches.py), and the TurtleBot's heading with a model calibrated on
 another trial (skipped without ../shared/datasets)."""
 
+import dataclasses as dc
 import io
 from pathlib import Path
 
@@ -12,28 +13,45 @@ from slipnav.scenarios import import_turtlebot
 from slipnav.scenarios.evaluate import evaluate_arrays, load_estimates, read_truth
 from slipnav.scenarios.importers import write_import
 from slipnav.studies.truth_calibration import calibrate_truth_command
-from slipnav.systems.navigation.calibrated_signals import odometric_yaw_share
+from slipnav.systems.navigation.calibrated_signals import gyro_white_variance, odometric_yaw_share
 from slipnav.systems.navigation.calibration_batches import measurement_variance, observed_variance_step
-from slipnav.systems.navigation.yaw_calibration import YawCalibrationParameters
+from slipnav.systems.navigation.yaw_calibration import YawCalibrationParameters, believed_gyro
 
 TRACK = 0.23
-ON, OFF = YawCalibrationParameters(), YawCalibrationParameters(enabled=False)
+ON, OFF = believed_gyro(YawCalibrationParameters()), YawCalibrationParameters(enabled=False)
 DATASETS = Path(__file__).resolve().parents[1].parent / "shared" / "datasets"
 TURTLEBOT = DATASETS / "phil-turtlebot2-vicon"
 
 
-def test_the_share_is_the_minimum_variance_weight_of_the_two_calibrated_errors():
+def test_the_share_is_the_minimum_variance_weight_of_the_two_heading_errors():
+    T_N = 0.002
+    # without white noise: the weight of the two calibrated errors under P alone
+    quiet = dc.replace(ON, gyro_noise_std=0.0)
     # D known exactly, b_g uncertain: the odometry's error is nil, it takes the whole yaw rate
-    assert odometric_yaw_share([1e-6, 0.0, 0.0, 0.0], 0.2, TRACK, ON) == 1.0
+    assert odometric_yaw_share([1e-6, 0.0, 0.0, 0.0], 0.2, TRACK, quiet, T_N) == 1.0
     # b_g known exactly, D uncertain: the gyro's error is nil, the odometry gets nothing
-    assert odometric_yaw_share([0.0, 0.0, 0.0, 1e-5], 0.2, TRACK, ON) == 0.0
+    assert odometric_yaw_share([0.0, 0.0, 0.0, 1e-5], 0.2, TRACK, quiet, T_N) == 0.0
     # independent errors of equal variance (sigma_b = sigma_D v/b): half each
     h = 0.2 / TRACK
-    assert odometric_yaw_share([1e-6, 0.0, 0.0, 1e-6 / h**2], 0.2, TRACK, ON) == pytest.approx(0.5)
+    equal = [1e-6, 0.0, 0.0, 1e-6 / h**2]
+    assert odometric_yaw_share(equal, 0.2, TRACK, quiet, T_N) == pytest.approx(0.5)
+    # the gyro's white noise over the horizon T = P_bb / q_b^2: sigma_g = 0.014 rad/s, q_b = 5e-4,
+    # P_bb = 1e-6: T = 4 s, W = 0.014^2 * 0.002 / 4 = 9.8e-8; w* = (1e-6 + W) / (2e-6 + W) = 0.5233
+    assert gyro_white_variance(1e-6, ON, T_N) == pytest.approx(9.8e-8)
+    assert odometric_yaw_share(equal, 0.2, TRACK, ON, T_N) == pytest.approx(1.098 / 2.098)
+    # a gyro without bias random walk keeps its bias error over any horizon: its white noise averages out
+    steady = dc.replace(ON, bias_drift_density=0.0)
+    assert odometric_yaw_share(equal, 0.2, TRACK, steady, T_N) == pytest.approx(0.5)
+    # b_g known exactly with a random walk: the horizon is nil, the white noise unbounded: the wheels
+    assert odometric_yaw_share([0.0, 0.0, 0.0, 1e-5], 0.2, TRACK, ON, T_N) == 1.0
+    # the cross term: b_g and D v/b negatively correlated (what one speed leaves) favour neither more
+    # than P says; W = 9.8e-8: (1e-6 - 0.5e-6 + W) / (1e-6 - 1e-6 + 1e-6 + W)
+    correlated = [1e-6, -0.5e-6 / h, -0.5e-6 / h, 1e-6 / h**2]
+    assert odometric_yaw_share(correlated, 0.2, TRACK, ON, T_N) == pytest.approx(0.598 / 1.098)
     # standing or turning on the spot (v = 0) D does not enter: S(14) alone
-    assert odometric_yaw_share([1e-6, -1e-7, -1e-7, 1e-5], 0.0, TRACK, ON) == 1.0
+    assert odometric_yaw_share([1e-6, -1e-7, -1e-7, 1e-5], 0.0, TRACK, ON, T_N) == 1.0
     # calibration off: the paper's S(14)
-    assert odometric_yaw_share([0.0, 0.0, 0.0, 1e-5], 0.2, TRACK, OFF) == 1.0
+    assert odometric_yaw_share([0.0, 0.0, 0.0, 1e-5], 0.2, TRACK, OFF, T_N) == 1.0
 
 
 def test_a_moving_batch_is_believed_no_more_than_its_residuals_allow():

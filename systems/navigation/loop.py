@@ -279,7 +279,7 @@ class NavigationLoop:
         residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
         turn = c3_turn_rate(self.c3_turn_rate, inertial[2], mp, T_N)
         covariance = self.calibration[_CALIBRATION_COVARIANCE].tolist()
-        share = odometric_yaw_share(covariance, odo[0], self.track_width, self.yaw_calibration)
+        share = odometric_yaw_share(covariance, odo[0], self.track_width, self.yaw_calibration, T_N)
         c3 = mixing_c3(residual, mp, turn, share)
         disagreement = accelerometer_pair_disagreement(acc, inertial[2], self.geometry.accelerometer_position)
         self.slide_onset_state, self.slide_onset = slide_onset_step(

@@ -94,6 +94,9 @@ class YawCalibrationParameters:
             radius uniform within +-1 % of the nominal (scenarios/tolerances.py), 0.01 sqrt(2/3).
         bias_drift_density: random walk of the bias (rad/s per sqrt(s)); None: the believed gyro's data
             sheet (SensorParameters.gyro_drift_density; Tinyphoon's: 0.0005).
+        gyro_noise_std: the gyro's white noise per T_N sample (rad/s), which the odometric yaw rate's share
+            in S(14) weighs (calibrated_signals.gyro_white_variance); None: the believed gyro's data sheet
+            (SensorParameters.gyro_noise_std; Tinyphoon's: 0.014).
         radius_drift_density: random walk of D (1 per sqrt(s)): 0, the rolling radii are constant over a
             run (tyre wear acts over hours). Above 0, D follows whatever the bias's drift hands it at
             constant speed, where b_g and D v/b cannot be told apart.
@@ -139,6 +142,7 @@ class YawCalibrationParameters:
     initial_bias_std: float | None = None
     initial_radius_difference_std: float = 0.0082
     bias_drift_density: float | None = None
+    gyro_noise_std: float | None = None
     radius_drift_density: float = 0.0
     measurement_std: float = 0.01
     standstill_measurement_std: float = 0.005
@@ -164,8 +168,8 @@ class YawCalibrationParameters:
         ).split()
         for name in positive:
             require_in(f"yaw_calibration.{name}", getattr(self, name), "(0, inf)")
-        for name in ("bias_drift_density", "radius_drift_density"):
-            if getattr(self, name) is not None:  # bias_drift_density None: the believed gyro's
+        for name in ("bias_drift_density", "gyro_noise_std", "radius_drift_density"):
+            if getattr(self, name) is not None:  # None: the believed gyro's
                 require_in(f"yaw_calibration.{name}", getattr(self, name), "[0, inf)")
         require_in("yaw_calibration.change_run_length", self.change_run_length, "(1, inf) batches")
         require_in("yaw_calibration.noise_batches", self.noise_batches, "[1, inf)")
@@ -176,18 +180,18 @@ class YawCalibrationParameters:
 
 
 def believed_gyro(p: YawCalibrationParameters, sensors: SensorParameters | None = None):
-    """``p`` with the gyro bias's prior and random walk that it leaves open (None) taken from the believed
-    gyro's data sheet ``sensors`` (None: the nominal SensorParameters())."""
-    if p.initial_bias_std is not None and p.bias_drift_density is not None:
+    """``p`` with the gyro bias's prior and random walk and the gyro's white noise that it leaves open
+    (None) taken from the believed gyro's data sheet ``sensors`` (None: the nominal SensorParameters())."""
+    names = {
+        "initial_bias_std": "gyro_initial_bias_std",
+        "bias_drift_density": "gyro_drift_density",
+        "gyro_noise_std": "gyro_noise_std",
+    }
+    open_names = [name for name in names if getattr(p, name) is None]
+    if not open_names:
         return p
     sensors = sensors or SensorParameters()
-    return dc.replace(
-        p,
-        initial_bias_std=sensors.gyro_initial_bias_std if p.initial_bias_std is None else p.initial_bias_std,
-        bias_drift_density=(
-            sensors.gyro_drift_density if p.bias_drift_density is None else p.bias_drift_density
-        ),
-    )
+    return dc.replace(p, **{name: getattr(sensors, names[name]) for name in open_names})
 
 
 CALIBRATION_LAYOUT = (
@@ -461,7 +465,7 @@ class YawRateCalibration(LeafSystem):
         state = context.get_discrete_state(self._state).get_value()
         theta, odo = state[_THETA].tolist(), self._odo.Eval(context).tolist()
         gyro = calibrated_gyro(float(self._gyro.Eval(context)[0]), theta, self._p)
-        share = odometric_yaw_share(state[_P].tolist(), odo[0], self._b, self._p)
+        share = odometric_yaw_share(state[_P].tolist(), odo[0], self._b, self._p, self._T_N)
         output.SetFromVector([gyro, *calibrated_odometry(odo, theta, self._b, self._p), share])
 
     def _update(self, context, discrete_state):
