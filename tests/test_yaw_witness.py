@@ -20,10 +20,16 @@ from slipnav.systems.health import (
 from slipnav.systems.health.accelerometer_pair import pair_omega_squared
 from slipnav.systems.health.gyro import pair_witnesses
 from slipnav.systems.health.yaw_witness import (
+    CUSUM,
+    LATERAL_GYRO,
+    LATERAL_WHEELS,
     MIN_YAW_LAG_STEPS,
     YAW_CLIP,
     YAW_DRIFT,
     gyro_yaw_test,
+    lateral_update,
+    lateral_variance,
+    side_log_likelihood,
     tyre_grip,
     yaw_lag_at_floor,
     yaw_residual_variance,
@@ -96,14 +102,48 @@ def test_a_gyro_half_again_too_large_in_a_turn_raises_the_alarm_in_its_fifth_sam
     assert z == pytest.approx(2.485, abs=0.001)
     state = np.array(yaw_test_initial_state())
     alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, 3.0**2, 1.0, CONSTANTS) for _ in range(7)]
-    assert alarms == [False] * 6 + [True] and not state[1:].any()
+    assert alarms == [False] * 6 + [True] and not state[CUSUM].any()
     state = np.array(yaw_test_initial_state())
     alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, math.nan, 1.0, CONSTANTS) for _ in range(6)]
-    assert not any(alarms) and state[1:].any()
-    assert not gyro_yaw_test(state, 4.5, 3.0, 0.0, math.nan, 1.0, CONSTANTS) and not state[1:].any()
+    assert not any(alarms) and state[CUSUM].any()
+    assert not gyro_yaw_test(state, 4.5, 3.0, 0.0, math.nan, 1.0, CONSTANTS) and not state[CUSUM].any()
     state = np.array(yaw_test_initial_state())
     alarms = [gyro_yaw_test(state, 4.5, 3.0, 0.0, 4.5**2, 0.0, CONSTANTS) for _ in range(7)]
     assert not any(alarms)
+
+
+def test_the_lateral_variance_by_hand():
+    """At 1 m/s and v_t omega = 1 m/s^2 on Tinyphoon's data sheet: the commotion's correlation phi =
+    exp(-0.002 / 0.005) = 0.67032 multiplies 0.3^2 by 1.67032 / 0.32968 = 5.0665; with the white noise
+    (0.062^2) over two sensors and 2 x 15 - 1 samples, (0.003844 + 0.45599) / 58 = 0.0079282; the mean's
+    initial bias 0.05^2 / 2 = 0.00125 and the side slip (0.1 x 1)^2 = 0.01: 0.0191782 m^2/s^4."""
+    assert lateral_variance(1.0, 1.0, CONSTANTS) == pytest.approx(0.0191782, rel=1e-5)
+    assert lateral_variance(0.0, 0.0, CONSTANTS) == pytest.approx(0.003844 / 58 + 0.00125, rel=1e-5)
+
+
+def test_the_lateral_acceleration_decides_between_the_gyro_and_the_wheels():
+    """A turn at 1 m/s whose accelerometers read a_n = v_t omega = 1 m/s^2 (omega = 1 rad/s), no pair:
+    - the wheels read 1.6 rad/s (a scaled encoder): the averages of a_n - v_t omega are 0 (gyro) and
+      -0.6 (wheels); at v_t omega = 1.6 the variance is 0.0079282 + 0.00125 + 0.16^2 = 0.0347782 and the
+      log-likelihood ratio 0.36 / (2 x 0.0347782) = 5.176 > 2 for the gyro: on the alarm it stays in;
+    - the gyro reads -1 (a sign flip): the averages are 2 (gyro) and 0 (wheels), the ratio
+      -4 / (2 x 0.0191782) = -104.3: on the alarm the gyro is blamed;
+    - no a_n (NaN) restarts the averages and leaves no third witness: the gyro stays in."""
+    state = np.array(yaw_test_initial_state())
+    lateral_update(state, 1.0, 1.0, 1.0, 1.6, CONSTANTS)
+    assert (state[LATERAL_GYRO], state[LATERAL_WHEELS]) == pytest.approx((0.0, -0.6))
+    assert side_log_likelihood(state, 1.0, 1.6, math.nan, 1.0, CONSTANTS) == pytest.approx(5.176, abs=1e-3)
+    alarms = [gyro_yaw_test(state, 1.0, 1.6, 0.0, math.nan, 1.0, CONSTANTS) for _ in range(40)]
+    assert not any(alarms) and state[CUSUM].any()  # alarms restart the sums, the gyro stays in
+    state = np.array(yaw_test_initial_state())
+    for _ in range(3):
+        lateral_update(state, 1.0, 1.0, -1.0, 1.0, CONSTANTS)
+    assert side_log_likelihood(state, -1.0, 1.0, math.nan, 1.0, CONSTANTS) == pytest.approx(-104.3, abs=0.1)
+    alarms = [gyro_yaw_test(state, -1.0, 1.0, 0.0, math.nan, 1.0, CONSTANTS) for _ in range(4)]
+    assert alarms == [False] * 3 + [True] and not state[CUSUM].any()  # |z| clipped at 4: 3.5 a sample
+    lateral_update(state, math.nan, 1.0, -1.0, 1.0, CONSTANTS)
+    assert math.isnan(state[LATERAL_GYRO])
+    assert math.isnan(side_log_likelihood(state, -1.0, 1.0, math.nan, 1.0, CONSTANTS))
 
 
 def test_the_pair_witnesses_only_apart_finite_two_and_not_copied():

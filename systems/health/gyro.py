@@ -37,6 +37,8 @@ from slipnav.systems.health.layout import (
     FROZEN_GYRO_OWED,
     FROZEN_GYRO_SHADOW,
     GYRO_BLOCK,
+    PAIR_OFFSET,
+    PAIR_OFFSET_VARIANCE,
     PAIR_OMEGA_SQUARED,
     PAYBACK_LEFT,
     PAYBACK_RATE,
@@ -49,6 +51,7 @@ from slipnav.systems.health.yaw_witness import (
     GRIP_STIFFNESS_RATIO,
     count_yaw_rate,
     gyro_yaw_test,
+    lateral_update,
     tyre_grip,
     yaw_follow_step,
     yaw_test_restart,
@@ -163,15 +166,49 @@ def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: f
     s[YAW_WITNESS_SMOOTH] = smooth + (s[YAW_WITNESS] - smooth) * p.yaw_smoothing  # yaw_constants
     witness_rate = (s[YAW_WITNESS_SMOOTH] - smooth) / g.T_N if math.isfinite(s[YAW_WITNESS_SMOOTH]) else 0.0
     test = s[YAW_TEST]
+    lateral_update(test, lateral_reading(s, raw, codes, g), v_t, raw[GYRO] - bias, s[YAW_WITNESS], p)
     if codes[GYRO] == 0 and gripping and abs(s[YAW_WITNESS]) > p.bias_step_yaw_rate:  # a turn: the scale's
         gyro = raw[GYRO] - bias
-        pair = s[PAIR_OMEGA_SQUARED] if pair_witnesses(raw, g) else math.nan
-        if gyro_yaw_test(test, gyro, s[YAW_WITNESS], witness_rate, pair, abs(v_o), p):
+        pair, pair_variance = pair_yaw_witness(s, raw, g)
+        if gyro_yaw_test(test, gyro, s[YAW_WITNESS], witness_rate, pair, abs(v_o), p, pair_variance):
             s[ANALOG_HOLD][GYRO], codes[GYRO] = 1.0, INCONSISTENT
             return True
     else:
         yaw_test_restart(test)
     return False
+
+
+@jitable
+def pair_yaw_witness(s, raw, g) -> tuple:
+    """The pair's averaged omega^2 less the share of its learned offset a_1 - a_2 (pair_offset), and the
+    variance that share leaves (rad^2/s^2, rad^4/s^4; through omega^2 = -(x d_t + y d_n) / (2 (x^2 +
+    y^2)), accelerometer_pair.pair_omega_squared); (NaN, 0) when the pair does not witness
+    (pair_witnesses)."""
+    if not pair_witnesses(raw, g):
+        return math.nan, 0.0
+    x, y = g.accelerometer_position
+    scale = 2.0 * (x * x + y * y)
+    offset = s[PAIR_OFFSET]
+    variance = s[PAIR_OFFSET_VARIANCE]
+    share = -(x * offset[0] + y * offset[1]) / scale
+    return s[PAIR_OMEGA_SQUARED] - share, (x * x * variance[0] + y * y * variance[1]) / (scale * scale)
+
+
+@jitable
+def lateral_reading(s, raw, codes, g) -> float:
+    """The lateral acceleration at the pair's centre (m/s^2) for the yaw test's lateral witness
+    (yaw_witness.lateral_update): the mean of a_n1 and a_n2 when the robot has two sensors (pair_present)
+    and both are finite, healthy and not excluded; a_n1 alone when one set sits at the body's origin;
+    NaN otherwise."""
+    excluded = s[ANALOG_EXCLUDED]
+    n1_ok = codes[1] == 0 and excluded[1] == 0.0 and math.isfinite(raw[1])
+    if g.accelerometer_sets == 2:
+        n2_ok = codes[3] == 0 and excluded[3] == 0.0 and math.isfinite(raw[3])
+        return 0.5 * (raw[1] + raw[3]) if n1_ok and n2_ok and pair_present(raw, g) else math.nan
+    x, y = g.accelerometer_position
+    if g.accelerometer_sets == 1 and n1_ok and x == 0.0 and y == 0.0:
+        return raw[1]
+    return math.nan
 
 
 @jitable

@@ -13,11 +13,19 @@ against it, the accelerometer pair breaking the tie (two against one).
    z by 2.5 and raises the alarm within 10 ms. Outside turns, and while the tyres slide (tyre_grip below
    GRIP_STIFFNESS_RATIO: the wheels witness nothing), the sums restart; the witness restarts from the gyro
    when the tyres grip again and forgets that start within the tyres' lag.
-3. The decision (gyro_yaw_test): on an alarm the gyro is blamed unless the accelerometer pair's yaw rate
-   |omega| = sqrt(omega^2) (S(3)'s centripetal difference, averaged) sides with it by PAIR_SIDE_SIGMAS of
-   its own noise (pair_yaw_rate_std): then the wheels slide or are held (the perturbation monitor's
-   matter) and the gyro stays in. Without the pair (gyro.pair_witnesses) two witnesses disagree and
-   neither can be isolated: the gyro stays in and the sums restart.
+3. The decision (gyro_yaw_test): on an alarm the third witnesses weigh the two hypotheses "the gyro is
+   right" and "the wheels are right" by their log-likelihood ratio (side_log_likelihood), summed over
+   the witnesses present:
+   - the lateral acceleration (lateral_update): the accelerometers' a_n at the pair's centre is
+     v_t omega + v_n' (the centripetal term, S(3)), so the averages of a_n - v_t omega under each
+     hypothesis, over the same samples, lie near zero for the right one (lateral_variance: the noise
+     and commotion averaged, the accelerometers' initial bias, and the side slip's v_n'); it reads the
+     sign of omega, and its weight grows with the speed;
+   - the pair's omega^2 (S(3)'s centripetal difference, averaged, less its learned offset's share;
+     pair_squared_variance), whose weight falls with the speed (the commotion).
+   The gyro stays in when the ratio favours it by SIDE_LOG_LIKELIHOOD (the wheels slide or are held:
+   the perturbation monitor's matter); otherwise it is blamed. Without any third witness two witnesses
+   disagree and neither can be isolated: the gyro stays in and the sums restart.
 """
 
 import math
@@ -40,9 +48,12 @@ MIN_YAW_LAG_STEPS = 0.25
 """The nominal yaw dynamics serve as the witness only while their lag at the tyres' slip-speed floor is at
 least this many T_N (yaw_lag_at_floor): Tinyphoon 1.1, Kurt3D 0.9; a TurtleBot's track with Tinyphoon's
 yaw inertia 0.1."""
-PAIR_SIDE_SIGMAS = 2.0
-"""The pair exonerates the gyro only when its |omega| lies this many of its standard deviations closer to
-the gyro's than to the witness's."""
+LATERAL_SLIP_FRACTION = 0.1
+"""The side slip's v_n' in the lateral witness, as a share of v_t omega (one sigma): the nominal tyres'
+transients in the corner's 3 rad/s turns reach 0.2 of it (95th percentile), the square's 0.03."""
+SIDE_LOG_LIKELIHOOD = 2.0
+"""The third witnesses exonerate the gyro only when they make "the gyro is right" at least e^2 (7.4) times
+as likely as "the wheels are right" (side_log_likelihood)."""
 
 
 @jitable
@@ -143,23 +154,13 @@ def yaw_residual_variance(witness: float, witness_rate: float, c) -> float:
     )
 
 
-@jitable
-def pair_yaw_rate_std(omega: float, speed: float, c) -> float:
-    """The standard deviation of the pair's averaged |omega| at yaw rate ``omega`` and ``speed`` (rad/s):
-    the disagreement's noise, sqrt(2) (sigma_a + commotion) over sqrt(consistency_samples), through
-    omega^2 = -(x d_t + y d_n) / (2 (x^2 + y^2)) (sigma / (2 |(x, y)|)) and |omega| = sqrt(omega^2)
-    (/ (2 |omega|), at least that of omega^2's square root at its own noise)."""
-    x, y = c.accelerometer_position
-    noise = math.sqrt(2.0) * math.hypot(c.accel_noise_std, c.accel_vibration_per_speed * speed)
-    squared = noise / math.sqrt(c.consistency_samples) / (2.0 * math.hypot(x, y))
-    return squared / max(2.0 * abs(omega), math.sqrt(squared))
-
-
-YAW_TEST_LAYOUT = (("z_variance", 1), ("cusum", CUSUM_SIZE))
+YAW_TEST_LAYOUT = (("z_variance", 1), ("cusum", CUSUM_SIZE), ("lateral_gyro", 1), ("lateral_wheels", 1))
 """The yaw test's state (gyro_yaw_test), in order (name, size): the observed variance of the normalised
-innovation, the CUSUM's sums (CusumState's order)."""
+innovation, the CUSUM's sums (CusumState's order), the averages of a_n - v_t omega with the gyro's and
+the wheels' omega (m/s^2, NaN: no lateral witness; lateral_update)."""
 _YAW_TEST = layout_slices(YAW_TEST_LAYOUT)
 Z_VARIANCE, CUSUM = _YAW_TEST["z_variance"], _YAW_TEST["cusum"]
+LATERAL_GYRO, LATERAL_WHEELS = _YAW_TEST["lateral_gyro"], _YAW_TEST["lateral_wheels"]
 YAW_TEST_SIZE = layout_size(YAW_TEST_LAYOUT)
 YAW_GATE = 4.0
 """|z| beyond this (in units of the observed spread) does not feed the observed variance (sigma)."""
@@ -168,18 +169,96 @@ YAW_NOISE_SAMPLES = 1000.0
 
 
 def yaw_test_initial_state() -> list:
-    """z's observed variance 1, the sums at zero."""
-    return [1.0] + [0.0] * CUSUM_SIZE
+    """z's observed variance 1, the sums at zero, no lateral averages."""
+    return [1.0] + [0.0] * CUSUM_SIZE + [math.nan, math.nan]
+
+
+@jitable
+def lateral_update(state, a_n: float, v_t: float, gyro: float, witness: float, c) -> None:
+    """The lateral witness's averages in ``state`` (YAW_TEST_LAYOUT's values, in place): a_n - v_t omega
+    with the gyro's omega (``gyro``, less b_g) and with the wheels' (``witness``), rad/s, averaged over
+    consistency_samples like the pair's omega^2; ``a_n`` the accelerometers' lateral reading at the pair's
+    centre (m/s^2, NaN: none this sample, which restarts both), ``v_t`` the body's speed (m/s)."""
+    if not math.isfinite(a_n + v_t + gyro + witness):
+        state[LATERAL_GYRO], state[LATERAL_WHEELS] = math.nan, math.nan
+        return
+    d_gyro, d_wheels = a_n - v_t * gyro, a_n - v_t * witness
+    if not math.isfinite(state[LATERAL_GYRO] + state[LATERAL_WHEELS]):
+        state[LATERAL_GYRO], state[LATERAL_WHEELS] = d_gyro, d_wheels
+        return
+    state[LATERAL_GYRO] += (d_gyro - state[LATERAL_GYRO]) / c.consistency_samples
+    state[LATERAL_WHEELS] += (d_wheels - state[LATERAL_WHEELS]) / c.consistency_samples
+
+
+@jitable
+def averaged_reading_variance(speed: float, c) -> float:
+    """The variance of one accelerometer axis's reading averaged over consistency_samples like the pair's
+    omega^2 (an exponential average: / (2 n - 1)), its white noise and its commotion at ``speed`` (m/s;
+    the commotion's correlation over accel_vibration_time_constant counted: (1 + phi) / (1 - phi)), in
+    m^2/s^4."""
+    phi = math.exp(-c.T_N / c.accel_vibration_time_constant)
+    commotion = (c.accel_vibration_per_speed * speed) ** 2 * (1.0 + phi) / (1.0 - phi)
+    return (c.accel_noise_std**2 + commotion) / (2.0 * c.consistency_samples - 1.0)
+
+
+@jitable
+def lateral_variance(speed: float, lateral_acceleration: float, c) -> float:
+    """The variance of a lateral average (lateral_update) under the right hypothesis (m^2/s^4): the mean
+    of the two accelerometers' averaged readings (averaged_reading_variance / 2), their initial biases'
+    mean and the side slip's v_n' as LATERAL_SLIP_FRACTION of ``lateral_acceleration`` v_t omega
+    (m/s^2)."""
+    slip = LATERAL_SLIP_FRACTION * lateral_acceleration
+    return 0.5 * averaged_reading_variance(speed, c) + 0.5 * c.accel_initial_bias_std**2 + slip * slip
+
+
+@jitable
+def pair_squared_variance(speed: float, c, offset_variance: float) -> float:
+    """The variance of the pair's averaged omega^2 = -(x d_t + y d_n) / (2 (x^2 + y^2)) (rad^4/s^4): each
+    axis's difference of two averaged readings (2 averaged_reading_variance), through the lever, and
+    ``offset_variance``, what the pair's offset leaves in it."""
+    x, y = c.accelerometer_position
+    return averaged_reading_variance(speed, c) / (2.0 * (x * x + y * y)) + offset_variance
+
+
+@jitable
+def side_log_likelihood(
+    state, gyro: float, witness: float, pair_squared: float, speed: float, c, pair_variance: float = 0.0
+) -> float:
+    """log p(third witnesses | the gyro is right) - log p(... | the wheels are right), summed over the
+    lateral witness (its averages in ``state``, lateral_variance) and the pair's averaged omega^2
+    (``pair_squared``, rad^2/s^2, NaN: none; pair_squared_variance with ``pair_variance``, the variance
+    its offset leaves in it) against omega^2 under each hypothesis; NaN when neither witnesses. ``gyro``
+    (less b_g) and ``witness`` in rad/s, ``speed`` |v_o| (m/s)."""
+    total, witnessed = 0.0, False
+    d_gyro, d_wheels = state[LATERAL_GYRO], state[LATERAL_WHEELS]
+    if math.isfinite(d_gyro + d_wheels):
+        variance = lateral_variance(speed, speed * max(abs(gyro), abs(witness)), c)
+        total += (d_wheels * d_wheels - d_gyro * d_gyro) / (2.0 * variance)
+        witnessed = True
+    if math.isfinite(pair_squared):
+        variance = pair_squared_variance(speed, c, pair_variance)
+        d_gyro, d_wheels = pair_squared - gyro * gyro, pair_squared - witness * witness
+        total += (d_wheels * d_wheels - d_gyro * d_gyro) / (2.0 * variance)
+        witnessed = True
+    return total if witnessed else math.nan
 
 
 @jitable
 def gyro_yaw_test(
-    state, gyro: float, witness: float, witness_rate: float, pair_squared: float, speed: float, c
+    state,
+    gyro: float,
+    witness: float,
+    witness_rate: float,
+    pair_squared: float,
+    speed: float,
+    c,
+    pair_variance: float = 0.0,
 ) -> bool:
     """One sample of the yaw test (module docstring, 2. and 3.): ``state`` YAW_TEST_LAYOUT's values
     (updated in place), ``gyro`` the gyro less b_g and ``witness`` the wheels' yaw rate (rad/s) with its
-    smoothed rate of change ``witness_rate`` (rad/s^2), ``pair_squared`` the pair's averaged omega^2
-    (rad^2/s^2, NaN: no pair to witness), ``speed`` |v_o| (m/s), ``c`` HealthConstants (yaw_threshold).
+    smoothed rate of change ``witness_rate`` (rad/s^2), ``pair_squared`` the pair's averaged omega^2 less
+    its offset's share (rad^2/s^2, NaN: no pair to witness) and ``pair_variance`` the variance that
+    share leaves (rad^4/s^4), ``speed`` |v_o| (m/s), ``c`` HealthConstants (yaw_threshold).
     Returns True when the gyro is to be excluded; an alarm restarts the sums either way."""
     residual = gyro - witness
     z = residual / math.sqrt(yaw_residual_variance(witness, witness_rate, c))
@@ -191,11 +270,10 @@ def gyro_yaw_test(
     if alarm == 0:
         return False
     yaw_test_restart(state)
-    if not math.isfinite(pair_squared):  # one witness against the other: no isolation
+    side = side_log_likelihood(state, gyro, witness, pair_squared, speed, c, pair_variance)
+    if not math.isfinite(side):  # one witness against the other: no isolation
         return False
-    pair = math.sqrt(max(pair_squared, 0.0))
-    margin = PAIR_SIDE_SIGMAS * pair_yaw_rate_std(pair, speed, c)
-    return not abs(pair - abs(gyro)) + margin < abs(pair - abs(witness))
+    return not side > SIDE_LOG_LIKELIHOOD
 
 
 @jitable
