@@ -189,6 +189,19 @@ def test_a_scaled_gyro_is_held_out_until_a_turn_agrees():
     assert not codes.any()
 
 
+@pytest.mark.parametrize("scale", [1.05, 1.1])
+def test_a_scaled_encoder_in_a_turn_leaves_the_gyro_in(scale):
+    """The 0.8 rad/s turn at 1 m/s with the right encoder's increments x1.05 (x1.1) from sample 500: the
+    wheel reads 1.0272 x 0.05 = 0.051 m/s more, so the wheels' yaw rate runs 0.755 (1.51) rad/s above the
+    gyro's 0.8 and the yaw test alarms; the accelerometers' a_n = v omega = 0.8 m/s^2 fits the gyro
+    (a_n - v omega 0) and not the wheels (-0.755), a log-likelihood ratio of 0.57 / (2 x 0.0334) = 8.5
+    for the gyro at the first: the gyro is never held out."""
+    rows = stream(1500, 1.0, 0.8)
+    rows[500:, 5] = rows[499, 5] + scale * (rows[500:, 5] - rows[499, 5])
+    codes, _ = check_with_bias(rows)
+    assert not codes[:, 4].any()
+
+
 @pytest.mark.parametrize("value", [-2.0, 0.5, -0.5])
 def test_closed_loop_gyro_scale_faults_are_caught_in_the_first_turn(value):
     """The corner with the gyro x(1 + value) from 1.5 s to the end (a sign flip, x1.5, x0.5): flagged
@@ -203,3 +216,4 @@ def test_closed_loop_gyro_scale_faults_are_caught_in_the_first_turn(value):
     assert run.summary["completed"]
     fused = final_position_error(a, "est")
     assert fused < min(final_position_error(a, "odo"), final_position_error(a, "gyro"))
+
