@@ -166,9 +166,9 @@ def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: f
     s[YAW_WITNESS_SMOOTH] = smooth + (s[YAW_WITNESS] - smooth) * p.yaw_smoothing  # yaw_constants
     witness_rate = (s[YAW_WITNESS_SMOOTH] - smooth) / g.T_N if math.isfinite(s[YAW_WITNESS_SMOOTH]) else 0.0
     test = s[YAW_TEST]
-    lateral_update(test, lateral_reading(s, raw, codes, g), v_t, raw[GYRO] - bias, s[YAW_WITNESS], p)
+    gyro = raw[GYRO] - bias
+    lateral_update(test, lateral_reading(s, raw, codes, g), v_t, gyro, s[YAW_WITNESS], p)
     if codes[GYRO] == 0 and gripping and abs(s[YAW_WITNESS]) > p.bias_step_yaw_rate:  # a turn: the scale's
-        gyro = raw[GYRO] - bias
         pair, pair_variance = pair_yaw_witness(s, raw, g)
         if gyro_yaw_test(test, gyro, s[YAW_WITNESS], witness_rate, pair, abs(v_o), p, pair_variance):
             s[ANALOG_HOLD][GYRO], codes[GYRO] = 1.0, INCONSISTENT

@@ -1,5 +1,5 @@
 """The wheels' witness of the gyro: the body's yaw rate the wheels imply, and one test of the gyro
-against it, the accelerometer pair breaking the tie (two against one).
+against it, the accelerometers breaking the tie (two against one).
 
 1. The witness (yaw_witness_step): the nominal yaw dynamics driven by the wheels' circumferential speeds
    (yaw_follow_step), from the wheels alone: the body's yaw rate lags the wheels' kinematic one by the
