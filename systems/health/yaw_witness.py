@@ -194,9 +194,9 @@ def lateral_update(state, a_n: float, v_t: float, gyro: float, witness: float, c
 def averaged_reading_variance(speed: float, c) -> float:
     """The variance of one accelerometer axis's reading averaged over consistency_samples like the pair's
     omega^2 (an exponential average: / (2 n - 1)), its white noise and its commotion at ``speed`` (m/s;
-    the commotion's correlation over accel_vibration_time_constant counted: (1 + phi) / (1 - phi)), in
-    m^2/s^4."""
-    phi = math.exp(-c.T_N / c.accel_vibration_time_constant)
+    the commotion's correlation from one sample to the next, pair_offset_phi, counted: (1 + phi) /
+    (1 - phi)), in m^2/s^4."""
+    phi = c.pair_offset_phi  # accelerometer_pair.pair_constants
     commotion = (c.accel_vibration_per_speed * speed) ** 2 * (1.0 + phi) / (1.0 - phi)
     return (c.accel_noise_std**2 + commotion) / (2.0 * c.consistency_samples - 1.0)
 
