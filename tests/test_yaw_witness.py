@@ -18,7 +18,9 @@ from slipnav.systems.health import (
     health_constants,
 )
 from slipnav.systems.health.accelerometer_pair import pair_omega_squared
+from slipnav.systems.health.check import health_step
 from slipnav.systems.health.gyro import pair_witnesses
+from slipnav.systems.health.layout import health_initial_state
 from slipnav.systems.health.yaw_witness import (
     CUSUM,
     LATERAL_GYRO,
@@ -36,6 +38,7 @@ from slipnav.systems.health.yaw_witness import (
     yaw_test_initial_state,
     yaw_test_threshold,
 )
+from slipnav.systems.navigation.parameters import NavigationParameters, health_geometry
 from slipnav.systems.robot.faults import FaultEvent
 from slipnav.systems.robot.parameters import kurt3d, tinyphoon
 
@@ -189,6 +192,27 @@ def test_a_scaled_gyro_is_held_out_until_a_turn_agrees():
     assert not codes.any()
 
 
+@pytest.mark.parametrize("side_slip", [-0.1, -0.3])
+def test_the_gyro_is_judged_whatever_side_slip_the_navigation_integrated(side_slip):
+    """On Tinyphoon's tyre curve the 0.8 rad/s turn at 1 m/s with the gyro x1.3 from sample 500: the
+    navigation that integrates a_n - v_t omega with that gyro gains a side slip of 0.24 m/s^2 (-0.1 m/s in
+    0.4 s), which puts its tyres past the peak (B sigma = 15 x 0.1 = 1.5). The test reads the wheels'
+    grip along their rolling direction: the gyro is held out from within 15 samples of the onset, as
+    with no side slip."""
+    geometry = health_geometry(NavigationParameters(), R, B, T_N, robot=tinyphoon())
+    rows = stream(1500, 1.0, 0.8)
+    rows[500:800, 4] *= 1.3
+    flagged = {}
+    for v_n in (0.0, side_slip):
+        state, codes = health_initial_state(geometry, 1.0), []
+        for row in rows:
+            state, _, code = health_step(state, row, SensorHealthParameters(), geometry, velocity=(1.0, v_n))
+            codes.append(code[4])
+        flagged[v_n] = np.flatnonzero(codes)
+    assert 500 < flagged[0.0][0] <= 515
+    np.testing.assert_array_equal(flagged[side_slip], flagged[0.0])
+
+
 @pytest.mark.parametrize("scale", [1.05, 1.1])
 def test_a_scaled_encoder_in_a_turn_leaves_the_gyro_in(scale):
     """The 0.8 rad/s turn at 1 m/s with the right encoder's increments x1.05 (x1.1) from sample 500: the
@@ -216,4 +240,3 @@ def test_closed_loop_gyro_scale_faults_are_caught_in_the_first_turn(value):
     assert run.summary["completed"]
     fused = final_position_error(a, "est")
     assert fused < min(final_position_error(a, "odo"), final_position_error(a, "gyro"))
-

@@ -11,8 +11,9 @@ against it, the accelerometers breaking the tie (two against one).
    two-sided CUSUM (systems/residual_test.py; drift YAW_DRIFT, clip YAW_CLIP, threshold from
    yaw_false_alarm_time of healthy samples): a gyro whose scale is off by 50 % in a 3 rad/s turn moves
    z by 2.5 and raises the alarm within 10 ms. Outside turns, and while the tyres slide (tyre_grip below
-   GRIP_STIFFNESS_RATIO: the wheels witness nothing), the sums restart; the witness restarts from the gyro
-   when the tyres grip again and forgets that start within the tyres' lag.
+   GRIP_STIFFNESS_RATIO along their rolling direction: the wheels witness nothing), the sums restart; the
+   witness restarts from the gyro when the tyres grip again and forgets that start within the tyres'
+   lag. The side slip is left out of both: the navigation's v_n integrates the gyro under test.
 3. The decision (gyro_yaw_test): on an alarm the third witnesses weigh the two hypotheses "the gyro is
    right" and "the wheels are right" by their log-likelihood ratio (side_log_likelihood), summed over
    the witnesses present:
