@@ -296,6 +296,7 @@ def _connect_fusion(b, blocks: NavigationBlocks, signals: NavigationSignals, par
         blocks.ekf.GetOutputPort("inertial_estimate"), blocks.c23_block.GetInputPort("inertial_estimate")
     )
     b.Connect(signals.odo, blocks.c23_block.GetInputPort("odometry"))
+    b.Connect(signals.calibrated["odometry_share"], blocks.c23_block.GetInputPort("odometry_share"))
     b.Connect(signals.odo, blocks.mixer_block.GetInputPort("odometry"))
     b.Connect(
         blocks.ekf.GetOutputPort("inertial_estimate"), blocks.mixer_block.GetInputPort("inertial_estimate")

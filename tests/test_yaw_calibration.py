@@ -346,15 +346,19 @@ def test_two_witnesses_do_not_blame_the_gyro_while_moving():
 
 
 def test_the_bias_prior_and_drift_are_the_believed_gyros():
-    """believed_gyro fills what YawCalibrationParameters leaves open (None) from the believed sensors, and
+    """believed_gyro fills what YawCalibrationParameters leaves open (None: the bias's prior and random walk,
+    the white noise) from the believed sensors, and
     keeps what it states; the block reads the believed set's accelerometer count for its third witness."""
-    sensors = SensorParameters(gyro_initial_bias_std=0.001, gyro_drift_density=3.2e-5, accelerometer_sets=1)
+    sensors = SensorParameters(
+        gyro_initial_bias_std=0.001, gyro_drift_density=3.2e-5, gyro_noise_std=0.004, accelerometer_sets=1
+    )
     p = believed_gyro(YawCalibrationParameters(), sensors)
-    assert (p.initial_bias_std, p.bias_drift_density) == (0.001, 3.2e-5)
+    assert (p.initial_bias_std, p.bias_drift_density, p.gyro_noise_std) == (0.001, 3.2e-5, 0.004)
     stated = believed_gyro(YawCalibrationParameters(bias_drift_density=0.0), sensors)
     assert (stated.initial_bias_std, stated.bias_drift_density) == (0.001, 0.0)
     nominal = believed_gyro(YawCalibrationParameters())
-    assert (nominal.initial_bias_std, nominal.bias_drift_density) == (0.0035, 0.0005)  # SensorParameters()
+    nominal_figures = (nominal.initial_bias_std, nominal.bias_drift_density, nominal.gyro_noise_std)
+    assert nominal_figures == (0.0035, 0.0005, 0.014)  # SensorParameters()
     state = yaw_calibration_initial_state(p)
     assert calibration_parameters(state)[2] == pytest.approx(0.001)
     block = YawRateCalibration(YawCalibrationParameters(), TRACK, T_N, N_BATCH * T_N, sensors)
