@@ -39,6 +39,7 @@ from slipnav.systems.health import (
     yaw_pair_witness,
 )
 from slipnav.systems.navigation.baselines import BaselineState, baselines_step
+from slipnav.systems.navigation.calibration_batches import believed_tyre_slip
 from slipnav.systems.navigation.ekf import (
     ekf_covariance_update,
     ekf_gain,
@@ -133,7 +134,8 @@ class NavigationLoop:
         self.pose = list(initial.pose)
         self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
         self.baselines = BaselineState.initial(initial.pose, initial.speed)  # on the raw sensors
-        self.yaw_calibration = believed_gyro(params.yaw_calibration, belief.sensors)
+        believed = believed_tyre_slip(params.yaw_calibration, belief.robot, params.mixing, belief.track_width)
+        self.yaw_calibration = believed_gyro(believed, belief.sensors)
         self.calibration = yaw_calibration_initial_state(self.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)

@@ -48,7 +48,8 @@ The navigation reads the calibrated gyro gyro - b_g and the calibrated odometric
 omega_o + D v_o / b, the latter in S(14)'s mix with the share that theta's covariance gives it
 (systems/navigation/calibrated_signals.py); the baselines (odometry-only, Gyrodometry) keep the raw
 signals. A moving batch's measurement variance is the larger of measurement_std^2 and what its residuals
-show (systems/navigation/calibration_batches.py).
+show, plus what the tyres' differential slip at the batch's yaw acceleration may add
+(systems/navigation/calibration_batches.py).
 """
 
 import dataclasses as dc
@@ -72,8 +73,10 @@ from slipnav.systems.navigation.calibrated_signals import (
 )
 from slipnav.systems.navigation.calibration_batches import (
     batch_selection,
+    believed_gyro,
     measurement_variance,
     observed_variance_step,
+    slip_variance,
 )
 from slipnav.systems.ranges import out_of_range, require_flag, require_in
 from slipnav.systems.residual_test import CUSUM_SIZE, CusumState, cusum_step
@@ -97,6 +100,10 @@ class YawCalibrationParameters:
         gyro_noise_std: the gyro's white noise per T_N sample (rad/s), which the odometric yaw rate's share
             in S(14) weighs (calibrated_signals.gyro_white_variance); None: the believed gyro's data sheet
             (SensorParameters.gyro_noise_std; Tinyphoon's: 0.014).
+        yaw_slip_time: kappa (s): the wheels read the yaw rate high by kappa v alpha while the robot's yaw
+            accelerates by alpha at speed v (the tyres' differential slip), which a moving batch's
+            variance counts (calibration_batches.slip_variance); None: the believed robot's tyres
+            (calibration_batches.believed_tyre_slip; 0 where no robot is believed).
         radius_drift_density: random walk of D (1 per sqrt(s)): 0, the rolling radii are constant over a
             run (tyre wear acts over hours). Above 0, D follows whatever the bias's drift hands it at
             constant speed, where b_g and D v/b cannot be told apart.
@@ -143,6 +150,7 @@ class YawCalibrationParameters:
     initial_radius_difference_std: float = 0.0082
     bias_drift_density: float | None = None
     gyro_noise_std: float | None = None
+    yaw_slip_time: float | None = None
     radius_drift_density: float = 0.0
     measurement_std: float = 0.01
     standstill_measurement_std: float = 0.005
@@ -168,7 +176,7 @@ class YawCalibrationParameters:
         ).split()
         for name in positive:
             require_in(f"yaw_calibration.{name}", getattr(self, name), "(0, inf)")
-        for name in ("bias_drift_density", "gyro_noise_std", "radius_drift_density"):
+        for name in ("bias_drift_density", "gyro_noise_std", "yaw_slip_time", "radius_drift_density"):
             if getattr(self, name) is not None:  # None: the believed gyro's
                 require_in(f"yaw_calibration.{name}", getattr(self, name), "[0, inf)")
         require_in("yaw_calibration.change_run_length", self.change_run_length, "(1, inf) batches")
@@ -177,21 +185,6 @@ class YawCalibrationParameters:
             allowed = f"(change_drift={self.change_drift}, inf)"
             raise out_of_range("yaw_calibration.change_clip", self.change_clip, allowed)
         require_in("yaw_calibration.trusted_c1", self.trusted_c1, "[0, 1]")
-
-
-def believed_gyro(p: YawCalibrationParameters, sensors: SensorParameters | None = None):
-    """``p`` with the gyro bias's prior and random walk and the gyro's white noise that it leaves open
-    (None) taken from the believed gyro's data sheet ``sensors`` (None: the nominal SensorParameters())."""
-    names = {
-        "initial_bias_std": "gyro_initial_bias_std",
-        "bias_drift_density": "gyro_drift_density",
-        "gyro_noise_std": "gyro_noise_std",
-    }
-    open_names = [name for name in names if getattr(p, name) is None]
-    if not open_names:
-        return p
-    sensors = sensors or SensorParameters()
-    return dc.replace(p, **{name: getattr(sensors, names[name]) for name in open_names})
 
 
 CALIBRATION_LAYOUT = (
@@ -313,6 +306,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     steady = (
         abs(wheels - state[_PREVIOUS_WHEELS]) <= change and abs(gyro_mean - state[_PREVIOUS_GYRO]) <= change
     )
+    slip = slip_variance(p.yaw_slip_time, v_mean, (gyro_mean - state[_PREVIOUS_GYRO]) / (n * T_N))
     state[_PREVIOUS_WHEELS] = wheels if state[_OK] > 0.5 else math.nan
     state[_PREVIOUS_GYRO] = gyro_mean if state[_OK] > 0.5 else math.nan
     learn, test = batch_selection(gyro_mean - theta[0], wheels, moving > 0.0, steady, p)
@@ -321,17 +315,19 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     if state[_OK] > 0.5 and witnessed and (learn or test):
         H = np.array([1.0, v_mean / track_width])
         R = (p.measurement_std if moving > 0.0 else p.standstill_measurement_std) ** 2
-        if moving > 0.0:  # the residuals' noise beyond the data sheet's (calibration_batches.py)
-            R = measurement_variance(R, state[_MOVING_VARIANCE])
+        noise = R  # the batches' noise, without the tyres' slip
+        if moving > 0.0:  # the residuals' noise and the tyres' slip (calibration_batches.py)
+            noise = measurement_variance(R, state[_MOVING_VARIANCE])
+            R = noise + slip
         innovation = gyro_mean - omega_mean - H @ theta
         S = H @ P @ H + R
         if learn and moving > 0.0:
             state[_MOVING_VARIANCE] = observed_variance_step(
-                state[_MOVING_VARIANCE], innovation, S - R, S, p.innovation_gate, p.noise_batches
+                state[_MOVING_VARIANCE], innovation, S - noise, S, p.innovation_gate, p.noise_batches
             )
         alarm = 0
         # the test judges b_g only where D's uncertainty adds less to the innovation than the noise does
-        if test and H[1] * H[1] * P[1, 1] <= R:
+        if test and H[1] * H[1] * P[1, 1] <= noise:
             # test: the CUSUM of the innovation normalised by the larger of its predicted variance and
             # the variance the healthy tested batches show (a real robot's witnesses are noisier)
             z = innovation / math.sqrt(max(S, state[_RESIDUAL_VARIANCE]))
@@ -341,7 +337,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
             state[_CUSUM] = cusum[:]
             change_points_step(state[_CHANGE_POINTS], cusum, theta, P, gyro_mean - omega_mean, H[1])
             if alarm:  # measured from the change point (systems/navigation/bias_change.py)
-                theta, P = bias_change_update(state[_CHANGE_POINTS], cusum, alarm, R, walk)
+                theta, P = bias_change_update(state[_CHANGE_POINTS], cusum, alarm, noise, walk)
                 state[_CUSUM] = 0.0
                 state[_CHANGES] += 1.0
                 state[_LEARNED] += 1.0
