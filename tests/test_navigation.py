@@ -657,7 +657,8 @@ def test_diagram_matches_sequential_reference_loop(name):
     a = run_scenario(scenario, duration=2.2).arrays  # 1 s standstill, then driving
     robot = scenario.robot_parameters()
     rates = scenario.rates()
-    belief = NavigationBelief(scenario.navigation, robot.wheel_radius, robot.track_width, rates)
+    # the robot, as the diagram's belief has it: the calibration's tyre slip time and the force reference
+    belief = NavigationBelief(scenario.navigation, robot.wheel_radius, robot.track_width, rates, robot=robot)
     out = navigation_loop(*sensor_rows(a), belief)
     assert np.max(np.abs(a["true_v_t"])) > 1.0  # the robot really moved
     for key in LOOP_KEYS:
