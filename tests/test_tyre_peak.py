@@ -130,7 +130,7 @@ def test_the_closed_square_identifies_the_floor_and_its_estimate_gains():
     accelerometers (C1): the read slip is about half the true one, so the read runs high, by at most
     1 / sin(C atan(B 0.4 sigma_peak)) = 1.149 where a sample first weighs in (tyre_peak_evidence_slip),
     and never low but for the force's noise (5 %). From the nominal 5.49 one lap gives a few such slides:
-    friction 0.5 ends 1-15 % high (seeds 0-7, 1.055 a_true on the mean); which seed lands where is the
+    friction 0.5 ends -1 to +15 % off (seeds 0-7, 1.055 a_true on the mean); which seed lands where is the
     path's lottery (the heading's yaw share moves seed 1 from 0.99 to 1.06, seed 0 from 1.05 to 1.01).
     So: the mean over seeds 0-3 and each other floor within [0.95, 1.149] a_true, and every seed at least
     half-way from the nominal to the floor.
