@@ -19,7 +19,7 @@ pair (|omega| from S(3)'s centripetal difference).
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.health.accelerometer_pair import pair_present
+from slipnav.systems.health.accelerometer_pair import pair_omega_squared, pair_present
 from slipnav.systems.health.analog import readmission_sample
 from slipnav.systems.health.layout import (
     ANALOG_EXCLUDED,
@@ -194,7 +194,7 @@ def pair_yaw_witness(s, raw, g) -> tuple:
     scale = 2.0 * (x * x + y * y)
     offset = s[PAIR_OFFSET]
     variance = s[PAIR_OFFSET_VARIANCE]
-    share = -(x * offset[0] + y * offset[1]) / scale
+    share = pair_omega_squared((offset[0], offset[1], 0.0, 0.0), (x, y))  # the offset as a difference
     return s[PAIR_OMEGA_SQUARED] - share, (x * x * variance[0] + y * y * variance[1]) / (scale * scale)
 
 
