@@ -1513,3 +1513,26 @@ def test_a_ramp_grows_from_its_start():
     assert apply_sensor_faults(3.0, raw, raw, raw, [ramp], 0.002, 0.001)[4] == 0.5
     with pytest.raises(ValueError, match="cannot 'ramp'"):
         FaultEvent("ramp", "encoder_R", 1.0, 1.0, 1.0)
+
+
+def test_a_gyro_off_its_rail_is_readmitted_without_a_witness():
+    """A spin slowing from 6 to 4 rad/s (-3.3 rad/s^2) through the gyro's 300 deg/s full scale, the left
+    encoder lost: the railed gyro is flagged saturated and, with no wheels to witness, reads at least its
+    full scale. Its first reading below the rail continues from it within gyro_max_step, which is the
+    sensor's own reading: it is trusted again at once, rather than compared with the replacement held at
+    the rail (a constant nothing checks, 5.24 rad/s here while the body slows to 4)."""
+    n, v = 400, 0.5
+    omega = np.linspace(6.0, 4.0, n)
+    rows = stream(n, v, 0.0)
+    rows[:, 5] = np.cumsum(v + 0.5 * B * omega) / R * T_N
+    rows[:, 6] = np.cumsum(v - 0.5 * B * omega) / R * T_N
+    rows[20:, 6] = np.nan  # the left encoder lost
+    full_scale = math.radians(300.0) * SensorHealthParameters().saturation_fraction
+    rows[:, 4] = np.clip(omega + 0.014 * np.random.default_rng(1).standard_normal(n), -full_scale, full_scale)
+    out, codes = check(rows, v0=v)
+    railed = rows[:, 4] >= full_scale
+    below = int(np.flatnonzero(railed)[-1]) + 1
+    assert np.all(codes[20:below][railed[20:below], 4] == SATURATED)
+    assert np.all(out[20:below][railed[20:below], 4] >= full_scale)
+    assert not codes[below:, 4].any()
+    np.testing.assert_array_equal(out[below:, 4], rows[below:, 4])

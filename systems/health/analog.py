@@ -12,6 +12,12 @@ against its data sheet and its last accepted value (health codes 1-4), and the v
    the last accepted value, the gyro's less b_g) against what the robot can do in one sample
    (gyro_max_step, accel_max_step); ``recovering`` while the channel is excluded and still beyond it.
 
+A channel out for saturation alone, with no witness left to judge it (unwitnessed: the gyro without
+both encoders, an axis without its partner), comes back on the first reading off its rail that
+continues from its last one within the jump bound: a reading inside the range is the sensor's own, and
+its replacement is then a value held from the rail that nothing checks. A witnessed channel is judged
+against its witness's replacement as after any exclusion.
+
 A channel of an absent accelerometer set (SensorParameters.accelerometer_sets) is not judged. An
 excluded or absent channel outputs its replacement (analog_outputs).
 """
@@ -25,12 +31,14 @@ from slipnav.systems.health.layout import (
     ANALOG_LAST,
     ANALOG_REFERENCE,
     ANALOG_REPEATS,
+    ANALOG_SATURATED,
     BLOCK_DIFFERENCE,
     BLOCK_SAMPLES,
     BLOCK_TRAVEL,
     CLIP_POSITION,
     CLIP_RING,
     CLIP_WINDOW_MAX,
+    ENCODER_CODE,
     PAIR_OFFSET,
     PAYBACK_LEFT,
     PAYBACK_RATE,
@@ -88,6 +96,7 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
     repeats = s[ANALOG_REPEATS]
     hold = s[ANALOG_HOLD]
     excluded = s[ANALOG_EXCLUDED]
+    saturated = s[ANALOG_SATURATED]
     ring = s[CLIP_RING]
     position = int(s[CLIP_POSITION])
     for c in range(NUM_ANALOG):
@@ -95,19 +104,25 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
         if not p.analog_present[c]:  # not judged: analog_outputs replaces it
             continue
         if not math.isfinite(x):
-            codes[c] = NONFINITE
+            codes[c], saturated[c] = NONFINITE, 0.0
             continue
         same = math.isfinite(last[c]) and abs(x - last[c]) <= p.stuck_tolerance
         repeats[c] = repeats[c] + 1 if same else 0
+        # off its rail and continuous from it, with no witness: the saturation's evidence is gone
+        continuous = hold[c] == 0 and not abs(x - last[c]) > p.max_step[c]
+        leaves_rail = saturated[c] > 0 and continuous and not witnessed(s, c, p.analog_present)
+        saturated[c] = 0.0
         last[c] = x
         # at the data-sheet range, or at a rail below it (clip_returns: read only when needed)
         if abs(x) >= p.saturation_level[c] or (
             p.clip_samples > 0
             and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, p.clip_floor[c], p) >= p.clip_samples
         ):
-            codes[c] = SATURATED
+            codes[c], saturated[c] = SATURATED, 1.0
         elif repeats[c] >= p.stuck_repeats:
             codes[c] = STUCK
+        elif leaves_rail:
+            saturated[c] = 1.0  # re-admitted without a block (gyro.gyro_readmission)
         elif math.isfinite(reference[c]) and (
             abs(x - (bias if c == GYRO else 0.0) - reference[c]) > p.max_step[c]
         ):
@@ -117,6 +132,15 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
     for c in range(NUM_ANALOG):  # the ring of the readings' magnitudes (clip_returns)
         ring[CLIP_WINDOW_MAX * c + position] = abs(raw[c])
     s[CLIP_POSITION] = (position + 1) % CLIP_WINDOW_MAX
+
+
+@jitable
+def witnessed(s, c: int, present) -> bool:
+    """Channel ``c``'s replacement comes from a witness: the gyro's from both encoders (healthy on the
+    last sample), an accelerometer axis's from its partner (present and not excluded)."""
+    if c == GYRO:
+        return s[ENCODER_CODE][0] == 0.0 and s[ENCODER_CODE][1] == 0.0
+    return present[c ^ 2] and s[ANALOG_EXCLUDED][c ^ 2] == 0.0
 
 
 @jitable
@@ -192,7 +216,7 @@ def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation
         if codes[c] == 0:  # the reference is the gyro less b_g, as its replacement is
             out[c] = raw[c]
             reference[c] = raw[c] - (bias if c == GYRO else 0.0)
-            excluded[c] = 0.0
+            excluded[c] = s[ANALOG_SATURATED][c] = 0.0
             continue
         excluded[c] += 1.0
         if c == GYRO:

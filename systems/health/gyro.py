@@ -26,6 +26,7 @@ from slipnav.systems.health.layout import (
     ANALOG_HOLD,
     ANALOG_REFERENCE,
     ANALOG_REPEATS,
+    ANALOG_SATURATED,
     BIAS_BLOCK_COUNT,
     BIAS_BLOCK_SQUARES,
     BIAS_BLOCK_SUM,
@@ -77,12 +78,14 @@ def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
     """The excluded gyro's re-admission block, then its bias-step block: codes[4] is RECOVERING
     (INCONSISTENT while the yaw test holds it) until gyro_readmission_samples in a row within the jump
     bound of the replacement sum their difference from it (a heading) within 3 noise sigmas sqrt(n), two
-    counts of each wheel and gyro_readmission_fraction of the replacement's summed magnitude, then 0."""
+    counts of each wheel and gyro_readmission_fraction of the replacement's summed magnitude, then 0.
+    An unwitnessed gyro off its rail (analog.witnessed, ANALOG_SATURATED) is back without a block."""
     reference = s[ANALOG_REFERENCE]
     hold = s[ANALOG_HOLD]
     block = s[GYRO_BLOCK]
     held = hold[GYRO] > 0.0
     judged = codes[GYRO] == 0 or (held and codes[GYRO] == INCONSISTENT)
+    judged = judged and not (codes[GYRO] == 0 and s[ANALOG_SATURATED][GYRO] > 0.0)  # off its rail
     goes_on = False  # the block goes on to the next sample
     if judged and s[ANALOG_EXCLUDED][GYRO] > 0.0 and math.isfinite(reference[GYRO]):
         codes[GYRO] = INCONSISTENT if held else RECOVERING  # until a block agrees

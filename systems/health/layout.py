@@ -28,14 +28,15 @@ READMISSION_SIZE = layout_size(READMISSION_LAYOUT)
 
 HEALTH_LAYOUT = (
     # analog channels: the reference (the last accepted value, the gyro's less b_g, or the replacement),
-    # the last raw reading, its repeat count, the inconsistency hold (1; the gain test's: GAIN_HOLD) and
-    # the samples excluded; the magnitudes of the last CLIP_WINDOW_MAX readings of each (NaN: none) and the
-    # ring's position
+    # the last raw reading, its repeat count, the inconsistency hold (1; the gain test's: GAIN_HOLD), the
+    # samples excluded and 1 while the exclusion stands on saturation alone; the magnitudes of the last
+    # CLIP_WINDOW_MAX readings of each (NaN: none) and the ring's position
     ("analog_reference", 5),
     ("analog_last", 5),
     ("analog_repeats", 5),
     ("analog_hold", 5),
     ("analog_excluded", 5),
+    ("analog_saturated", 5),
     ("clip_ring", 5 * CLIP_WINDOW_MAX),
     ("clip_position", 1),
     # encoders: the last finite raw angle, the output angle less it, the last used increment, the still
@@ -118,6 +119,7 @@ ANALOG_REFERENCE, ANALOG_LAST, ANALOG_REPEATS = (
     _SLICES[k] for k in ("analog_reference", "analog_last", "analog_repeats")
 )
 ANALOG_HOLD, ANALOG_EXCLUDED = _SLICES["analog_hold"], _SLICES["analog_excluded"]
+ANALOG_SATURATED = _SLICES["analog_saturated"]
 CLIP_RING, CLIP_POSITION = _SLICES["clip_ring"], _SLICES["clip_position"]
 ENCODER_LAST_RAW, ENCODER_OUTPUT_OFFSET = _SLICES["encoder_last_raw"], _SLICES["encoder_output_offset"]
 ENCODER_INCREMENT, ENCODER_STILL = _SLICES["encoder_increment"], _SLICES["encoder_still"]
