@@ -10,6 +10,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from slipnav.diagrams.split import split_port
 from slipnav.systems.health import HEALTH_STEP_LAYOUT, SensorHealthMonitor
 from slipnav.systems.navigation.baselines import Baselines
+from slipnav.systems.navigation.calibration_batches import believed_tyre_slip
 from slipnav.systems.navigation.ekf import InertialEkf, KalmanGain, ekf_prior_covariance
 from slipnav.systems.navigation.mixing.mixer import MIXER_LAYOUT, TYRE_MODEL_STATE_LAYOUT, VelocityMixer
 from slipnav.systems.navigation.mixing.weights import C2C3_STEP_LAYOUT, MixerC1, MixerC2C3
@@ -177,9 +178,10 @@ def _add_navigation_blocks(b, belief: NavigationBelief, geometry):
     c1 = _add(b, MixerC1(params.mixing, T_C), "Mixer C1")
     c23_block = _add(b, MixerC2C3(params.mixing, T_N), "Mixer C2 C3")
     c23 = split_port(b, c23_block.GetOutputPort("step"), C2C3_STEP_LAYOUT, "Mixer C2 C3's signals")
+    calibration = believed_tyre_slip(params.yaw_calibration, belief.robot, params.mixing, track_width)
     yaw_calibration = _add(
         b,
-        YawRateCalibration(params.yaw_calibration, track_width, T_N, T_C, belief.sensors),
+        YawRateCalibration(calibration, track_width, T_N, T_C, belief.sensors),
         "Gyro and odometry calibration",
     )
     mixer_block = _add(
@@ -296,6 +298,7 @@ def _connect_fusion(b, blocks: NavigationBlocks, signals: NavigationSignals, par
         blocks.ekf.GetOutputPort("inertial_estimate"), blocks.c23_block.GetInputPort("inertial_estimate")
     )
     b.Connect(signals.odo, blocks.c23_block.GetInputPort("odometry"))
+    b.Connect(signals.calibrated["odometry_share"], blocks.c23_block.GetInputPort("odometry_share"))
     b.Connect(signals.odo, blocks.mixer_block.GetInputPort("odometry"))
     b.Connect(
         blocks.ekf.GetOutputPort("inertial_estimate"), blocks.mixer_block.GetInputPort("inertial_estimate")

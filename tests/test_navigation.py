@@ -657,7 +657,8 @@ def test_diagram_matches_sequential_reference_loop(name):
     a = run_scenario(scenario, duration=2.2).arrays  # 1 s standstill, then driving
     robot = scenario.robot_parameters()
     rates = scenario.rates()
-    belief = NavigationBelief(scenario.navigation, robot.wheel_radius, robot.track_width, rates)
+    # the robot, as the diagram's belief has it: the calibration's tyre slip time and the force reference
+    belief = NavigationBelief(scenario.navigation, robot.wheel_radius, robot.track_width, rates, robot=robot)
     out = navigation_loop(*sensor_rows(a), belief)
     assert np.max(np.abs(a["true_v_t"])) > 1.0  # the robot really moved
     for key in LOOP_KEYS:
@@ -1053,12 +1054,14 @@ def test_a_sideways_push_leaves_v_n_to_the_kinematics():
 
 def test_tyre_model_check_on_a_floor_with_less_grip():
     """Corner with the plant's tyre friction 0.5 (the navigation's curve is the nominal 0.7's), plain
-    closed loop (the diagram's twin): where the slide departs from the nominal curve (seeds 1 and 3) the
+    closed loop (the diagram's twin). The floor's slide departs from the nominal curve where the body
+    slides to 7 deg and more (the curve says 2.7; mixing.tyre_model_gate_deg): there (seeds 1 and 3) the
     check opens beyond 0.9 and the side-slip RMS error where |alpha| > 1 deg falls from above 3 deg by a
-    third or more (3.2 -> 1.3, 3.3 -> 2.3); where the integral stays with the curve (seed 0) the check
-    stays all but shut (its weight below 0.05) and the run is the unchecked one within 1 %. The check's
-    own effect: the tyre peak's identification
-    (test_tyre_peak_identification_on_floors_of_other_grip) is off."""
+    third or more (3.2 -> 1.3, 3.3 -> 2.3), and on seed 0 (7.6 deg) it opens and the error does not grow.
+    A slide that peaks below 6 deg stays near the curve (seed 2, 5.4 deg): the check stays all but shut
+    (its weight below 0.1) and moves the side-slip error by no more than its weight (it pulls S(17)'s
+    inertial branch by that share of the disagreement). The check's own effect: the tyre peak's
+    identification (test_tyre_peak_identification_on_floors_of_other_grip) is off."""
     from slipnav.scenarios.config import with_keys
     from slipnav.scenarios.metrics import side_slip_rms_error
     from slipnav.scenarios.plain_loop import run_scenario_plain_loop
@@ -1080,8 +1083,12 @@ def test_tyre_model_check_on_a_floor_with_less_grip():
         assert without > 3.0 and with_check < 0.7 * without, (seed, without, with_check)
         assert np.max(a["tyre_model_weight"]) > 0.9
     with_check, a = alpha_rms(slippery, 0)
-    assert with_check == pytest.approx(alpha_rms(unchecked, 0)[0], rel=0.01)
-    assert np.max(a["tyre_model_weight"]) < 0.05
+    assert math.degrees(np.max(np.abs(a["true_alpha"]))) >= 7.0  # the slide departs from the curve
+    assert np.max(a["tyre_model_weight"]) > 0.3 and with_check <= alpha_rms(unchecked, 0)[0]
+    with_check, a = alpha_rms(slippery, 2)
+    assert math.degrees(np.max(np.abs(a["true_alpha"]))) < 6.0  # the slide stays near the curve
+    weight = np.max(a["tyre_model_weight"])
+    assert weight < 0.1 and abs(with_check / alpha_rms(unchecked, 2)[0] - 1.0) <= weight
     # An accelerometer that reads twice the lateral acceleration looks like a slide for the 60 ms before
     # the sensor checks exclude it (square, seed 1, accel2_n from 2.73 s at 0.4 m/s): below the gate's
     # reference speed of 1 m/s that is no evidence, and the run ends as without the check (16.1 mm; with

@@ -105,8 +105,11 @@ def test_kurt3d_turns_are_the_gyros_when_the_track_is_off():
     """Long path, seed 0, through its first 90 deg turn (R = 3 m at 4 m/s) on a Kurt3D whose track is 3 %
     wider than believed: the odometric yaw rate reads 3 % high, 2.7 deg of heading over the turn. With the
     turn rule (the scenario's mixing.gyro_turn_rate, 0.05 rad/s) the fused heading follows the gyro and
-    ends within 0.5 deg; S(14) alone (.inf) keeps the odometry's error (Truth and belief). The closed loop
-    as the plain loop (scenarios/plain_loop.py, the diagram's twin sample for sample: test_plain_loop)."""
+    ends within 0.5 deg, with the online calibration and without it. S(14) alone (.inf) with the paper's
+    signals (calibration off: the odometric yaw rate's share 1) keeps the odometry's error (Truth and
+    belief); with the calibration, whose covariance knows b_g far better than D v / b at 4 m/s, the share
+    hands the turn to the gyro as well (systems/navigation/calibrated_signals.py). The closed loop as the
+    plain loop (scenarios/plain_loop.py, the diagram's twin sample for sample: test_plain_loop)."""
     import dataclasses as dc
     import math
 
@@ -114,11 +117,12 @@ def test_kurt3d_turns_are_the_gyros_when_the_track_is_off():
     from slipnav.scenarios.plain_loop import run_scenario_plain_loop
     from slipnav.scenarios.tolerances import RobotDeviations
 
-    def heading_errors(turn_rate):
+    def heading_errors(turn_rate, calibrated=True):
         scenario = load_scenario("long_path")
         assert scenario.navigation.mixing.gyro_turn_rate == 0.05
         mixing = dc.replace(scenario.navigation.mixing, gyro_turn_rate=turn_rate)
-        scenario.navigation = dc.replace(scenario.navigation, mixing=mixing)
+        calibration = dc.replace(scenario.navigation.yaw_calibration, enabled=calibrated)
+        scenario.navigation = dc.replace(scenario.navigation, mixing=mixing, yaw_calibration=calibration)
         scenario.plant = dc.replace(scenario.plant, deviations=RobotDeviations(track_width=0.03))
         a = run_scenario_plain_loop(scenario, 0, round(7.5 / scenario.T_N))  # 7.5 s
         assert abs(a["true_phi"][-1] - math.pi / 2) < 0.2  # the turn is done
@@ -127,9 +131,12 @@ def test_kurt3d_turns_are_the_gyros_when_the_track_is_off():
             for p in ("est", "odo")
         ]
 
-    fused, odometry = heading_errors(0.05)
-    assert abs(fused) < 0.5 and odometry > 2.0
+    for calibrated in (True, False):
+        fused, odometry = heading_errors(0.05, calibrated)
+        assert abs(fused) < 0.5 and odometry > 2.0
     s14_alone, _ = heading_errors(math.inf)
+    assert abs(s14_alone) < 0.5
+    s14_alone, _ = heading_errors(math.inf, calibrated=False)
     assert s14_alone > 2.0
 
 

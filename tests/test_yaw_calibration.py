@@ -11,6 +11,8 @@ from slipnav.scenarios.config import load_scenario
 from slipnav.scenarios.metrics import final_position_error
 from slipnav.scenarios.runner import run_scenario
 from slipnav.systems.navigation.bias_change import bias_change_test
+from slipnav.systems.navigation.calibration_batches import believed_tyre_slip
+from slipnav.systems.navigation.mixing.parameters import MixingParameters
 from slipnav.systems.navigation.yaw_calibration import (
     YawCalibrationParameters,
     YawRateCalibration,
@@ -23,6 +25,7 @@ from slipnav.systems.navigation.yaw_calibration import (
     yaw_calibration_step,
 )
 from slipnav.systems.robot.faults import FaultEvent
+from slipnav.systems.robot.parameters import kurt3d
 from slipnav.systems.robot.sensors import SensorParameters
 
 from tests.shared import scenario_result
@@ -346,16 +349,61 @@ def test_two_witnesses_do_not_blame_the_gyro_while_moving():
 
 
 def test_the_bias_prior_and_drift_are_the_believed_gyros():
-    """believed_gyro fills what YawCalibrationParameters leaves open (None) from the believed sensors, and
+    """believed_gyro fills what YawCalibrationParameters leaves open (None: the bias's prior and random walk,
+    the white noise) from the believed sensors, and
     keeps what it states; the block reads the believed set's accelerometer count for its third witness."""
-    sensors = SensorParameters(gyro_initial_bias_std=0.001, gyro_drift_density=3.2e-5, accelerometer_sets=1)
+    sensors = SensorParameters(
+        gyro_initial_bias_std=0.001, gyro_drift_density=3.2e-5, gyro_noise_std=0.004, accelerometer_sets=1
+    )
     p = believed_gyro(YawCalibrationParameters(), sensors)
-    assert (p.initial_bias_std, p.bias_drift_density) == (0.001, 3.2e-5)
+    assert (p.initial_bias_std, p.bias_drift_density, p.gyro_noise_std) == (0.001, 3.2e-5, 0.004)
     stated = believed_gyro(YawCalibrationParameters(bias_drift_density=0.0), sensors)
     assert (stated.initial_bias_std, stated.bias_drift_density) == (0.001, 0.0)
     nominal = believed_gyro(YawCalibrationParameters())
-    assert (nominal.initial_bias_std, nominal.bias_drift_density) == (0.0035, 0.0005)  # SensorParameters()
+    nominal_figures = (nominal.initial_bias_std, nominal.bias_drift_density, nominal.gyro_noise_std)
+    assert nominal_figures == (0.0035, 0.0005, 0.014)  # SensorParameters()
     state = yaw_calibration_initial_state(p)
     assert calibration_parameters(state)[2] == pytest.approx(0.001)
     block = YawRateCalibration(YawCalibrationParameters(), TRACK, T_N, N_BATCH * T_N, sensors)
     assert block._third_witness is False and block._p.bias_drift_density == 3.2e-5
+
+
+def _kurt3d_turn_exit(p, bias_step=0.0):
+    """Kurt3D (track 0.4 m) rests 1 s (b_g = 0.003), accelerates to 4 m/s in 2 s (D = 0 learned), drives
+    straight for 1 s, turns at -0.3 rad/s for 0.2 s and leaves the turn at a yaw acceleration of 1.5
+    rad/s^2 to 0.15 rad/s, where it stays for 0.4 s; while the yaw accelerates the wheels read the yaw rate
+    high by the true tyres' kappa v alpha (0.037 rad/s, 3.7 measurement_std). ``bias_step``: the gyro's
+    bias steps by this while the robot drives straight (rad/s). Returns calibration_parameters."""
+    track, kappa, v = 0.4, 0.00617, 4.0
+    rows = [(0.0, 0.0, 0.0)] * 50 + [(0.0, 0.0, 0.04 * (k + 1)) for k in range(100)]
+    rows += [(0.0, 0.0, v)] * 50 + [(-0.3, -0.3, v)] * 10
+    rows += [(-0.3 + 0.03 * k, -0.3 + 0.03 * k + kappa * v * 1.5, v) for k in range(1, 16)]
+    rows += [(0.15, 0.15, v)] * 20
+    if bias_step:
+        rows = rows[:200] + [(0.0, 0.0, v)] * 20
+    state = yaw_calibration_initial_state(p)
+    for k, (omega, omega_o, speed) in enumerate(rows):
+        gyro = omega + 0.003 + (bias_step if k >= 200 else 0.0)
+        for _ in range(N_BATCH):
+            state = yaw_calibration_step(
+                state, gyro, [speed, omega_o, 0.0, 0.0], 1.0, False, track, p, T_N, N_BATCH
+            )
+    return calibration_parameters(state)
+
+
+def test_the_tyres_slip_at_a_turns_exit_is_no_bias_change():
+    """The believed Kurt3D's tyres give kappa = 4 I / (b^2 m a_p B C) = 0.0062 s
+    (calibration_batches.tyre_slip_time). Without it in the batches' variance the turn's exit at 4 m/s
+    (_kurt3d_turn_exit) raises the bias-change alarm and the step measured there moves b_g by the wheels'
+    lead; with it the exit raises none and b_g stays within 0.001 of 0.003, and a 0.03 rad/s step of the
+    gyro's bias on the straight still raises the alarm and is measured within 0.003."""
+    mixing = MixingParameters(tyre_peak_acceleration=7.85, tyre_stiffness_factor=12.0, tyre_shape_factor=1.3)
+    p = believed_tyre_slip(YawCalibrationParameters(), kurt3d(), mixing, 0.4)
+    assert p.yaw_slip_time == pytest.approx(0.00617, rel=0.01)
+    assert believed_tyre_slip(YawCalibrationParameters(), None, mixing, 0.4).yaw_slip_time == 0.0
+    b, *_, changes = _kurt3d_turn_exit(dc.replace(p, yaw_slip_time=0.0))
+    assert changes == 1 and b < -0.01
+    b, *_, changes = _kurt3d_turn_exit(p)
+    assert changes == 0 and b == pytest.approx(0.003, abs=0.001)
+    b, *_, changes = _kurt3d_turn_exit(p, bias_step=0.03)
+    assert changes == 1 and b == pytest.approx(0.033, abs=0.003)

@@ -12,7 +12,8 @@ Ordering at each sample k (time t_k = k T_N; n = T_C/T_N; control instants k = K
    sample k-1 and the standstill test of sample k (systems/navigation/standstill.py);
 2. EKF: prediction S(2) of the previous mixed estimate, update S(8) with the gain L in force -> ^I x_k;
 3. slip detector S(11) accumulates; C2 S(13), C3 S(14) from ^I x_k and odometry (C3 of the residual's
-   PT1 up to sample k);
+   PT1 up to sample k, times the odometric yaw rate's share from the calibration's covariance as it
+   stood after the last batch, systems/navigation/calibrated_signals.py);
 4. mixing S(15)-(17) with the C1 in force, zero while the robot stands (the zero-velocity update) ->
    mixed estimate (the navigation output of sample k);
 5. updates: EKF state <- mixed estimate, P <- S(9) and the mixing as pseudo-measurements
@@ -38,6 +39,7 @@ from slipnav.systems.health import (
     yaw_pair_witness,
 )
 from slipnav.systems.navigation.baselines import BaselineState, baselines_step
+from slipnav.systems.navigation.calibration_batches import believed_tyre_slip
 from slipnav.systems.navigation.ekf import (
     ekf_covariance_update,
     ekf_gain,
@@ -76,13 +78,19 @@ from slipnav.systems.navigation.standstill import (
     zero_velocity_update,
 )
 from slipnav.systems.navigation.yaw_calibration import (
+    CALIBRATION_LAYOUT,
     believed_gyro,
     calibrated_gyro,
     calibrated_odometry,
+    odometric_yaw_share,
     yaw_calibration_initial_state,
     yaw_calibration_step,
 )
 from slipnav.systems.robot.faults import SENSOR_CHANNELS
+from slipnav.systems.state_layout import layout_slices
+
+_CALIBRATION_COVARIANCE = layout_slices(CALIBRATION_LAYOUT)["covariance"]
+"""The covariance of [b_g, D] in the calibration's state (row-major)."""
 
 LOOP_KEYS = (
     "est_x est_y est_phi est_v_t est_v_n est_omega est_a_t est_a_n est_alpha est_track_speed "
@@ -126,7 +134,8 @@ class NavigationLoop:
         self.pose = list(initial.pose)
         self.checked_encoders = (float("nan"), float("nan"))  # the sensor checks' angles of the last step
         self.baselines = BaselineState.initial(initial.pose, initial.speed)  # on the raw sensors
-        self.yaw_calibration = believed_gyro(params.yaw_calibration, belief.sensors)
+        believed = believed_tyre_slip(params.yaw_calibration, belief.robot, params.mixing, belief.track_width)
+        self.yaw_calibration = believed_gyro(believed, belief.sensors)
         self.calibration = yaw_calibration_initial_state(self.yaw_calibration)
         self.c3_residual, self.c3_turn_rate = 0.0, 0.0
         self.tyre_model_state = (float(self.x[1]),) * 2 + (params.mixing.tyre_peak_acceleration, 0.0, 0.0)
@@ -271,7 +280,9 @@ class NavigationLoop:
         c2 = mixing_c2(inertial[4], mp)
         residual = c3_residual(self.c3_residual, odo[1], inertial[2], mp, T_N)
         turn = c3_turn_rate(self.c3_turn_rate, inertial[2], mp, T_N)
-        c3 = mixing_c3(residual, mp, turn)
+        covariance = self.calibration[_CALIBRATION_COVARIANCE].tolist()
+        share = odometric_yaw_share(covariance, odo[0], self.track_width, self.yaw_calibration, T_N)
+        c3 = mixing_c3(residual, mp, turn, share)
         disagreement = accelerometer_pair_disagreement(acc, inertial[2], self.geometry.accelerometer_position)
         self.slide_onset_state, self.slide_onset = slide_onset_step(
             self.slide_onset_state, odo[0], inertial[0], inertial[3], disagreement, mp, T_N

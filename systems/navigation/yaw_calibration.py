@@ -45,7 +45,11 @@ innovation_gate) keeps reading the gyro less the new b_g.
 A healthy stream raises one false alarm per change_run_length tested batches.
 
 The navigation reads the calibrated gyro gyro - b_g and the calibrated odometric yaw rate
-omega_o + D v_o / b; the baselines (odometry-only, Gyrodometry) keep the raw signals.
+omega_o + D v_o / b, the latter in S(14)'s mix with the share that theta's covariance gives it
+(systems/navigation/calibrated_signals.py); the baselines (odometry-only, Gyrodometry) keep the raw
+signals. A moving batch's measurement variance is the larger of measurement_std^2 and what its residuals
+show, plus what the tyres' differential slip at the batch's yaw acceleration may add
+(systems/navigation/calibration_batches.py).
 """
 
 import dataclasses as dc
@@ -61,6 +65,18 @@ from slipnav.systems.navigation.bias_change import (
     bias_step_update,
     change_points_age,
     change_points_step,
+)
+from slipnav.systems.navigation.calibrated_signals import (
+    calibrated_gyro,
+    calibrated_odometry,
+    odometric_yaw_share,
+)
+from slipnav.systems.navigation.calibration_batches import (
+    batch_selection,
+    believed_gyro,
+    measurement_variance,
+    observed_variance_step,
+    slip_variance,
 )
 from slipnav.systems.ranges import out_of_range, require_flag, require_in
 from slipnav.systems.residual_test import CUSUM_SIZE, CusumState, cusum_step
@@ -81,12 +97,20 @@ class YawCalibrationParameters:
             radius uniform within +-1 % of the nominal (scenarios/tolerances.py), 0.01 sqrt(2/3).
         bias_drift_density: random walk of the bias (rad/s per sqrt(s)); None: the believed gyro's data
             sheet (SensorParameters.gyro_drift_density; Tinyphoon's: 0.0005).
+        gyro_noise_std: the gyro's white noise per T_N sample (rad/s), which the odometric yaw rate's share
+            in S(14) weighs (calibrated_signals.gyro_white_variance); None: the believed gyro's data sheet
+            (SensorParameters.gyro_noise_std; Tinyphoon's: 0.014).
+        yaw_slip_time: kappa (s): the wheels read the yaw rate high by kappa v alpha while the robot's yaw
+            accelerates by alpha at speed v (the tyres' differential slip), which a moving batch's
+            variance counts (calibration_batches.slip_variance); None: the believed robot's tyres
+            (calibration_batches.believed_tyre_slip; 0 where no robot is believed).
         radius_drift_density: random walk of D (1 per sqrt(s)): 0, the rolling radii are constant over a
             run (tyre wear acts over hours). Above 0, D follows whatever the bias's drift hands it at
             constant speed, where b_g and D v/b cannot be told apart.
         measurement_std: standard deviation of a moving batch's residual (rad/s): 0.01, the gyro's noise
             over a batch (0.014/sqrt(10)) and one encoder count per batch (Tinyphoon 0.005 rad/s), with
-            margin.
+            margin; the floor of a moving batch's measurement variance, which the observed variance of
+            the residuals raises (calibration_batches.measurement_variance; over noise_batches).
         standstill_measurement_std: the same at standstill (no encoder count in the batch; rad/s): 0.005,
             the gyro's noise over a batch alone, with margin. A 1 s standstill learns the bias to ~0.7
             mrad/s before the robot moves, which D then cannot absorb.
@@ -114,7 +138,7 @@ class YawCalibrationParameters:
             them (within innovation_gate: a change does not feed it): 100, 2 s of tested batches. The
             test normalises by the larger of it and the predicted S: a robot whose gyro and wheels agree
             less well than measurement_std says raises no alarm for that (Mehra's innovation-based
-            adaptive estimate).
+            adaptive estimate). The learned moving batches' observed variance averages alike.
         change_clip: |z| beyond this counts as this in the CUSUM (sigma): 2.5, so that an alarm needs
             h / (change_clip - change_drift) tested batches at least (5.5, 0.11 s at T_C = 20 ms): a
             turn's start or end, where a real robot's body and wheels disagree for 60-80 ms, raises none;
@@ -125,6 +149,8 @@ class YawCalibrationParameters:
     initial_bias_std: float | None = None
     initial_radius_difference_std: float = 0.0082
     bias_drift_density: float | None = None
+    gyro_noise_std: float | None = None
+    yaw_slip_time: float | None = None
     radius_drift_density: float = 0.0
     measurement_std: float = 0.01
     standstill_measurement_std: float = 0.005
@@ -150,8 +176,8 @@ class YawCalibrationParameters:
         ).split()
         for name in positive:
             require_in(f"yaw_calibration.{name}", getattr(self, name), "(0, inf)")
-        for name in ("bias_drift_density", "radius_drift_density"):
-            if getattr(self, name) is not None:  # bias_drift_density None: the believed gyro's
+        for name in ("bias_drift_density", "gyro_noise_std", "yaw_slip_time", "radius_drift_density"):
+            if getattr(self, name) is not None:  # None: the believed gyro's
                 require_in(f"yaw_calibration.{name}", getattr(self, name), "[0, inf)")
         require_in("yaw_calibration.change_run_length", self.change_run_length, "(1, inf) batches")
         require_in("yaw_calibration.noise_batches", self.noise_batches, "[1, inf)")
@@ -159,21 +185,6 @@ class YawCalibrationParameters:
             allowed = f"(change_drift={self.change_drift}, inf)"
             raise out_of_range("yaw_calibration.change_clip", self.change_clip, allowed)
         require_in("yaw_calibration.trusted_c1", self.trusted_c1, "[0, 1]")
-
-
-def believed_gyro(p: YawCalibrationParameters, sensors: SensorParameters | None = None):
-    """``p`` with the gyro bias's prior and random walk that it leaves open (None) taken from the believed
-    gyro's data sheet ``sensors`` (None: the nominal SensorParameters())."""
-    if p.initial_bias_std is not None and p.bias_drift_density is not None:
-        return p
-    sensors = sensors or SensorParameters()
-    return dc.replace(
-        p,
-        initial_bias_std=sensors.gyro_initial_bias_std if p.initial_bias_std is None else p.initial_bias_std,
-        bias_drift_density=(
-            sensors.gyro_drift_density if p.bias_drift_density is None else p.bias_drift_density
-        ),
-    )
 
 
 CALIBRATION_LAYOUT = (
@@ -191,15 +202,17 @@ CALIBRATION_LAYOUT = (
     ("standing", 1),
     ("witnessed", 1),
     ("residual_variance", 1),
+    ("moving_variance", 1),
     ("change_points", CHANGE_STATE_SIZE),
 )
 """The calibration's state, in order (name, size): theta = [b_g, D], its covariance P (row-major), the
 batch's sums of (gyro, omega_o, v_o, |v_o| + |omega_o|), its sample count, 1 while every sample of the
 batch passed its checks, the learned and rejected batches, the bias-change CUSUM (CusumState), the bias
 changes detected, the previous batch's calibrated odometric yaw rate and gyro mean (NaN: none), the
-batch's samples the standstill detector called standing, those on which the accelerometer pair
-witnessed the yaw rate (third_witness), the observed variance of the tested batches'
-innovations (rad^2/s^2; 0: none yet), the bias-change test's change points (bias_change.CHANGE_LAYOUT)."""
+batch's samples the standstill detector called standing, those on which the accelerometer pair witnessed
+the yaw rate (third_witness), the observed variance of the tested batches' innovations and the learned
+moving batches' observed measurement variance (rad^2/s^2; 0: none yet), the bias-change test's change
+points (bias_change.CHANGE_LAYOUT)."""
 
 
 _SLICES = layout_slices(CALIBRATION_LAYOUT)
@@ -207,7 +220,7 @@ _THETA, _P, _SUMS, _COUNT, _OK = (_SLICES[k] for k in ("theta", "covariance", "s
 _LEARNED, _REJECTED, _CUSUM, _CHANGES = (_SLICES[k] for k in ("learned", "rejected", "cusum", "changes"))
 _PREVIOUS_WHEELS, _PREVIOUS_GYRO = _SLICES["previous_wheels"], _SLICES["previous_gyro"]
 _STANDING, _RESIDUAL_VARIANCE = _SLICES["standing"], _SLICES["residual_variance"]
-_WITNESSED = _SLICES["witnessed"]
+_WITNESSED, _MOVING_VARIANCE = _SLICES["witnessed"], _SLICES["moving_variance"]
 _CHANGE_POINTS = _SLICES["change_points"]
 STATE_SIZE = layout_size(CALIBRATION_LAYOUT)
 
@@ -220,22 +233,6 @@ def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
     state[_OK] = 1.0
     state[_PREVIOUS_WHEELS] = state[_PREVIOUS_GYRO] = math.nan
     return state
-
-
-def calibrated_gyro(gyro: float, theta, p: YawCalibrationParameters) -> float:
-    """gyro - b_g; the raw gyro when calibration is off."""
-    return gyro - theta[0] if p.enabled else gyro
-
-
-def calibrated_odometry(odo, theta, track_width: float, p: YawCalibrationParameters) -> list:
-    """[v_o, omega, v_R, v_L] with omega = omega_o + D v_o / b and the wheel speeds v_o +- omega b/2 that
-    give it; the raw odometry when calibration is off."""
-    if not p.enabled:
-        return list(odo)
-    v = odo[0]
-    omega = odo[1] + theta[1] * v / track_width
-    half = 0.5 * track_width
-    return [v, omega, v + omega * half, v - omega * half]
 
 
 def yaw_calibration_step(
@@ -309,6 +306,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     steady = (
         abs(wheels - state[_PREVIOUS_WHEELS]) <= change and abs(gyro_mean - state[_PREVIOUS_GYRO]) <= change
     )
+    slip = slip_variance(p.yaw_slip_time, v_mean, (gyro_mean - state[_PREVIOUS_GYRO]) / (n * T_N))
     state[_PREVIOUS_WHEELS] = wheels if state[_OK] > 0.5 else math.nan
     state[_PREVIOUS_GYRO] = gyro_mean if state[_OK] > 0.5 else math.nan
     learn, test = batch_selection(gyro_mean - theta[0], wheels, moving > 0.0, steady, p)
@@ -317,11 +315,19 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     if state[_OK] > 0.5 and witnessed and (learn or test):
         H = np.array([1.0, v_mean / track_width])
         R = (p.measurement_std if moving > 0.0 else p.standstill_measurement_std) ** 2
+        noise = R  # the batches' noise, without the tyres' slip
+        if moving > 0.0:  # the residuals' noise and the tyres' slip (calibration_batches.py)
+            noise = measurement_variance(R, state[_MOVING_VARIANCE])
+            R = noise + slip
         innovation = gyro_mean - omega_mean - H @ theta
         S = H @ P @ H + R
+        if learn and moving > 0.0:
+            state[_MOVING_VARIANCE] = observed_variance_step(
+                state[_MOVING_VARIANCE], innovation, S - noise, S, p.innovation_gate, p.noise_batches
+            )
         alarm = 0
         # the test judges b_g only where D's uncertainty adds less to the innovation than the noise does
-        if test and H[1] * H[1] * P[1, 1] <= R:
+        if test and H[1] * H[1] * P[1, 1] <= noise:
             # test: the CUSUM of the innovation normalised by the larger of its predicted variance and
             # the variance the healthy tested batches show (a real robot's witnesses are noisier)
             z = innovation / math.sqrt(max(S, state[_RESIDUAL_VARIANCE]))
@@ -331,7 +337,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
             state[_CUSUM] = cusum[:]
             change_points_step(state[_CHANGE_POINTS], cusum, theta, P, gyro_mean - omega_mean, H[1])
             if alarm:  # measured from the change point (systems/navigation/bias_change.py)
-                theta, P = bias_change_update(state[_CHANGE_POINTS], cusum, alarm, R, walk)
+                theta, P = bias_change_update(state[_CHANGE_POINTS], cusum, alarm, noise, walk)
                 state[_CUSUM] = 0.0
                 state[_CHANGES] += 1.0
                 state[_LEARNED] += 1.0
@@ -353,19 +359,6 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     return state
 
 
-def batch_selection(gyro: float, wheels: float, moving: bool, steady: bool, p) -> tuple:
-    """(learn, test) of a batch from its mean gyro less b_g and its calibrated odometric yaw rate
-    ``wheels``: it is learned from while the gyro says the robot stands or drives straight (within
-    straight_yaw_rate), and it tests b_g for a change while the wheels stand still, or say it drives
-    straight (within change_yaw_rate) at a ``steady`` yaw rate (steady_yaw_acceleration) while the gyro
-    stays within straight_yaw_rate + largest_bias_step."""
-    learn = abs(gyro) <= p.straight_yaw_rate
-    if not moving:
-        return learn, True
-    straight = abs(wheels) <= p.change_yaw_rate and steady
-    return learn, straight and abs(gyro) <= p.straight_yaw_rate + p.largest_bias_step
-
-
 def calibration_parameters(state) -> list:
     """[b_g, D, sigma(b_g), sigma(D), learned batches, rejected batches, bias changes detected] of a
     calibration state."""
@@ -377,7 +370,7 @@ def calibration_parameters(state) -> list:
 
 PARAMETERS_LAYOUT = (("estimate", 2), ("std", 2), ("batches", 3))
 """YawRateCalibration's ``parameters`` output (calibration_parameters), in order: (name, size)."""
-CALIBRATED_LAYOUT = (("gyro", 1), ("odometry", 4))
+CALIBRATED_LAYOUT = (("gyro", 1), ("odometry", 4), ("odometry_share", 1))
 """YawRateCalibration's ``calibrated`` output, in order: (name, size); diagrams/split.py slices it."""
 
 
@@ -410,9 +403,10 @@ class YawRateCalibration(LeafSystem):
       0 or unconnected: none), added at once; yaw_pair_witness (optional): 1 when the accelerometer pair
       witnessed this sample's yaw rate (the sensor checks' decision; unconnected: the believed sensor
       set has two accelerometer sets).
-    - calibrated (direct feedthrough, theta from the state), in CALIBRATED_LAYOUT's order: gyro
-      [omega - b_g]; odometry, calibrated_odometry. One vector, one Python call per sample; the
-      navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+    - calibrated (direct feedthrough, theta and P from the state), in CALIBRATED_LAYOUT's order: gyro
+      [omega - b_g]; odometry, calibrated_odometry; odometry_share, the odometric yaw rate's share in
+      S(14)'s mix (odometric_yaw_share, systems/navigation/calibrated_signals.py). One vector, one
+      Python call per sample; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
     - bias: [b_g] (rad/s, state).
     - parameters: calibration_parameters (state).
 
@@ -455,7 +449,7 @@ class YawRateCalibration(LeafSystem):
         self._parameters = self.DeclareDiscreteState(np.array(parameters0, float))
         self.DeclareVectorOutputPort(
             "calibrated",
-            5,
+            layout_size(CALIBRATED_LAYOUT),
             self._calc_calibrated,
             prerequisites_of_calc={self.xd_ticket(), self._gyro.ticket(), self._odo.ticket()},
         )
@@ -464,11 +458,11 @@ class YawRateCalibration(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
     def _calc_calibrated(self, context, output):
-        theta = context.get_discrete_state(self._state).get_value()[_THETA].tolist()
+        state = context.get_discrete_state(self._state).get_value()
+        theta, odo = state[_THETA].tolist(), self._odo.Eval(context).tolist()
         gyro = calibrated_gyro(float(self._gyro.Eval(context)[0]), theta, self._p)
-        output.SetFromVector(
-            [gyro, *calibrated_odometry(self._odo.Eval(context).tolist(), theta, self._b, self._p)]
-        )
+        share = odometric_yaw_share(state[_P].tolist(), odo[0], self._b, self._p, self._T_N)
+        output.SetFromVector([gyro, *calibrated_odometry(odo, theta, self._b, self._p), share])
 
     def _update(self, context, discrete_state):
         inertial, encoder = self._faults

@@ -67,11 +67,13 @@ def c3_turn_rate(previous: float, inertial_omega: float, p: MixingParameters, T_
     return pt1_step(previous, inertial_omega, p.c3_residual_time_constant, T_N)
 
 
-def mixing_c3(residual: float, p: MixingParameters, turn_rate: float = 0.0) -> float:
+def mixing_c3(residual: float, p: MixingParameters, turn_rate: float = 0.0, odometry_share: float = 1.0):
     """S(14): C3 = logsig(a3 (|^O omega - ^I omega| - b3)), on the (filtered) residual of c3_residual;
     in a turn (|turn_rate| above gyro_turn_rate, c3_turn_rate) times logsig(a3 (|turn_rate| -
-    gyro_turn_rate)), which hands the turn to the gyro."""
-    c3 = logsig(p.a3, abs(residual), p.b3)
+    gyro_turn_rate)), which hands the turn to the gyro; times ``odometry_share`` in [0, 1], the share
+    the online calibration's covariance gives the odometric yaw rate where the two agree
+    (systems/navigation/calibrated_signals.py, odometric_yaw_share; 1: S(14) alone)."""
+    c3 = logsig(p.a3, abs(residual), p.b3) * odometry_share
     if math.isinf(p.gyro_turn_rate):
         return c3
     return c3 * logsig(p.a3, abs(turn_rate), p.gyro_turn_rate)
@@ -136,6 +138,7 @@ class MixerC2C3(LeafSystem):
         input_ports:
         - inertial_estimate
         - odometry
+        - odometry_share
         output_ports:
         - step
 
@@ -143,6 +146,8 @@ class MixerC2C3(LeafSystem):
       estimate and odometry (C3 of the filters below); C3_filters, [^O omega - ^I omega, ^I omega], each
       PT1-filtered up to this sample (c3_residual, c3_turn_rate). One vector, one Python call per sample;
       the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+    - odometry_share (optional input): the odometric yaw rate's share in the mix (mixing_c3's
+      odometry_share; unconnected: 1, S(14) alone).
 
     Update every T_N: the filters (state).
 
@@ -155,8 +160,9 @@ class MixerC2C3(LeafSystem):
         self._p, self._T_N = params, T_N
         self._inertial = self.DeclareVectorInputPort("inertial_estimate", 5)
         self._odo = self.DeclareVectorInputPort("odometry", 4)
+        self._share = self.DeclareVectorInputPort("odometry_share", 1)
         self._filters = self.DeclareDiscreteState(2)
-        prereq = {self.xd_ticket(), self._inertial.ticket(), self._odo.ticket()}
+        prereq = {self.xd_ticket(), self._inertial.ticket(), self._odo.ticket(), self._share.ticket()}
         self._step = self.DeclareVectorOutputPort("step", 4, self._calc, prerequisites_of_calc=prereq)
         self.DeclarePeriodicDiscreteUpdateEvent(T_N, 0.0, self._update)
 
@@ -166,7 +172,8 @@ class MixerC2C3(LeafSystem):
         omega_o = float(self._odo.Eval(context)[1])
         residual = c3_residual(previous_residual, omega_o, inertial[2], self._p, self._T_N)
         turn = c3_turn_rate(previous_turn, inertial[2], self._p, self._T_N)
-        c3 = mixing_c3(residual, self._p, turn)
+        share = float(self._share.Eval(context)[0]) if self._share.HasValue(context) else 1.0
+        c3 = mixing_c3(residual, self._p, turn, share)
         output.SetFromVector([mixing_c2(inertial[4], self._p), c3, residual, turn])
 
     def _update(self, context, discrete_state):
