@@ -12,6 +12,8 @@ increments against v_pred = v_other +- b omega, the calibrated prediction v_R - 
   the robot pivots on rolling tyres, is not flagged); a sample on which the healthy tangential
   accelerometers' mean brakes against the wheel's motion harder than stuck_braking_deceleration restarts
   the count (a hard braking locks a wheel honestly). The travel missed before the detection is added then.
+- ``inconsistent``: the encoder reads its wheel turning against the ground beneath it
+  (systems/health/ground_speed.py).
 - ``recovering``: excluded until a re-admission block agrees (readmission_block); without a prediction,
   one increment agreeing with the previous one suffices. No exclusion ends on a timer.
 
