@@ -14,13 +14,16 @@ reading u_w is set against two witnesses of the ground's speed at its contact po
     the short spans it runs); the contact point's ground speed is v_g +- (gyro - b_g) b/2.
 
 ``inconsistent`` (counter_rotation_test): u_w runs against both witnesses (opposite signs, each beyond
-stuck_min_speed) while the other wheel's does not, for COUNTER_ROTATION_FACTOR times the
-stuck test's still samples in a row. Not flagged: a held wheel (it reads zero), a lifted or spinning wheel
-that turns with the ground beneath it, a wheel whose partner disagrees too (both wheels' readings against
-the body: the yaw test's and the perturbation monitor's matter). Without a healthy gyro or a tangential
-accelerometer there is no test. The flagged encoder is excluded and replaced like any other
-(encoders.encoder_outputs), and comes back through the re-admission block (encoders.readmission_block),
-which a sign-flipped count never passes while it moves.
+stuck_min_speed) while the other wheel's does not, for COUNTER_ROTATION_FACTOR times the stuck test's
+still samples in a row. Not flagged: a held wheel (it reads zero), a lifted or spinning wheel that turns
+with the ground beneath it, a wheel whose partner disagrees too (both wheels' readings against the body:
+the yaw test's and the perturbation monitor's matter). Without a healthy gyro or a tangential
+accelerometer there is no test. Mistaken for a lying encoder: a wheel its motor holds turning backward
+against the ground for longer, on ice or lifted, while the other rolls with the body; only the
+wheel-speed commands, which the checks do not read, could tell it apart (the perturbation monitor's
+band). The flagged encoder is excluded and replaced like any other (encoders.encoder_outputs), and comes
+back through the re-admission block (encoders.readmission_block), which a sign-flipped count never passes
+while it moves.
 """
 
 import math
