@@ -6,6 +6,7 @@ evidence that it agrees again.
 - layout.py: the checks' state, part by part;
 - analog.py, encoders.py, gyro.py, accelerometer_pair.py, pair_gain.py: the tests of each channel;
 - yaw_witness.py: the wheels' witness of the gyro and its yaw test;
+- ground_speed.py: the ground beneath each wheel, and the encoder that reads its wheel against it;
 - perturbation.py, perturbation_monitor.py: a wheel held, pushed or lifted and a push on the body,
   from the commands, the checked encoders, the estimate and the current sense;
 - monitor.py: the Drake block, the flags and the run's report.

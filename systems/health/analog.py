@@ -231,3 +231,17 @@ def analog_outputs(s, raw, bias: float, codes, gyro_replacement: float, rotation
     if s[PAYBACK_LEFT] > 0.0:  # a frozen gyro's owed heading, re-admitted or not (the reference goes without)
         out[GYRO] += s[PAYBACK_RATE]
         s[PAYBACK_LEFT] -= 1.0
+
+
+@jitable
+def body_acceleration(raw, codes, p) -> float:
+    """The body's tangential acceleration from the healthy tangential accelerometers present (codes[0],
+    codes[2] 0, p.analog_present): the mean of a_t1 and a_t2, else the healthy one, NaN if neither is
+    (m/s^2)."""
+    first_ok = codes[0] == 0 and p.analog_present[0]
+    second_ok = codes[2] == 0 and p.analog_present[2]
+    if first_ok and second_ok:
+        return 0.5 * (raw[0] + raw[2])
+    if first_ok or second_ok:
+        return raw[0] if first_ok else raw[2]
+    return math.nan

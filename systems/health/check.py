@@ -6,7 +6,8 @@ The order within a sample:
 
 1. each analog channel alone (systems/health/analog.py), and the excluded gyro's re-admission and
    bias-step blocks (systems/health/gyro.py);
-2. the encoders against the other wheel and the gyro (systems/health/encoders.py), and their outputs;
+2. the encoders against the other wheel and the gyro (systems/health/encoders.py), against the ground
+   beneath them (systems/health/ground_speed.py), and their outputs;
 3. the gyro against the wheels' witness (the frozen gyro's shadow, the yaw test) and its replacement's
    yaw rate (systems/health/gyro.py);
 4. the accelerometer pair against each other and the kinematics (systems/health/accelerometer_pair.py,
@@ -39,6 +40,7 @@ from slipnav.systems.health.encoders import (
     predicted_increment,
     previous_encoder_output,
 )
+from slipnav.systems.health.ground_speed import counter_rotation_test, ground_speed_update
 from slipnav.systems.health.gyro import (
     body_yaw_rate,
     frozen_gyro_shadow,
@@ -146,6 +148,8 @@ def health_check(
     gyro = raw[GYRO] - bias
     previous_output = previous_encoder_output(s)
     inc, first, in_block = encoder_increments(s, raw, gyro, radius_difference, gyro_ok, codes, p, g)
+    counter_rotation_test(s, inc, gyro, radius_difference, gyro_ok, codes, p, g)
+    ground_speed_update(s, raw, inc, gyro, radius_difference, gyro_ok, codes, p, g)
     predicted = [math.nan, math.nan]
     for w in range(2):
         if math.isfinite(inc[1 - w]) and gyro_ok:

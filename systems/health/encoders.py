@@ -12,6 +12,8 @@ increments against v_pred = v_other +- b omega, the calibrated prediction v_R - 
   the robot pivots on rolling tyres, is not flagged); a sample on which the healthy tangential
   accelerometers' mean brakes against the wheel's motion harder than stuck_braking_deceleration restarts
   the count (a hard braking locks a wheel honestly). The travel missed before the detection is added then.
+- ``inconsistent``: the encoder reads its wheel turning against the ground beneath it
+  (systems/health/ground_speed.py).
 - ``recovering``: excluded until a re-admission block agrees (readmission_block); without a prediction,
   one increment agreeing with the previous one suffices. No exclusion ends on a timer.
 
@@ -22,7 +24,7 @@ increment after an exclusion (it spans the gap) is never used.
 import math
 
 from slipnav.systems.compiled import jitable
-from slipnav.systems.health.analog import hold_samples, readmission_sample
+from slipnav.systems.health.analog import body_acceleration, hold_samples, readmission_sample
 from slipnav.systems.health.layout import (
     BLOCK_DIFFERENCE,
     BLOCK_SAMPLES,
@@ -170,14 +172,7 @@ def encoder_stuck_test(s, raw, inc, predicted, codes, p, g) -> list:
     code = s[ENCODER_CODE]
     suspect = s[ENCODER_SUSPECT]
     radii = (g.radius_R, g.radius_L)
-    # the body's acceleration from the healthy tangential accelerometers present (NaN if none is)
-    first_ok = codes[0] == 0 and p.analog_present[0]
-    second_ok = codes[2] == 0 and p.analog_present[2]
-    a_body = math.nan
-    if first_ok and second_ok:
-        a_body = 0.5 * (raw[0] + raw[2])
-    elif first_ok or second_ok:
-        a_body = raw[0] if first_ok else raw[2]
+    a_body = body_acceleration(raw, codes, p)  # the healthy tangential accelerometers' (NaN: none)
     missed = [0.0, 0.0]
     for w in range(2):
         braking = math.isfinite(predicted[w]) and a_body * math.copysign(1.0, predicted[w]) < (

@@ -57,6 +57,10 @@ HEALTH_LAYOUT = (
     ("encoder_block_R", READMISSION_SIZE),
     ("encoder_block_L", READMISSION_SIZE),
     ("encoder_block_moved", 2),
+    # the ground's speed anchored where the wheels last agreed (m/s, NaN: none) and the samples each
+    # encoder has read its wheel against the ground (systems/health/ground_speed.py)
+    ("ground_speed", 1),
+    ("encoder_opposed", 2),
     # 1 when this sample's encoder output restored a stuck encoder's missed travel; the previous
     # odometric v_o (m/s); 1 when the accelerometer pair witnessed this sample's yaw rate
     ("travel_restored", 1),
@@ -129,6 +133,7 @@ ENCODER_CODE, ENCODER_LOST = _SLICES["encoder_code"], _SLICES["encoder_lost"]
 ENCODER_RAW_INCREMENT, ENCODER_SUSPECT = _SLICES["encoder_raw_increment"], _SLICES["encoder_suspect"]
 ENCODER_BLOCK_R, ENCODER_BLOCK_L = _SLICES["encoder_block_R"], _SLICES["encoder_block_L"]
 ENCODER_BLOCK_MOVED = _SLICES["encoder_block_moved"]
+GROUND_SPEED, ENCODER_OPPOSED = _SLICES["ground_speed"], _SLICES["encoder_opposed"]
 TRAVEL_RESTORED = _SLICES["travel_restored"]
 PREVIOUS_ODOMETRIC_SPEED = _SLICES["previous_odometric_speed"]
 PAIR_WITNESS = _SLICES["pair_witness"]
@@ -176,7 +181,7 @@ def health_initial_state(g, initial_speed: float = 0.0) -> np.ndarray:
     for name in _NOT_READ_YET:
         s[_SLICES[name]] = math.nan
     s[ENCODER_INCREMENT] = [initial_speed * g.T_N / g.radius_R, initial_speed * g.T_N / g.radius_L]
-    s[PREVIOUS_ODOMETRIC_SPEED] = initial_speed
+    s[PREVIOUS_ODOMETRIC_SPEED] = s[GROUND_SPEED] = initial_speed
     s[PAIR_OFFSET_VARIANCE] = 2.0 * g.accel_initial_bias_std**2  # two sensors' biases
     s[YAW_TEST] = yaw_test_initial_state()
     return s

@@ -55,7 +55,8 @@ class SensorHealthParameters:
         stuck_samples: repeats (analog) or still counts (encoder) before "stuck", in [2, 50] (0.1 s).
         stuck_tolerance: an analog change at most this large is a repeat (a real ADC's quantum).
         stuck_min_speed, stuck_speed_fraction: an encoder is stuck when it stands still while v_pred
-            exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (m/s, 1).
+            exceeds stuck_min_speed + stuck_speed_fraction |v_other| on average (m/s, 1); stuck_min_speed
+            is also the counter-rotation test's speed floor and its anchor's tolerance (ground_speed.py).
         stuck_braking_deceleration: an encoder's still samples count only while the body brakes against
             that wheel's motion by at most this (m/s^2, in (0, inf]): a hard braking locks a wheel
             honestly. inf (default): at any braking. 3.0, above the built-ins' driving decelerations, goes
