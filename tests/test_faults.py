@@ -1519,24 +1519,49 @@ def test_a_ramp_grows_from_its_start():
         FaultEvent("ramp", "encoder_R", 1.0, 1.0, 1.0)
 
 
-def test_a_gyro_off_its_rail_is_readmitted_without_a_witness():
-    """A spin slowing from 6 to 4 rad/s (-3.3 rad/s^2) through the gyro's 300 deg/s full scale, the left
-    encoder lost: the railed gyro is flagged saturated and, with no wheels to witness, reads at least its
-    full scale. Its first reading below the rail continues from it within gyro_max_step, which is the
-    sensor's own reading: it is trusted again at once, rather than compared with the replacement held at
-    the rail (a constant nothing checks, 5.24 rad/s here while the body slows to 4)."""
-    n, v = 400, 0.5
+def spin_through_the_rail(n=400, v=0.5, pair_excess=0.7):
+    """A spin slowing from 6 to 4 rad/s (-3.3 rad/s^2) through the gyro's full scale with the left
+    encoder lost from sample 20: rows whose gyro is clipped at the full scale and whose accelerometer pair
+    reads the spin ``pair_excess`` rad/s high (Tinyphoon's short lever reads up to a third high); the
+    full scale."""
     omega = np.linspace(6.0, 4.0, n)
     rows = stream(n, v, 0.0)
+    pair = omega + pair_excess
+    rows[:, 0:4] = np.column_stack(
+        [-(pair**2) * 0.02, v * pair - pair**2 * 0.015, pair**2 * 0.02, v * pair + pair**2 * 0.015]
+    )
+    rows[:, 0:4] += 0.06 * np.random.default_rng(2).standard_normal((n, 4))
     rows[:, 5] = np.cumsum(v + 0.5 * B * omega) / R * T_N
     rows[:, 6] = np.cumsum(v - 0.5 * B * omega) / R * T_N
-    rows[20:, 6] = np.nan  # the left encoder lost
+    rows[20:, 6] = np.nan
     full_scale = math.radians(300.0) * SensorHealthParameters().saturation_fraction
-    rows[:, 4] = np.clip(omega + 0.014 * np.random.default_rng(1).standard_normal(n), -full_scale, full_scale)
-    out, codes = check(rows, v0=v)
+    noisy = omega + 0.014 * np.random.default_rng(1).standard_normal(n)
+    rows[:, 4] = np.clip(noisy, -full_scale, full_scale)
+    return rows, full_scale
+
+
+@pytest.mark.parametrize("exit_kind", ["continuous", "nan", "jump"])
+def test_a_gyro_off_its_rail_is_readmitted_without_a_witness(exit_kind):
+    """The railed gyro, the left encoder lost, is flagged saturated and reads at least its full scale
+    (here the pair's spin, 0.7 rad/s above the gyro's exit). Its first reading below the rail continues
+    from it within gyro_max_step: that is the sensor's own reading, trusted again at once; compared with
+    the replacement held at the rail (a constant nothing checks, 0.7 rad/s off) it would never agree
+    again. A NaN sample at the exit keeps the rail's reading as the one the next continues. A reading
+    that steps off the rail by more than gyro_max_step (1 rad/s here) is no exit but a jump: it stays
+    out against the held replacement."""
+    rows, full_scale = spin_through_the_rail()
     railed = rows[:, 4] >= full_scale
     below = int(np.flatnonzero(railed)[-1]) + 1
+    back = below
+    if exit_kind == "nan":
+        rows[below, 4], back = np.nan, below + 1
+    elif exit_kind == "jump":
+        rows[below:, 4] -= 1.0
+    out, codes = check(rows, v0=0.5)
     assert np.all(codes[20:below][railed[20:below], 4] == SATURATED)
     assert np.all(out[20:below][railed[20:below], 4] >= full_scale)
-    assert not codes[below:, 4].any()
-    np.testing.assert_array_equal(out[below:, 4], rows[below:, 4])
+    if exit_kind == "jump":
+        assert np.all(codes[below:, 4] == RECOVERING)
+        return
+    assert not codes[back:, 4].any()
+    np.testing.assert_array_equal(out[back:, 4], rows[back:, 4])

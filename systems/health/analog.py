@@ -12,11 +12,12 @@ against its data sheet and its last accepted value (health codes 1-4), and the v
    the last accepted value, the gyro's less b_g) against what the robot can do in one sample
    (gyro_max_step, accel_max_step); ``recovering`` while the channel is excluded and still beyond it.
 
-A channel out for saturation alone, with no witness left to judge it (unwitnessed: the gyro without
-both encoders, an axis without its partner), comes back on the first reading off its rail that
-continues from its last one within the jump bound: a reading inside the range is the sensor's own, and
-its replacement is then a value held from the rail that nothing checks. A witnessed channel is judged
-against its witness's replacement as after any exclusion.
+A channel out for saturation alone (its exclusion began at the rail; no hold, stuck count or step
+beyond the jump bound since; NaN samples between keep it), with no witness left to judge it
+(unwitnessed: the gyro without both encoders, an axis without its partner), comes back on a reading off
+its rail that continues from its last one within the jump bound: a reading inside the range is the
+sensor's own, and its replacement is then a value held from the rail that nothing checks. While
+witnessed it is judged against its witness's replacement as after any exclusion.
 
 A channel of an absent accelerometer set (SensorParameters.accelerometer_sets) is not judged. An
 excluded or absent channel outputs its replacement (analog_outputs).
@@ -53,6 +54,11 @@ from slipnav.systems.health.parameters import (
     SATURATED,
     STUCK,
 )
+
+SATURATION_ALONE, SATURATION_RELEASED = 1.0, 2.0
+"""layout.ANALOG_SATURATED's values besides 0: the channel's exclusion began at its rail and no other
+test has judged it since (NaN samples, continuous readings and a witness's pending judgement keep it);
+this sample's reading leaves the rail unwitnessed and is taken back."""
 
 CLIP_MIN_COUNTS = 4.0
 """A quantised channel's rail lies at least this many counts above the lowest magnitude read since the
@@ -103,26 +109,27 @@ def analog_checks(s, raw, bias: float, codes, p) -> None:
         x = raw[c]
         if not p.analog_present[c]:  # not judged: analog_outputs replaces it
             continue
-        if not math.isfinite(x):
-            codes[c], saturated[c] = NONFINITE, 0.0
+        if not math.isfinite(x):  # last[c] keeps the reading an exit from the rail continues
+            codes[c] = NONFINITE
             continue
         same = math.isfinite(last[c]) and abs(x - last[c]) <= p.stuck_tolerance
         repeats[c] = repeats[c] + 1 if same else 0
-        # off its rail and continuous from it, with no witness: the saturation's evidence is gone
-        continuous = hold[c] == 0 and not abs(x - last[c]) > p.max_step[c]
-        leaves_rail = saturated[c] > 0 and continuous and not witnessed(s, c, p.analog_present)
-        saturated[c] = 0.0
+        # out on saturation alone while no hold stands and the reading moves continuously
+        alone = saturated[c] > 0 and hold[c] == 0 and not abs(x - last[c]) > p.max_step[c]
+        saturated[c] = SATURATION_ALONE if alone else 0.0
         last[c] = x
         # at the data-sheet range, or at a rail below it (clip_returns: read only when needed)
         if abs(x) >= p.saturation_level[c] or (
             p.clip_samples > 0
             and clip_returns(ring, CLIP_WINDOW_MAX * c, position, x, p.clip_floor[c], p) >= p.clip_samples
         ):
-            codes[c], saturated[c] = SATURATED, 1.0
+            codes[c] = SATURATED
+            if hold[c] == 0 and (excluded[c] == 0 or alone):  # the saturation starts the exclusion
+                saturated[c] = SATURATION_ALONE
         elif repeats[c] >= p.stuck_repeats:
-            codes[c] = STUCK
-        elif leaves_rail:
-            saturated[c] = 1.0  # re-admitted without a block (gyro.gyro_readmission)
+            codes[c], saturated[c] = STUCK, 0.0
+        elif alone and not witnessed(s, c, p.analog_present):
+            saturated[c] = SATURATION_RELEASED  # back without a block (gyro.gyro_readmission)
         elif math.isfinite(reference[c]) and (
             abs(x - (bias if c == GYRO else 0.0) - reference[c]) > p.max_step[c]
         ):

@@ -18,7 +18,9 @@ stuck_min_speed) while the other wheel's does not, for COUNTER_ROTATION_FACTOR t
 still samples in a row. Not flagged: a held wheel (it reads zero), a lifted or spinning wheel that turns
 with the ground beneath it, a wheel whose partner disagrees too (both wheels' readings against the body:
 the yaw test's and the perturbation monitor's matter). Without a healthy gyro or a tangential
-accelerometer there is no test. Mistaken for a lying encoder: a wheel its motor holds turning backward
+accelerometer there is no test. The test judges sample by sample: on a stream that holds its angles
+between readings (encoder_hold_time > 0, as imported logs do) a held sample reads its wheel still and
+restarts the count, so that a flip there goes unseen. Mistaken for a lying encoder: a wheel its motor holds turning backward
 against the ground for longer, on ice or lifted, while the other rolls with the body; only the
 wheel-speed commands, which the checks do not read, could tell it apart (the perturbation monitor's
 band). A skid-steer robot turns its inner wheels backward while the ground beneath their geometric contact

@@ -20,7 +20,7 @@ import math
 
 from slipnav.systems.compiled import jitable
 from slipnav.systems.health.accelerometer_pair import pair_omega_squared, pair_present
-from slipnav.systems.health.analog import readmission_sample
+from slipnav.systems.health.analog import SATURATION_RELEASED, readmission_sample
 from slipnav.systems.health.layout import (
     ANALOG_EXCLUDED,
     ANALOG_HOLD,
@@ -85,7 +85,7 @@ def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
     block = s[GYRO_BLOCK]
     held = hold[GYRO] > 0.0
     judged = codes[GYRO] == 0 or (held and codes[GYRO] == INCONSISTENT)
-    judged = judged and not (codes[GYRO] == 0 and s[ANALOG_SATURATED][GYRO] > 0.0)  # off its rail
+    judged = judged and s[ANALOG_SATURATED][GYRO] != SATURATION_RELEASED  # off its rail, unwitnessed
     goes_on = False  # the block goes on to the next sample
     if judged and s[ANALOG_EXCLUDED][GYRO] > 0.0 and math.isfinite(reference[GYRO]):
         codes[GYRO] = INCONSISTENT if held else RECOVERING  # until a block agrees

@@ -29,8 +29,8 @@ READMISSION_SIZE = layout_size(READMISSION_LAYOUT)
 HEALTH_LAYOUT = (
     # analog channels: the reference (the last accepted value, the gyro's less b_g, or the replacement),
     # the last raw reading, its repeat count, the inconsistency hold (1; the gain test's: GAIN_HOLD), the
-    # samples excluded and 1 while the exclusion stands on saturation alone; the magnitudes of the last
-    # CLIP_WINDOW_MAX readings of each (NaN: none) and the ring's position
+    # samples excluded and whether the exclusion stands on saturation alone (analog.SATURATION_ALONE);
+    # the magnitudes of the last CLIP_WINDOW_MAX readings of each (NaN: none) and the ring's position
     ("analog_reference", 5),
     ("analog_last", 5),
     ("analog_repeats", 5),
