@@ -5,8 +5,9 @@ imports and the environment variable ``SLIPNAV_NUMBA`` is not ``0``, else ``f`` 
 returns ``f`` unchanged for Python callers and, with numba, lets compiled functions call it
 (``numba.extending.register_jitable``). Neither uses fastmath, so the compiled functions round as
 Python does (no reordering, no fused multiply-add): a run is the same with and without numba
-(tests/test_compiled.py). The compiled functions are cached on disk (numba's ``cache=True``, beside the
-source in ``__pycache__``), so a process pays numba's compile (some seconds) once per source change.
+(tests/test_compiled.py). The compiled functions are cached on disk (numba's ``cache=True``, in
+sources_cache_dir unless NUMBA_CACHE_DIR is set), so a process pays numba's compile (some seconds) once
+per state of the sources.
 
 ``element_view(array)`` is what the compiled functions index a flat state through: the array itself
 when ENABLED, else a ``memoryview`` of it, whose elements read as Python floats and whose slices are
@@ -19,7 +20,25 @@ assignment of a scalar, no numpy functions).
 tuple of parameters a compiled function takes into its named tuple, cheaply on both sides.
 """
 
+import hashlib
 import os
+import pathlib
+import tempfile
+
+SOURCES = pathlib.Path(__file__).resolve().parent
+"""systems/: the compiled functions and every jitable function they call."""
+
+
+def sources_cache_dir(sources: pathlib.Path = SOURCES) -> str:
+    """numba's cache directory for this state of ``sources``: numba's own cache checks the modification
+    time of the file that defines a compiled function only, not of the jitable functions it calls from
+    other modules, so each state of the sources compiles into a directory of its own (under the system's
+    temporary directory, slipnav-numba/<the sources' SHA-256, 16 hex digits>)."""
+    digest = hashlib.sha256()
+    for path in sorted(sources.rglob("*.py")):
+        digest.update(path.read_bytes())
+    return os.path.join(tempfile.gettempdir(), "slipnav-numba", digest.hexdigest()[:16])
+
 
 ENABLED = False
 if os.environ.get("SLIPNAV_NUMBA", "1").strip() not in ("0", "false", "no", "off"):
@@ -28,6 +47,8 @@ if os.environ.get("SLIPNAV_NUMBA", "1").strip() not in ("0", "false", "no", "off
         from numba.extending import overload, register_jitable
 
         ENABLED = True
+        if not os.environ.get("NUMBA_CACHE_DIR"):  # the user's choice stands
+            numba.config.CACHE_DIR = sources_cache_dir()
     except ImportError:  # the optional extra is not installed: pure Python
         pass
 

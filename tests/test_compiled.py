@@ -184,3 +184,21 @@ def test_without_numba_the_functions_are_python():
     )
     env = {**os.environ, "SLIPNAV_NUMBA": "0"}
     subprocess.run([sys.executable, "-c", code], env=env, check=True)
+
+
+def test_each_state_of_the_sources_compiles_into_its_own_cache(tmp_path):
+    """numba's cache checks only the file that defines a compiled function; sources_cache_dir names the
+    cache by the SHA-256 of every source below the package, so an edit to a jitable function in another
+    module reaches the compiled code, and the same sources find the same cache."""
+    from slipnav.systems.compiled import sources_cache_dir
+
+    (tmp_path / "health").mkdir()
+    (tmp_path / "check.py").write_text("def check(): return 1\n")
+    (tmp_path / "health" / "analog.py").write_text("def analog(): return 2\n")
+    first = sources_cache_dir(tmp_path)
+    assert sources_cache_dir(tmp_path) == first
+    (tmp_path / "health" / "analog.py").write_text("def analog(): return 3\n")
+    changed = sources_cache_dir(tmp_path)
+    assert changed != first and os.path.dirname(changed) == os.path.dirname(first)
+    (tmp_path / "health" / "analog.py").write_text("def analog(): return 2\n")
+    assert sources_cache_dir(tmp_path) == first
