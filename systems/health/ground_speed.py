@@ -20,14 +20,14 @@ with the ground beneath it, a wheel whose partner disagrees too (both wheels' re
 the yaw test's and the perturbation monitor's matter). Without a healthy gyro or a tangential
 accelerometer there is no test. The test judges sample by sample: on a stream that holds its angles
 between readings (encoder_hold_time > 0, as imported logs do) a held sample reads its wheel still and
-restarts the count, so that a flip there goes unseen. Mistaken for a lying encoder: a wheel its motor holds turning backward
-against the ground for longer, on ice or lifted, while the other rolls with the body; only the
-wheel-speed commands, which the checks do not read, could tell it apart (the perturbation monitor's
-band). A skid-steer robot turns its inner wheels backward while the ground beneath their geometric contact
-moves on: its model's track must be the effective one (slipnav calibrate), as its odometry's must. The
-flagged encoder is excluded and replaced like any other (encoders.encoder_outputs), and comes
-back through the re-admission block (encoders.readmission_block), which a sign-flipped count never passes
-while it moves.
+restarts the count, so that a flip there goes unseen. Mistaken for a lying encoder: a wheel its motor
+holds turning backward against the ground for longer, on ice or lifted, while the other rolls with the
+body; only the wheel-speed commands, which the checks do not read, could tell it apart (the perturbation
+monitor's band). A skid-steer robot turns its inner wheels backward while the ground beneath their
+geometric contact moves on: its model's track must be the effective one (slipnav calibrate), as its
+odometry's must. The flagged encoder is excluded and replaced like any other (encoders.encoder_outputs),
+and comes back through the re-admission block (encoders.readmission_block), which a sign-flipped count
+never passes while it moves.
 """
 
 import math
