@@ -40,7 +40,7 @@ from slipnav.systems.health.encoders import (
     predicted_increment,
     previous_encoder_output,
 )
-from slipnav.systems.health.ground_speed import counter_rotation_test, ground_speed_update
+from slipnav.systems.health.ground_speed import counter_rotation_test, ground_speed_update, wheel_speeds
 from slipnav.systems.health.gyro import (
     body_yaw_rate,
     frozen_gyro_shadow,
@@ -202,7 +202,7 @@ def wheel_motion(used, radius_difference: float, velocity, tyre_peak: float, g) 
     (v_R - v_L) / b their yaw rate, omega_o + D v_o / b (rad/s); v_t, v_n the navigation's body velocity
     (``velocity``; the odometric v_o and no v_n when NaN); grip the identified ``tyre_peak`` over the
     nominal curve's (1 when NaN or none)."""
-    v_R, v_L = used[0] * g.radius_R / g.T_N, used[1] * g.radius_L / g.T_N
+    v_R, v_L = wheel_speeds(used, g)
     v_o = 0.5 * (v_R + v_L)
     v_R, v_L = v_R + 0.5 * radius_difference * v_o, v_L - 0.5 * radius_difference * v_o  # calibrated
     omega_o = (v_R - v_L) / g.track_width
