@@ -10,7 +10,7 @@ reading u_w is set against two witnesses of the ground's speed at its contact po
 (c) the accelerometers' tangential speed anchored where the wheels last agreed (ground_speed_update):
     v_g = the wheels' mean v_o while both encoders are healthy and agree with the gyro within
     stuck_min_speed + yaw_slip_fraction |v_R - v_L|; otherwise v_g integrates the healthy tangential
-    accelerometers' mean a_t (the pair's centre: v_t' - v_n omega, the v_n omega term left out over
+    accelerometers' mean a_t (the pair's centre, S(3): v_t' - v_n omega, the v_n omega term left out over
     the short spans it runs); the contact point's ground speed is v_g +- (gyro - b_g) b/2.
 
 ``inconsistent`` (counter_rotation_test): u_w runs against both witnesses (opposite signs, each beyond
