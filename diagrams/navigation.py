@@ -285,6 +285,7 @@ def _connect_fusion(b, blocks: NavigationBlocks, signals: NavigationSignals, par
     b.Connect(blocks.check["encoder_fault"], blocks.yaw_calibration.GetInputPort("encoder_fault"))
     b.Connect(blocks.check["gyro_bias_step"], blocks.yaw_calibration.GetInputPort("gyro_bias_step"))
     b.Connect(blocks.check["yaw_pair_witness"], blocks.yaw_calibration.GetInputPort("yaw_pair_witness"))
+    b.Connect(blocks.check["yaw_verdict"], blocks.yaw_calibration.GetInputPort("yaw_verdict"))
     if params.standstill.enabled:  # a rest the detector confirms (else the wheels' alone)
         b.Connect(signals.zupt["standstill"], blocks.yaw_calibration.GetInputPort("standstill"))
     b.Connect(signals.calibrated["gyro"], blocks.ekf.GetInputPort("gyro"))

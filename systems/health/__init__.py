@@ -18,6 +18,7 @@ from slipnav.systems.health.layout import (
     health_initial_state,
     travel_restored,
     yaw_pair_witness,
+    yaw_verdict,
 )
 from slipnav.systems.health.monitor import (
     HEALTH_STEP_LAYOUT,
@@ -66,4 +67,5 @@ __all__ = [
     "odometry_unusable",
     "travel_restored",
     "yaw_pair_witness",
+    "yaw_verdict",
 ]

@@ -44,6 +44,7 @@ from slipnav.systems.health.layout import (
     PAYBACK_LEFT,
     PAYBACK_RATE,
     YAW_TEST,
+    YAW_VERDICT,
     YAW_WITNESS,
     YAW_WITNESS_SMOOTH,
 )
@@ -56,6 +57,7 @@ from slipnav.systems.health.yaw_witness import (
     tyre_grip,
     yaw_follow_step,
     yaw_test_restart,
+    yaw_test_verdict,
     yaw_witness_step,
 )
 
@@ -66,7 +68,8 @@ not see: a lifted wheel's; body_yaw_rate): on Tinyphoon's short lever the pair's
 up to a third above the body's."""
 YAW_RELEASE_HEADING = 0.05
 """A gyro the yaw test holds out is re-admitted only by a block whose replacement turned this much (rad,
-3 deg): driving straight says nothing of a scale error."""
+3 deg): driving straight says nothing of a scale error. The test confirms the gyro (layout.yaw_verdict)
+only over a judged turn of this much (yaw_witness.yaw_test_verdict)."""
 BIAS_STEP_SIGMAS = 4.0
 """An excluded gyro's residual may spread this many of its noise sigmas (plus the wheels' quantisation)
 over a block that measures a new bias (gyro_bias_step_block): a gyro that reads noise, or a turn the
@@ -157,7 +160,8 @@ def frozen_gyro_shadow(s, raw, bias: float, codes, wheels, encoders_ok: bool, mo
 @jitable
 def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: float, p, g) -> bool:
     """The wheels' witness of the gyro and the yaw test (systems/health/yaw_witness.py), once per
-    sample: True when the test holds the gyro out (hold, codes[4] INCONSISTENT). ``wheels``:
+    sample: True when the test holds the gyro out (hold, codes[4] INCONSISTENT; layout.yaw_verdict -1;
+    yaw_witness.yaw_test_verdict's 1 when it confirmed the gyro). ``wheels``:
     check.wheel_motion's; ``v_o``: the odometric speed (m/s). The witness and the tyres' grip are taken
     without side slip: the navigation's v_n integrates a_n - v_t omega with the gyro under test, and a
     gyro that reads 30 % too much in a 1 m/s turn at 0.8 rad/s builds 0.1 m/s of it in 0.4 s, past the
@@ -175,11 +179,13 @@ def gyro_yaw_check(s, raw, bias: float, codes, wheels, encoders_ok: bool, v_o: f
     test = s[YAW_TEST]
     gyro = raw[GYRO] - bias
     lateral_update(test, lateral_reading(s, raw, codes, g), v_t, gyro, s[YAW_WITNESS], p)
+    s[YAW_VERDICT] = 0.0
     if codes[GYRO] == 0 and gripping and abs(s[YAW_WITNESS]) > p.bias_step_yaw_rate:  # a turn: the scale's
         pair, pair_variance = pair_yaw_witness(s, raw, g)
         if gyro_yaw_test(test, gyro, s[YAW_WITNESS], witness_rate, pair, abs(v_o), p, pair_variance):
-            s[ANALOG_HOLD][GYRO], codes[GYRO] = 1.0, INCONSISTENT
+            s[ANALOG_HOLD][GYRO], codes[GYRO], s[YAW_VERDICT] = 1.0, INCONSISTENT, -1.0
             return True
+        s[YAW_VERDICT] = yaw_test_verdict(test, s[YAW_WITNESS], g.T_N, YAW_RELEASE_HEADING)
     else:
         yaw_test_restart(test)
     return False

@@ -110,10 +110,12 @@ HEALTH_LAYOUT = (
     ("bias_block_turn", 1),
     ("bias_step", 1),
     # the gyro's witness from the wheels (rad/s, NaN: restart), its PT1 over yaw_witness_lag (NaN:
-    # restart) and the yaw test's state (systems/health/yaw_witness.py)
+    # restart), the yaw test's state (systems/health/yaw_witness.py) and its verdict on this sample
+    # (gyro.gyro_yaw_check: 1 confirmed, -1 blamed, 0 not judged)
     ("yaw_witness", 1),
     ("yaw_witness_smooth", 1),
     ("yaw_test", YAW_TEST_SIZE),
+    ("yaw_verdict", 1),
 )
 """The checks' state, in order (name, size)."""
 
@@ -157,7 +159,7 @@ BIAS_BLOCK_COUNT, BIAS_BLOCK_SUM = _SLICES["bias_block_count"], _SLICES["bias_bl
 BIAS_BLOCK_SQUARES, BIAS_BLOCK_TURN = _SLICES["bias_block_squares"], _SLICES["bias_block_turn"]
 BIAS_STEP = _SLICES["bias_step"]
 YAW_WITNESS, YAW_WITNESS_SMOOTH = _SLICES["yaw_witness"], _SLICES["yaw_witness_smooth"]
-YAW_TEST = _SLICES["yaw_test"]
+YAW_TEST, YAW_VERDICT = _SLICES["yaw_test"], _SLICES["yaw_verdict"]
 
 _NOT_READ_YET = (
     "analog_reference",
@@ -191,6 +193,13 @@ def gyro_bias_step(state) -> float:
     """The gyro bias step (rad/s) the checks of this sample hand to the calibration (0: none;
     gyro_bias_step_block)."""
     return float(state[BIAS_STEP])
+
+
+def yaw_verdict(state) -> int:
+    """The yaw test's verdict on the gyro at this sample (gyro.gyro_yaw_check): 1 when it judged the gyro
+    over a turn and holds no evidence against it (yaw_witness.yaw_test_verdict), -1 when it blamed the
+    gyro (excluded as inconsistent with the wheels and the third witnesses), 0 otherwise."""
+    return int(state[YAW_VERDICT])
 
 
 def yaw_pair_witness(state) -> bool:

@@ -13,6 +13,7 @@ from slipnav.systems.health.layout import (
     health_initial_state,
     travel_restored,
     yaw_pair_witness,
+    yaw_verdict,
 )
 from slipnav.systems.health.parameters import (
     HEALTH_CLASSES,
@@ -57,6 +58,7 @@ HEALTH_STEP_LAYOUT = (
     ("sensor_fault", 1),
     ("gyro_bias_step", 1),
     ("yaw_pair_witness", 1),
+    ("yaw_verdict", 1),
 )
 """The SensorHealthMonitor's ``step`` output, in order: (name, size); diagrams/split.py slices it."""
 
@@ -121,8 +123,9 @@ class SensorHealthMonitor(LeafSystem):
       samples; health, the code of each channel (0 healthy, k: HEALTH_CLASSES[k - 1]); the flags
       (health_flags); gyro_bias_step, the step of b_g measured on an excluded gyro this sample (rad/s, 0:
       none), and yaw_pair_witness, 1 when the accelerometer pair witnessed the yaw rate on this sample
-      (layout.yaw_pair_witness), for the calibration. One vector, so that one Python call per sample
-      computes them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
+      (layout.yaw_pair_witness), and yaw_verdict, the yaw test's verdict on the gyro (layout.yaw_verdict:
+      1 confirmed, -1 blamed, 0 not judged), for the calibration. One vector, so that one Python call per
+      sample computes them all; the navigation diagram slices it with a Demultiplexer (diagrams/split.py).
 
     Update every T_N: health_step's state.
 
@@ -167,7 +170,7 @@ class SensorHealthMonitor(LeafSystem):
         step[0:STATE_SIZE] = state
         flags = health_flags(codes, odometry_unusable(state, out), self._g.accelerometer_sets)
         witness = 1.0 if yaw_pair_witness(state) else 0.0
-        step[STATE_SIZE:] = [*out, *codes, *flags, gyro_bias_step(state), witness]
+        step[STATE_SIZE:] = [*out, *codes, *flags, gyro_bias_step(state), witness, yaw_verdict(state)]
 
     def _update(self, context, discrete_state):
         discrete_state.set_value(self._state, self._step.Eval(context)[0:STATE_SIZE])

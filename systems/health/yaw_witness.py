@@ -155,13 +155,21 @@ def yaw_residual_variance(witness: float, witness_rate: float, c) -> float:
     )
 
 
-YAW_TEST_LAYOUT = (("z_variance", 1), ("cusum", CUSUM_SIZE), ("lateral_gyro", 1), ("lateral_wheels", 1))
+YAW_TEST_LAYOUT = (
+    ("z_variance", 1),
+    ("cusum", CUSUM_SIZE),
+    ("lateral_gyro", 1),
+    ("lateral_wheels", 1),
+    ("turned", 1),
+)
 """The yaw test's state (gyro_yaw_test), in order (name, size): the observed variance of the normalised
 innovation, the CUSUM's sums (CusumState's order), the averages of a_n - v_t omega with the gyro's and
-the wheels' omega (m/s^2, NaN: no lateral witness; lateral_update)."""
+the wheels' omega (m/s^2, NaN: no lateral witness; lateral_update), the heading the wheels' witness
+turned while the test judged since its sums last restarted (rad; yaw_test_verdict)."""
 _YAW_TEST = layout_slices(YAW_TEST_LAYOUT)
 Z_VARIANCE, CUSUM = _YAW_TEST["z_variance"], _YAW_TEST["cusum"]
 LATERAL_GYRO, LATERAL_WHEELS = _YAW_TEST["lateral_gyro"], _YAW_TEST["lateral_wheels"]
+TURNED = _YAW_TEST["turned"]
 YAW_TEST_SIZE = layout_size(YAW_TEST_LAYOUT)
 YAW_GATE = 4.0
 """|z| beyond this (in units of the observed spread) does not feed the observed variance (sigma)."""
@@ -170,8 +178,8 @@ YAW_NOISE_SAMPLES = 1000.0
 
 
 def yaw_test_initial_state() -> list:
-    """z's observed variance 1, the sums at zero, no lateral averages."""
-    return [1.0] + [0.0] * CUSUM_SIZE + [math.nan, math.nan]
+    """z's observed variance 1, the sums at zero, no lateral averages, no heading judged."""
+    return [1.0] + [0.0] * CUSUM_SIZE + [math.nan, math.nan, 0.0]
 
 
 @jitable
@@ -278,8 +286,21 @@ def gyro_yaw_test(
 
 
 @jitable
+def yaw_test_verdict(state, witness: float, T_N: float, heading: float) -> float:
+    """After a sample the test judged without an alarm (``state``: YAW_TEST_LAYOUT's values, in place):
+    the witness's ``witness`` yaw rate (rad/s) over T_N adds to the heading judged; 1.0 (the gyro
+    confirmed) when the sums hold no evidence against the gyro (both at zero) over a judged turn of at
+    least ``heading`` (rad: a turn's first samples say little of a scale error), else 0.0."""
+    state[TURNED] += abs(witness) * T_N
+    sums = state[CUSUM]
+    return 1.0 if sums[0] == 0.0 and sums[1] == 0.0 and state[TURNED] >= heading else 0.0
+
+
+@jitable
 def yaw_test_restart(state) -> None:
-    """The yaw test's CUSUM sums at zero (``state``: YAW_TEST_LAYOUT's values, element by element)."""
+    """The yaw test's CUSUM sums at zero and no heading judged (``state``: YAW_TEST_LAYOUT's values,
+    element by element)."""
     sums = state[CUSUM]
     for i in range(len(sums)):
         sums[i] = 0.0
+    state[TURNED] = 0.0

@@ -37,6 +37,7 @@ from slipnav.systems.health import (
     health_initial_state,
     odometry_unusable,
     yaw_pair_witness,
+    yaw_verdict,
 )
 from slipnav.systems.navigation.baselines import BaselineState, baselines_step
 from slipnav.systems.navigation.calibration_batches import believed_tyre_slip
@@ -346,6 +347,7 @@ class NavigationLoop:
             rest,
             gyro_bias_step(self.health),
             yaw_pair_witness(self.health),
+            yaw_verdict(self.health),
         )
         self.standstill = standstill_step(
             self.standstill, corrected, self.checked_encoders, standing, test, self.standstill_constants

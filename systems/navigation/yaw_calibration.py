@@ -41,7 +41,9 @@ normalised by the larger of its predicted S and the variance the healthy tested 
 point, where the N batches since measure the change (their mean residual m against theta there; what
 was learned from them meanwhile, mostly by D at speed, is set aside): b_g's variance widens by m^2 and
 the mean updates it with R / N (systems/navigation/bias_change.py). The learning gate (straight_yaw_rate,
-innovation_gate) keeps reading the gyro less the new b_g.
+innovation_gate) keeps reading the gyro less the new b_g. A gyro whose scale or sign fails shows only in
+turns, where the health layer's yaw test judges it; when that test blames the gyro, theta and P return to
+the estimate the witnesses last confirmed (systems/navigation/confirmed_estimate.py).
 A healthy stream raises one false alarm per change_run_length tested batches.
 
 The navigation reads the calibrated gyro gyro - b_g and the calibrated odometric yaw rate
@@ -52,7 +54,6 @@ show, plus what the tyres' differential slip at the batch's yaw acceleration may
 (systems/navigation/calibration_batches.py).
 """
 
-import dataclasses as dc
 import math
 
 import numpy as np
@@ -78,114 +79,17 @@ from slipnav.systems.navigation.calibration_batches import (
     observed_variance_step,
     slip_variance,
 )
-from slipnav.systems.ranges import out_of_range, require_flag, require_in
+from slipnav.systems.navigation.confirmed_estimate import (
+    CONFIRMED_SIZE,
+    confirm_batch,
+    confirmed_estimate,
+    confirmed_initial_state,
+    note_verdict,
+)
+from slipnav.systems.navigation.yaw_calibration_parameters import YawCalibrationParameters
 from slipnav.systems.residual_test import CUSUM_SIZE, CusumState, cusum_step
 from slipnav.systems.robot.sensors import SensorParameters
 from slipnav.systems.state_layout import layout_size, layout_slices
-
-
-@dc.dataclass
-class YawCalibrationParameters:
-    """Tuning of the online gyro/odometry calibration.
-
-    Args:
-        enabled: calibrate (False: the EKF gets the raw gyro and the mixer the raw odometry, as in the
-            paper).
-        initial_bias_std: prior standard deviation of the gyro bias (rad/s); None: the believed gyro's
-            data sheet (SensorParameters.gyro_initial_bias_std; Tinyphoon's ADXRS300: 0.0035, 0.2 deg/s).
-        initial_radius_difference_std: prior standard deviation of D = e_R - e_L: 0.0082, each rolling
-            radius uniform within +-1 % of the nominal (scenarios/tolerances.py), 0.01 sqrt(2/3).
-        bias_drift_density: random walk of the bias (rad/s per sqrt(s)); None: the believed gyro's data
-            sheet (SensorParameters.gyro_drift_density; Tinyphoon's: 0.0005).
-        gyro_noise_std: the gyro's white noise per T_N sample (rad/s), which the odometric yaw rate's share
-            in S(14) weighs (calibrated_signals.gyro_white_variance); None: the believed gyro's data sheet
-            (SensorParameters.gyro_noise_std; Tinyphoon's: 0.014).
-        yaw_slip_time: kappa (s): the wheels read the yaw rate high by kappa v alpha while the robot's yaw
-            accelerates by alpha at speed v (the tyres' differential slip), which a moving batch's
-            variance counts (calibration_batches.slip_variance); None: the believed robot's tyres
-            (calibration_batches.believed_tyre_slip; 0 where no robot is believed).
-        radius_drift_density: random walk of D (1 per sqrt(s)): 0, the rolling radii are constant over a
-            run (tyre wear acts over hours). Above 0, D follows whatever the bias's drift hands it at
-            constant speed, where b_g and D v/b cannot be told apart.
-        measurement_std: standard deviation of a moving batch's residual (rad/s): 0.01, the gyro's noise
-            over a batch (0.014/sqrt(10)) and one encoder count per batch (Tinyphoon 0.005 rad/s), with
-            margin; the floor of a moving batch's measurement variance, which the observed variance of
-            the residuals raises (calibration_batches.measurement_variance; over noise_batches).
-        standstill_measurement_std: the same at standstill (no encoder count in the batch; rad/s): 0.005,
-            the gyro's noise over a batch alone, with margin. A 1 s standstill learns the bias to ~0.7
-            mrad/s before the robot moves, which D then cannot absorb.
-        innovation_gate: a batch whose innovation exceeds this many sigmas is not learned from: 4 (unless
-            it raises the bias-change alarm).
-        trusted_c1: C1 S(12) at or above which the odometry has no tangential slip: 0.9.
-        straight_yaw_rate: |batch mean of gyro - b_g| below which the robot drives straight (rad/s):
-            0.05, > 10 sigma of the batch's gyro noise, so that the gate does not select on the noise.
-        change_yaw_rate: |batch mean of the calibrated odometric yaw rate| below which the wheels say the
-            robot drives straight enough for the bias-change test (rad/s): 0.15, the path follower's
-            corrections on a straight; the tyres' differential slip at that rate (10-15 %) stays within
-            the batch's measurement_std.
-        steady_yaw_acceleration: the change of the calibrated odometric yaw rate and of the gyro's mean from
-            the previous batch to this one, per second, below which both are steady enough for the change
-            test (rad/s^2): 2.0, eight of Tinyphoon's encoder counts per batch; while the yaw rate changes
-            the body's lags the wheels' by the tyres' slip (Kurt3D's turn-in: 0.07 rad/s for 4 batches)
-            and by the streams' relative lag (a real robot's loggers).
-        largest_bias_step: the largest change of the gyro bias the change test follows (rad/s): 0.15; a
-            moving batch is tested only while the gyro less b_g stays within straight_yaw_rate +
-            largest_bias_step (a body that turns while its wheels do not is sliding).
-        change_run_length: mean number of tested batches between false alarms of the bias-change test
-            (a CUSUM of the normalised innovation, systems/residual_test.py): 180000, one per hour.
-        change_drift: the CUSUM's drift k (sigma): 0.5, soonest for a shift of one innovation sigma.
-        noise_batches: the observed variance of the tested batches' innovations averages over this many of
-            them (within innovation_gate: a change does not feed it): 100, 2 s of tested batches. The
-            test normalises by the larger of it and the predicted S: a robot whose gyro and wheels agree
-            less well than measurement_std says raises no alarm for that (Mehra's innovation-based
-            adaptive estimate). The learned moving batches' observed variance averages alike.
-        change_clip: |z| beyond this counts as this in the CUSUM (sigma): 2.5, so that an alarm needs
-            h / (change_clip - change_drift) tested batches at least (5.5, 0.11 s at T_C = 20 ms): a
-            turn's start or end, where a real robot's body and wheels disagree for 60-80 ms, raises none;
-            a persistent bias change does.
-    """
-
-    enabled: bool = True
-    initial_bias_std: float | None = None
-    initial_radius_difference_std: float = 0.0082
-    bias_drift_density: float | None = None
-    gyro_noise_std: float | None = None
-    yaw_slip_time: float | None = None
-    radius_drift_density: float = 0.0
-    measurement_std: float = 0.01
-    standstill_measurement_std: float = 0.005
-    innovation_gate: float = 4.0
-    trusted_c1: float = 0.9
-    straight_yaw_rate: float = 0.05
-    change_yaw_rate: float = 0.15
-    steady_yaw_acceleration: float = 2.0
-    largest_bias_step: float = 0.15
-    change_run_length: float = 180000.0
-    change_drift: float = 0.5
-    change_clip: float = 2.5
-    noise_batches: float = 100.0
-
-    def __post_init__(self):
-        require_flag("yaw_calibration.enabled", self.enabled)
-        if self.initial_bias_std is not None:  # None: the believed gyro's
-            require_in("yaw_calibration.initial_bias_std", self.initial_bias_std, "(0, inf)")
-        positive = (
-            "initial_radius_difference_std measurement_std standstill_measurement_std "
-            "innovation_gate straight_yaw_rate change_yaw_rate steady_yaw_acceleration largest_bias_step "
-            "change_drift"
-        ).split()
-        for name in positive:
-            require_in(f"yaw_calibration.{name}", getattr(self, name), "(0, inf)")
-        for name in ("bias_drift_density", "gyro_noise_std", "yaw_slip_time", "radius_drift_density"):
-            if getattr(self, name) is not None:  # None: the believed gyro's
-                require_in(f"yaw_calibration.{name}", getattr(self, name), "[0, inf)")
-        require_in("yaw_calibration.change_run_length", self.change_run_length, "(1, inf) batches")
-        require_in("yaw_calibration.noise_batches", self.noise_batches, "[1, inf)")
-        if not (math.isfinite(self.change_clip) and self.change_clip > self.change_drift):
-            allowed = f"(change_drift={self.change_drift}, inf)"
-            raise out_of_range("yaw_calibration.change_clip", self.change_clip, allowed)
-        require_in("yaw_calibration.trusted_c1", self.trusted_c1, "[0, 1]")
-
 
 CALIBRATION_LAYOUT = (
     ("theta", 2),
@@ -204,6 +108,7 @@ CALIBRATION_LAYOUT = (
     ("residual_variance", 1),
     ("moving_variance", 1),
     ("change_points", CHANGE_STATE_SIZE),
+    ("confirmed", CONFIRMED_SIZE),
 )
 """The calibration's state, in order (name, size): theta = [b_g, D], its covariance P (row-major), the
 batch's sums of (gyro, omega_o, v_o, |v_o| + |omega_o|), its sample count, 1 while every sample of the
@@ -212,7 +117,8 @@ changes detected, the previous batch's calibrated odometric yaw rate and gyro me
 batch's samples the standstill detector called standing, those on which the accelerometer pair witnessed
 the yaw rate (third_witness), the observed variance of the tested batches' innovations and the learned
 moving batches' observed measurement variance (rad^2/s^2; 0: none yet), the bias-change test's change
-points (bias_change.CHANGE_LAYOUT)."""
+points (bias_change.CHANGE_LAYOUT), the estimate the witnesses last confirmed
+(confirmed_estimate.CONFIRMED_LAYOUT)."""
 
 
 _SLICES = layout_slices(CALIBRATION_LAYOUT)
@@ -221,7 +127,7 @@ _LEARNED, _REJECTED, _CUSUM, _CHANGES = (_SLICES[k] for k in ("learned", "reject
 _PREVIOUS_WHEELS, _PREVIOUS_GYRO = _SLICES["previous_wheels"], _SLICES["previous_gyro"]
 _STANDING, _RESIDUAL_VARIANCE = _SLICES["standing"], _SLICES["residual_variance"]
 _WITNESSED, _MOVING_VARIANCE = _SLICES["witnessed"], _SLICES["moving_variance"]
-_CHANGE_POINTS = _SLICES["change_points"]
+_CHANGE_POINTS, _CONFIRMED = _SLICES["change_points"], _SLICES["confirmed"]
 STATE_SIZE = layout_size(CALIBRATION_LAYOUT)
 
 
@@ -232,6 +138,7 @@ def yaw_calibration_initial_state(p: YawCalibrationParameters) -> np.ndarray:
     state[_P] = np.diag([p.initial_bias_std**2, p.initial_radius_difference_std**2]).ravel()
     state[_OK] = 1.0
     state[_PREVIOUS_WHEELS] = state[_PREVIOUS_GYRO] = math.nan
+    state[_CONFIRMED] = confirmed_initial_state(state[_THETA], state[_P])
     return state
 
 
@@ -248,6 +155,7 @@ def yaw_calibration_step(
     standing: bool | None = None,
     bias_step: float = 0.0,
     third_witness: bool = True,
+    verdict: float = 0.0,
 ) -> np.ndarray:
     """One T_N sample: accumulate the batch; at its end (batch_length samples) the Kalman update of theta
     if every check passed. ``standing``: the standstill detector's decision for this sample
@@ -260,7 +168,9 @@ def yaw_calibration_step(
     sample (the sensor checks' yaw_pair_witness: two sensors, finite, none excluded), so that the checks
     exclude a wheel whose yaw disagrees with gyro and pair; a moving batch is tested for a change only when
     the pair witnessed every one of its samples, else its change is the wheels' as likely as the gyro's (a
-    rest's is tested: there the standstill detector witnesses too).
+    rest's is tested: there the standstill detector witnesses too). ``verdict``: the health layer's yaw
+    test on this sample (layout.yaw_verdict: 1 confirmed the gyro, -1 blamed it, 0 did not judge); a
+    blame returns theta and P to the estimate the witnesses last confirmed (confirmed_estimate.py).
     Returns the next state (the theta used at this sample is ``state``'s)."""
     state = np.array(state, dtype=float)
     if not p.enabled:
@@ -271,6 +181,12 @@ def yaw_calibration_step(
         state[_THETA], state[_P] = theta, P.ravel()
         state[_CUSUM] = 0.0
         state[_CHANGES] += 1.0
+    if verdict < 0.0:  # the yaw test blames the gyro: back to the confirmed estimate
+        theta, P = confirmed_estimate(state[_CONFIRMED], _batch_walk(p, batch_length * T_N))
+        state[_THETA], state[_P] = theta, P.ravel()
+        state[_CUSUM] = state[_CHANGE_POINTS] = 0.0
+        state[_PREVIOUS_WHEELS] = state[_PREVIOUS_GYRO] = math.nan
+    note_verdict(state[_CONFIRMED], verdict)
     v, omega_o = odo[0], odo[1]
     sample_ok = not fault and c1 >= p.trusted_c1 and all(map(math.isfinite, (gyro, v, omega_o)))
     values = memoryview(state)  # the per-sample counts element by element, as Python floats
@@ -298,7 +214,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
     theta, P = state[_THETA].copy(), state[_P].reshape(NUM_THETA, NUM_THETA)
     # predict step: the random walks over the batch
     p = believed_gyro(p)
-    walk = np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * (n * T_N)
+    walk = _batch_walk(p, n * T_N)
     P = P + walk
     change_points_age(state[_CHANGE_POINTS], CusumState(state[_CUSUM]))
     wheels = omega_mean + theta[1] * v_mean / track_width  # the calibrated odometric yaw rate
@@ -353,10 +269,18 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
             state[_REJECTED] += 1.0
     state[_THETA] = theta
     state[_P] = (0.5 * (P + P.T)).ravel()
+    rest = moving == 0.0 and state[_STANDING] == n  # a rest the detector confirms
+    confirm_batch(state[_CONFIRMED], theta, state[_P], state[_OK] < 0.5, rest)
     state[_SUMS] = 0.0
     state[_COUNT] = state[_STANDING] = state[_WITNESSED] = 0.0
     state[_OK] = 1.0
     return state
+
+
+def _batch_walk(p: YawCalibrationParameters, duration: float) -> np.ndarray:
+    """The random walks' covariance of theta over ``duration`` (s): diag(bias, D) densities squared."""
+    p = believed_gyro(p)
+    return np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * duration
 
 
 def calibration_parameters(state) -> list:
@@ -390,6 +314,7 @@ class YawRateCalibration(LeafSystem):
         - standstill
         - gyro_bias_step
         - yaw_pair_witness
+        - yaw_verdict
         output_ports:
         - calibrated
         - bias
@@ -402,7 +327,8 @@ class YawRateCalibration(LeafSystem):
       gyro_bias_step (optional): the step of b_g the sensor checks measured on an excluded gyro (rad/s;
       0 or unconnected: none), added at once; yaw_pair_witness (optional): 1 when the accelerometer pair
       witnessed this sample's yaw rate (the sensor checks' decision; unconnected: the believed sensor
-      set has two accelerometer sets).
+      set has two accelerometer sets); yaw_verdict (optional): the health layer's yaw test on the gyro
+      (1 confirmed, -1 blamed, 0 or unconnected: not judged), yaw_calibration_step's ``verdict``.
     - calibrated (direct feedthrough, theta and P from the state), in CALIBRATED_LAYOUT's order: gyro
       [omega - b_g]; odometry, calibrated_odometry; odometry_share, the odometric yaw rate's share in
       S(14)'s mix (odometric_yaw_share, systems/navigation/calibrated_signals.py). One vector, one
@@ -442,6 +368,7 @@ class YawRateCalibration(LeafSystem):
         self._standstill = self.DeclareVectorInputPort("standstill", 1)
         self._bias_step = self.DeclareVectorInputPort("gyro_bias_step", 1)
         self._pair_witness = self.DeclareVectorInputPort("yaw_pair_witness", 1)
+        self._verdict = self.DeclareVectorInputPort("yaw_verdict", 1)
         state0 = yaw_calibration_initial_state(params)
         self._state = self.DeclareDiscreteState(state0)
         parameters0 = calibration_parameters(state0)
@@ -471,6 +398,7 @@ class YawRateCalibration(LeafSystem):
         step = float(port.Eval(context)[0]) if port.HasValue(context) else 0.0
         port = self._pair_witness
         witness = port.Eval(context).tolist()[0] > 0.5 if port.HasValue(context) else self._third_witness
+        verdict = self._verdict.Eval(context).tolist()[0] if self._verdict.HasValue(context) else 0.0
         state = yaw_calibration_step(
             discrete_state.get_value(self._state),
             self._gyro.Eval(context).tolist()[0],
@@ -484,9 +412,10 @@ class YawRateCalibration(LeafSystem):
             self._standstill.Eval(context).tolist()[0] > 0.5 if self._standstill.HasValue(context) else None,
             step,
             witness,
+            verdict,
         )
         discrete_state.set_value(self._state, state)
-        if state[_COUNT] == 0.0 or step != 0.0:  # a batch ended, or a bias step: theta, P, the counts moved
+        if state[_COUNT] == 0.0 or step != 0.0 or verdict < 0.0:  # a batch ended, a bias step, a blame
             parameters = calibration_parameters(state)
             discrete_state.set_value(self._bias, parameters[0:1])
             discrete_state.set_value(self._parameters, parameters)
