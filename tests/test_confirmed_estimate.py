@@ -73,11 +73,11 @@ def _theta_and_variances(state):
 
 def test_a_blame_returns_the_calibration_to_its_last_confirmed_batch():
     """A rest (gyro 0.004 rad/s) learns b_g (the prior 0.0035^2 plus one batch's walk against R = 0.005^2)
-    and is confirmed; three straight batches at 1 m/s whose gyro
-    reads 0.05 rad/s (the residual of a gyro that reads a correction's yaw rate wrong) move D, and b_g a little; a
-    blame returns theta to the rest's and P to the rest's plus three batches of the bias's random walk
-    (0.0005^2 rad^2/s^3 x 0.02 s each; D has none). A straight batch the yaw test confirmed becomes the
-    confirmed estimate; one it confirmed but on which a reading was replaced does not."""
+    and is confirmed; three straight batches at 1 m/s whose gyro reads 0.05 rad/s (the residual of a gyro
+    that reads a correction's yaw rate wrong) move D, and b_g a little; a blame returns theta to the
+    rest's and P to the rest's plus three batches of the bias's random walk (0.0005^2 rad^2/s^3 x 0.02 s
+    each; D has none). A straight batch the yaw test confirmed becomes the confirmed estimate; one it
+    confirmed but on which a reading was replaced does not."""
     p = YawCalibrationParameters()
     state = _batch(yaw_calibration_initial_state(p), 0.004, STANDING, p, standing=True)
     rest = _theta_and_variances(state)
