@@ -81,7 +81,8 @@ def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
     """The excluded gyro's re-admission block, then its bias-step block: codes[4] is RECOVERING
     (INCONSISTENT while the yaw test holds it) until gyro_readmission_samples in a row within the jump
     bound of the replacement sum their difference from it (a heading) within 3 noise sigmas sqrt(n), two
-    counts of each wheel and gyro_readmission_fraction of the replacement's summed magnitude, then 0.
+    counts of each wheel and gyro_readmission_fraction of the replacement's summed magnitude
+    (yaw_slip_fraction for a gyro the yaw test holds: that test's allowance), then 0.
     An unwitnessed gyro off its rail (analog.witnessed, ANALOG_SATURATED) is back without a block."""
     reference = s[ANALOG_REFERENCE]
     hold = s[ANALOG_HOLD]
@@ -93,7 +94,8 @@ def gyro_readmission(s, raw, bias: float, codes, p, g) -> None:
     if judged and s[ANALOG_EXCLUDED][GYRO] > 0.0 and math.isfinite(reference[GYRO]):
         codes[GYRO] = INCONSISTENT if held else RECOVERING  # until a block agrees
         counts = 4.0 * count_yaw_rate(g)  # two counts of each wheel
-        noise, fraction = 3.0 * g.gyro_noise_std, p.gyro_readmission_fraction
+        noise = 3.0 * g.gyro_noise_std
+        fraction = p.yaw_slip_fraction if held else p.gyro_readmission_fraction  # held: the yaw test's share
         residual = raw[GYRO] - bias - reference[GYRO]
         allowed = readmission_sample(block, residual, reference[GYRO], noise, counts, fraction)
         informative = not held or block[BLOCK_TRAVEL] * g.T_N >= YAW_RELEASE_HEADING

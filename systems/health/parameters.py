@@ -79,7 +79,8 @@ class SensorHealthParameters:
         bias_step_yaw_rate: the block measures a bias only while the replacement stays within this (rad/s):
             0.15, driving straight (the calibration's change_yaw_rate), where a scale error reads nothing.
         yaw_slip_fraction: the share of the wheels' yaw rate the tyres' differential slip may leave
-            unexplained, in the yaw test's residual variance, in [0, 1]: 0.2.
+            unexplained, in the yaw test's residual variance, in [0, 1]: 0.2; also the summed tolerance of
+            the re-admission block of a gyro the yaw test holds out (gyro.gyro_readmission).
         yaw_witness_lag: the witness's timing uncertainty against the gyro (s), in (0, inf): 0.02, one T_C.
         yaw_false_alarm_time: healthy driving (s) per false alarm of the yaw test, in (0, inf): 3600.
         encoder_readmission_samples: the samples of an excluded encoder's re-admission block, in [1, 50]:
@@ -90,7 +91,8 @@ class SensorHealthParameters:
             first within the bound): 5 (10 ms); a skid's replacement (the odometric yaw rate reads 15-20 %
             high) can meet a biased gyro for a sample, not for five.
         gyro_readmission_fraction: the block's summed tolerance as a fraction of the replacement's summed
-            magnitude, in [0, 1]: 0.3; a doubled scale passes the sample bound as a turn slows, not the sum.
+            magnitude, in [0, 1], for a gyro out for anything but the yaw test: 0.3; a doubled scale passes
+            the sample bound as a turn slows, not the sum.
         clip_samples, clip_window: a reading that returns to its magnitude for the clip_samples-th time
             within the last clip_window readings (both in [2, 50]; clip_samples 0: off) sits at a rail.
             Quantised noise needs a larger clip_samples: with a quantum of the gyro's noise sigma, 399 of
