@@ -3,9 +3,13 @@ pair (|omega| from S(3)'s centripetal difference).
 
 - ``inconsistent``: the yaw test (systems/health/yaw_witness.py) finds the gyro's yaw rate in a turn
   unconfirmed by the wheels' witness and not supported by the pair's |omega| (gyro_yaw_check).
+- The verdict (layout.yaw_verdict): the yaw test confirms the gyro over a judged turn of
+  YAW_RELEASE_HEADING or blames it; the yaw calibration keeps its estimate at each confirmation and
+  returns there on a blame (systems/navigation/confirmed_estimate.py).
 - Re-admission (gyro_readmission): an excluded gyro comes back only when a block of samples agrees with
   its replacement, sample by sample and in sum (a scale error does not telescope); one the yaw test
-  holds out needs a block that turned YAW_RELEASE_HEADING. No exclusion ends on a timer.
+  holds out needs a block that turned YAW_RELEASE_HEADING and agrees in sum within the test's own
+  allowance for the tyres' differential slip (yaw_slip_fraction). No exclusion ends on a timer.
 - A new level is a bias to estimate (gyro_bias_step_block): while the gyro is out for a jump, a steady
   residual while driving straight is a bias step, which the calibration adds to b_g; the gyro less the
   new b_g then agrees.

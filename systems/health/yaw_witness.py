@@ -27,6 +27,8 @@ against it, the accelerometers breaking the tie (two against one).
    The gyro stays in when the ratio favours it by SIDE_LOG_LIKELIHOOD (the wheels slide or are held:
    the perturbation monitor's matter); otherwise it is blamed. Without any third witness two witnesses
    disagree and neither can be isolated: the gyro stays in and the sums restart.
+4. The verdict (yaw_test_verdict): a judged sample without an alarm confirms the gyro when the sums hold
+   no evidence against it over a judged turn of a stated heading (the caller's YAW_RELEASE_HEADING).
 """
 
 import math
