@@ -26,10 +26,9 @@ returns: its estimate is the one learned batch by batch.
 """
 
 import numpy as np
+from slipnav.systems.navigation.bias_change import NUM_THETA
 from slipnav.systems.state_layout import layout_size, layout_slices
 
-NUM_THETA = 2
-"""theta = [b_g, D]."""
 CONFIRMED_LAYOUT = (
     ("theta", NUM_THETA),
     ("covariance", NUM_THETA * NUM_THETA),

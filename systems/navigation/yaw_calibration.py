@@ -269,7 +269,7 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
             state[_REJECTED] += 1.0
     state[_THETA] = theta
     state[_P] = (0.5 * (P + P.T)).ravel()
-    rest = moving == 0.0 and state[_STANDING] == n  # a rest the detector confirms
+    rest = moving == 0.0 and witnessed  # a rest the detector confirms
     confirm_batch(state[_CONFIRMED], theta, state[_P], state[_OK] < 0.5, rest)
     state[_SUMS] = 0.0
     state[_COUNT] = state[_STANDING] = state[_WITNESSED] = 0.0
