@@ -137,7 +137,9 @@ def build_control_diagram(control: ControlSettings, rates: SampleRates, robot: R
     b.ExportOutput(follower.GetOutputPort("frenet_errors"), "frenet_errors")
     if control.mode == "trajectory":
         step = b.AddSystem(
-            StepSizeController(control.step_size, rates.T_C, control.slip_control, control.start_time, offset)
+            StepSizeController(
+                control.step_size, rates.T_C, control.slip_control, control.start_time, offset
+            )
         )
         step.set_name("Step-size controller")
         interpolator = b.AddSystem(TrajectoryInterpolator(control.trajectory, control.step_size))

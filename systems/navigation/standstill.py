@@ -166,9 +166,10 @@ def standstill_test(state, free_accelerometers, gyro: float, encoders, c):
     if not c.enabled or still < c.still_samples:
         return False, [still, *averages]
     variances = s[_VARIANCES]
-    statistic = averages[1] ** 2 / (
-        c.accel_mean_average_variance + 0.25 * (variances[0] + variances[2])
-    ) + averages[2] ** 2 / (c.accel_mean_average_variance + 0.25 * (variances[1] + variances[3]))
+    statistic = (
+        averages[1] ** 2 / (c.accel_mean_average_variance + 0.25 * (variances[0] + variances[2]))
+        + averages[2] ** 2 / (c.accel_mean_average_variance + 0.25 * (variances[1] + variances[3]))
+    )
     return bool(statistic <= c.gate), [still, *averages]
 
 

@@ -178,8 +178,9 @@ def lateral_mix(v_t: float, omega: float, odo, inertial, previous, c2: float, p:
     q_inertial = inertial_relaxation(utilisation, p)
 
     def side_slip(carried, relaxed_from, towards):
-        return c2 * (model + p.q2 * (relaxed_from - model_prev)) + (1.0 - c2) * (
-            towards + q_inertial * (carried - towards)
+        return (
+            c2 * (model + p.q2 * (relaxed_from - model_prev))
+            + (1.0 - c2) * (towards + q_inertial * (carried - towards))
         )
 
     return target, side_slip
