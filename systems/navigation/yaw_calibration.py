@@ -182,7 +182,7 @@ def yaw_calibration_step(
         state[_CUSUM] = 0.0
         state[_CHANGES] += 1.0
     if verdict < 0.0:  # the yaw test blames the gyro: back to the confirmed estimate
-        theta, P = confirmed_estimate(state[_CONFIRMED], _batch_walk(p, batch_length * T_N))
+        theta, P = confirmed_estimate(state[_CONFIRMED], _batch_walk(believed_gyro(p), batch_length * T_N))
         state[_THETA], state[_P] = theta, P.ravel()
         state[_CUSUM] = state[_CHANGE_POINTS] = 0.0
         state[_PREVIOUS_WHEELS] = state[_PREVIOUS_GYRO] = math.nan
@@ -278,8 +278,8 @@ def batch_update(state, track_width: float, p: YawCalibrationParameters, T_N: fl
 
 
 def _batch_walk(p: YawCalibrationParameters, duration: float) -> np.ndarray:
-    """The random walks' covariance of theta over ``duration`` (s): diag(bias, D) densities squared."""
-    p = believed_gyro(p)
+    """The random walks' covariance of theta over ``duration`` (s): diag(bias, D) densities squared
+    (``p`` with the believed gyro's figures filled in: believed_gyro)."""
     return np.diag([p.bias_drift_density**2, p.radius_drift_density**2]) * duration
 
 
