@@ -81,3 +81,10 @@ def require_flag(name: str, value) -> bool:
     if not isinstance(value, bool):
         raise out_of_range(name, value, "true, false")
     return value
+
+
+def require_each(fields, check, names: str, allowed: str, prefix: str = "") -> None:
+    """``check`` (require_in, require_integer) of each of the space-separated ``names`` of ``fields``,
+    in order, against ``allowed``; the message names the field ``prefix + name``."""
+    for name in names.split():
+        check(prefix + name, getattr(fields, name), allowed)

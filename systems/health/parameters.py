@@ -9,7 +9,7 @@ import math
 from slipnav.systems.compiled import jitable
 from slipnav.systems.health.layout import GAIN_WINDOW_MAX
 from slipnav.systems.health.yaw_witness import yaw_test_threshold
-from slipnav.systems.ranges import is_integer, out_of_range, require_in, require_integer
+from slipnav.systems.ranges import is_integer, out_of_range, require_each, require_in, require_integer
 
 NO_CURRENTS = (math.nan, math.nan)
 """The motor current readings when none are read: the tangential accelerometers' reference is the
@@ -179,13 +179,6 @@ class SensorHealthParameters:
         require_in("fast_consistency_factor", self.fast_consistency_factor, "(0, inf]")
         require_in("stuck_braking_deceleration", self.stuck_braking_deceleration, "(0, inf] m/s^2")
         require_in("gain_threshold", self.gain_threshold, "(0, inf]")
-
-
-def require_each(fields, check, names: str, allowed: str, prefix: str = "") -> None:
-    """``check`` (require_in, require_integer) of each of the space-separated ``names`` of ``fields``,
-    in order, against ``allowed``; the message names the field ``prefix + name``."""
-    for name in names.split():
-        check(prefix + name, getattr(fields, name), allowed)
 
 
 @dc.dataclass(frozen=True)

@@ -59,8 +59,8 @@ import dataclasses as dc
 import math
 
 import numpy as np
-from slipnav.systems.health.parameters import NO_CURRENTS, drive_torque, plausible_currents, require_each
-from slipnav.systems.ranges import out_of_range, require_in
+from slipnav.systems.health.parameters import NO_CURRENTS, drive_torque, plausible_currents
+from slipnav.systems.ranges import out_of_range, require_each, require_in
 from slipnav.systems.robot.contact import shoe_drag
 from slipnav.systems.robot.parameters import RobotParameters
 from slipnav.systems.state_layout import layout_indices, layout_size

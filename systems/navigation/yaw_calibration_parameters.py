@@ -4,7 +4,7 @@ construction."""
 import dataclasses as dc
 import math
 
-from slipnav.systems.ranges import out_of_range, require_flag, require_in
+from slipnav.systems.ranges import out_of_range, require_each, require_flag, require_in
 
 
 @dc.dataclass
@@ -96,9 +96,8 @@ class YawCalibrationParameters:
             "initial_radius_difference_std measurement_std standstill_measurement_std "
             "innovation_gate straight_yaw_rate change_yaw_rate steady_yaw_acceleration largest_bias_step "
             "change_drift"
-        ).split()
-        for name in positive:
-            require_in(f"yaw_calibration.{name}", getattr(self, name), "(0, inf)")
+        )
+        require_each(self, require_in, positive, "(0, inf)", "yaw_calibration.")
         for name in ("bias_drift_density", "gyro_noise_std", "yaw_slip_time", "radius_drift_density"):
             if getattr(self, name) is not None:  # None: the believed gyro's
                 require_in(f"yaw_calibration.{name}", getattr(self, name), "[0, inf)")
